@@ -1,0 +1,138 @@
+#!/usr/bin/env python3
+"""Turns pclx benchmark CSV into PNG charts.
+
+  python3 bench/plot.py results/*.csv --out bench/results
+
+Rows are `module,method,params,input,points,seconds,metric,value,...`. Each module
+has chart specs below (time vs accuracy, accuracy vs degradation, ...); a module
+without specs gets a generic seconds-vs-points chart.
+"""
+import argparse
+import collections
+import csv
+import math
+import os
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def read_rows(paths):
+    rows = []
+    for path in paths:
+        with open(path, newline="") as f:
+            for rec in csv.reader(f):
+                if not rec or rec[0] == "module" or rec[0].startswith("#"):
+                    continue
+                if len(rec) < 6:
+                    print(f"plot.py: skipping short row in {path}: {rec}", file=sys.stderr)
+                    continue
+                row = dict(module=rec[0], method=rec[1], params=rec[2], input=rec[3],
+                           points=float(rec[4]), seconds=float(rec[5]))
+                for k in range(6, len(rec) - 1, 2):
+                    try:
+                        row[rec[k]] = float(rec[k + 1])
+                    except ValueError:
+                        row[rec[k]] = rec[k + 1]
+                for kv in filter(None, rec[2].split(";")):
+                    if "=" in kv:
+                        key, val = kv.split("=", 1)
+                        try:
+                            row.setdefault("p_" + key, float(val))
+                        except ValueError:
+                            row.setdefault("p_" + key, val)
+                rows.append(row)
+    return rows
+
+
+# Chart specs per module. x / y name a column (or a metric, or p_<param>);
+# `where` filters rows, `series` names the column that makes one line per value.
+SPECS = {
+    "scenes": [
+        dict(name="scenes_time_vs_points", title="Ground truth throughput", x="points", y="seconds",
+             series="method", logx=True, logy=True),
+    ],
+    "hpr": [
+        dict(name="hpr_f1_vs_time", title="HPR: F1 against time (all methods)", x="seconds", y="f1",
+             series="method", logx=True, where=dict(sweep="main"), split="input", scatter=True),
+        dict(name="hpr_f1_vs_k", title="HPR angular grid: F1 against k", x="p_k", y="f1",
+             series="method", logx=True, where=dict(sweep="grid_k"), split="input"),
+        dict(name="hpr_f1_vs_noise", title="HPR: F1 against noise (sigma / diagonal)", x="p_noise", y="f1",
+             series="method", where=dict(sweep="noise"), split="input"),
+        dict(name="hpr_f1_vs_density", title="HPR: F1 against density gradient (min/max density)",
+             x="p_min_ratio", y="f1", series="method", logx=True, where=dict(sweep="density"), split="input"),
+    ],
+}
+
+
+def matches(row, where):
+    for key, val in (where or {}).items():
+        if str(row.get(key, row.get("p_" + key, ""))) != str(val):
+            return False
+    return True
+
+
+def chart(rows, spec, out_dir):
+    rows = [r for r in rows if matches(r, spec.get("where"))
+            and isinstance(r.get(spec["x"]), float) and isinstance(r.get(spec["y"]), float)]
+    if not rows:
+        return []
+    groups = collections.OrderedDict()
+    for r in rows:
+        groups.setdefault(r.get(spec.get("split"), "") if spec.get("split") else "", []).append(r)
+    fig, axes = plt.subplots(1, len(groups), figsize=(6.5 * len(groups), 5), squeeze=False)
+    for ax, (gname, grows) in zip(axes[0], groups.items()):
+        series = collections.OrderedDict()
+        for r in grows:
+            series.setdefault(str(r.get(spec["series"], "")), []).append(r)
+        for sname, srows in series.items():
+            srows.sort(key=lambda r: r[spec["x"]])
+            xs = [r[spec["x"]] for r in srows]
+            ys = [r[spec["y"]] for r in srows]
+            if spec.get("scatter"):
+                ax.scatter(xs, ys, label=sname, s=28)
+            else:
+                ax.plot(xs, ys, marker="o", label=sname)
+        ax.set_xlabel(spec["x"].replace("p_", ""))
+        ax.set_ylabel(spec["y"])
+        if spec.get("logx"):
+            ax.set_xscale("log")
+        if spec.get("logy"):
+            ax.set_yscale("log")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.set_title(f"{spec['title']}" + (f"\n{gname}" if gname else ""), fontsize=10)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    path = os.path.join(out_dir, spec["name"] + ".png")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return [path]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("csv", nargs="+")
+    ap.add_argument("--out", default="bench/results")
+    args = ap.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    rows = read_rows(args.csv)
+    if not rows:
+        sys.exit("plot.py: no rows in " + " ".join(args.csv))
+    written = []
+    for module in sorted({r["module"] for r in rows}):
+        mrows = [r for r in rows if r["module"] == module]
+        specs = SPECS.get(module) or [dict(name=f"{module}_time_vs_points", title=module, x="points",
+                                           y="seconds", series="method", logx=True, logy=True)]
+        for spec in specs:
+            written += chart(mrows, spec, args.out)
+    for p in written:
+        print("wrote", p)
+    if not written:
+        sys.exit("plot.py: no chart could be drawn from these rows")
+
+
+if __name__ == "__main__":
+    main()

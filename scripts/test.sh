@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# The README's test command: installs Debian packages, builds, runs the whole suite,
+# then runs it again under AddressSanitizer + UndefinedBehaviorSanitizer.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+./scripts/install-deps.sh
+JOBS=$(nproc)
+
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
+cmake --build build -j "$JOBS"
+ctest --test-dir build --output-on-failure -j "$JOBS" --timeout 900
+
+# Sanitizer build: the libraries and tests only (apps and benches add nothing to check).
+cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPCLX_SANITIZE=ON \
+  -DPCLX_BUILD_APPS=OFF -DPCLX_BUILD_BENCH=OFF
+cmake --build build-asan -j "$JOBS"
+# Leak checking is off: Embree/TBB and OpenMP keep thread pools alive at exit.
+ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --test-dir build-asan --output-on-failure -j "$JOBS" --timeout 1800
+echo "test.sh: all tests passed (release and ASan+UBSan)"

@@ -1,0 +1,2 @@
+#include <iostream>
+int main () { std::cout << "pclx consumer linked\n"; return 0; }

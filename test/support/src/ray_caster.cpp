@@ -1,0 +1,145 @@
+#include <pclx/testing/ray_caster.h>
+
+#include <embree3/rtcore.h>
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace pclx {
+namespace testing {
+
+struct RayCaster::Impl
+{
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  std::vector<Eigen::Vector3f> normals;
+  float diagonal = 0.f;
+};
+
+RayCaster::RayCaster (const TriangleMesh& mesh) : impl_ (new Impl)
+{
+  if (mesh.faces.empty ())
+    throw std::invalid_argument ("RayCaster: mesh has no faces");
+  impl_->device = rtcNewDevice (nullptr);
+  if (!impl_->device)
+    throw std::runtime_error ("RayCaster: rtcNewDevice failed (error " +
+                              std::to_string (rtcGetDeviceError (nullptr)) + ")");
+  impl_->scene = rtcNewScene (impl_->device);
+  rtcSetSceneFlags (impl_->scene, RTC_SCENE_FLAG_ROBUST);
+  rtcSetSceneBuildQuality (impl_->scene, RTC_BUILD_QUALITY_HIGH);
+  RTCGeometry geom = rtcNewGeometry (impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* v = static_cast<float*> (rtcSetNewGeometryBuffer (geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                         3 * sizeof (float), mesh.vertices.size ()));
+  for (std::size_t i = 0; i < mesh.vertices.size (); ++i)
+    for (int k = 0; k < 3; ++k)
+      v[3 * i + k] = mesh.vertices[i][k];
+  auto* idx = static_cast<unsigned*> (rtcSetNewGeometryBuffer (geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                              3 * sizeof (unsigned), mesh.faces.size ()));
+  for (std::size_t f = 0; f < mesh.faces.size (); ++f)
+    for (int k = 0; k < 3; ++k)
+      idx[3 * f + k] = static_cast<unsigned> (mesh.faces[f][k]);
+  rtcCommitGeometry (geom);
+  rtcAttachGeometry (impl_->scene, geom);
+  rtcReleaseGeometry (geom);
+  rtcCommitScene (impl_->scene);
+  impl_->diagonal = mesh.diagonal ();
+  impl_->normals.reserve (mesh.faces.size ());
+  for (std::size_t f = 0; f < mesh.faces.size (); ++f)
+    impl_->normals.push_back (mesh.faceNormal (f));
+}
+
+const Eigen::Vector3f&
+RayCaster::faceNormal (int face) const
+{
+  return impl_->normals.at (static_cast<std::size_t> (face));
+}
+
+RayCaster::~RayCaster ()
+{
+  if (impl_->scene)
+    rtcReleaseScene (impl_->scene);
+  if (impl_->device)
+    rtcReleaseDevice (impl_->device);
+}
+
+float
+RayCaster::cast (const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, int* face) const
+{
+  RTCIntersectContext context;
+  rtcInitIntersectContext (&context);
+  RTCRayHit rh;
+  rh.ray.org_x = origin.x ();
+  rh.ray.org_y = origin.y ();
+  rh.ray.org_z = origin.z ();
+  rh.ray.dir_x = dir.x ();
+  rh.ray.dir_y = dir.y ();
+  rh.ray.dir_z = dir.z ();
+  rh.ray.tnear = 0.f;
+  rh.ray.tfar = std::numeric_limits<float>::infinity ();
+  rh.ray.mask = static_cast<unsigned> (-1);
+  rh.ray.flags = 0;
+  rh.ray.time = 0.f;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1 (impl_->scene, &context, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+  {
+    if (face)
+      *face = -1;
+    return std::numeric_limits<float>::infinity ();
+  }
+  if (face)
+    *face = static_cast<int> (rh.hit.primID);
+  return rh.ray.tfar;
+}
+
+bool
+RayCaster::occluded (const Eigen::Vector3f& viewpoint, const Eigen::Vector3f& p, float abs_tol) const
+{
+  const Eigen::Vector3f d = p - viewpoint;
+  const float len = d.norm ();
+  if (len <= abs_tol)
+    return false;
+  RTCIntersectContext context;
+  rtcInitIntersectContext (&context);
+  RTCRay ray;
+  ray.org_x = viewpoint.x ();
+  ray.org_y = viewpoint.y ();
+  ray.org_z = viewpoint.z ();
+  ray.dir_x = d.x ();
+  ray.dir_y = d.y ();
+  ray.dir_z = d.z ();
+  ray.tnear = 0.f;
+  ray.tfar = 1.f - abs_tol / len;  // stop just before the point's own surface
+  ray.mask = static_cast<unsigned> (-1);
+  ray.flags = 0;
+  ray.time = 0.f;
+  rtcOccluded1 (impl_->scene, &context, &ray);
+  return ray.tfar < 0.f;  // Embree sets tfar = -inf on a hit
+}
+
+template <typename PointT> std::vector<bool>
+RayCaster::visibleFrom (const pcl::PointCloud<PointT>& cloud, const Eigen::Vector3f& viewpoint,
+                        float tol) const
+{
+  const float abs_tol = tol * impl_->diagonal;
+  std::vector<char> vis (cloud.size (), 0);
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t> (cloud.size ());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+  {
+    const Eigen::Vector3f p = cloud[i].getVector3fMap ();
+    vis[i] = p.allFinite () && !occluded (viewpoint, p, abs_tol);
+  }
+  return std::vector<bool> (vis.begin (), vis.end ());
+}
+
+template std::vector<bool> RayCaster::visibleFrom (const pcl::PointCloud<pcl::PointXYZ>&,
+                                                   const Eigen::Vector3f&, float) const;
+template std::vector<bool> RayCaster::visibleFrom (const pcl::PointCloud<pcl::PointNormal>&,
+                                                   const Eigen::Vector3f&, float) const;
+
+}  // namespace testing
+}  // namespace pclx
