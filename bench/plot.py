@@ -55,17 +55,20 @@ SPECS = {
         dict(name="scenes_time_vs_points", title="Ground truth throughput", x="points", y="seconds",
              series="method", logx=True, logy=True),
     ],
-    "hpr": [
-        dict(name="hpr_f1_vs_time", title="HPR: F1 against time (all methods)", x="seconds", y="f1",
-             series="method", logx=True, where=dict(sweep="main"), split="input", scatter=True),
-        dict(name="hpr_f1_vs_k", title="HPR angular grid: F1 against k", x="p_k", y="f1",
-             series="method", logx=True, where=dict(sweep="grid_k"), split="input"),
-        dict(name="hpr_f1_vs_noise", title="HPR: F1 against noise (sigma / diagonal)", x="p_noise", y="f1",
-             series="method", where=dict(sweep="noise"), split="input"),
-        dict(name="hpr_f1_vs_density", title="HPR: F1 against density gradient (min/max density)",
-             x="p_min_ratio", y="f1", series="method", logx=True, where=dict(sweep="density"), split="input"),
-    ],
 }
+
+
+def load_module_specs():
+    """bench/<module>/charts.py may define SPECS = [...] for that module."""
+    import importlib.util
+    here = os.path.dirname(os.path.abspath(__file__))
+    for entry in sorted(os.listdir(here)):
+        path = os.path.join(here, entry, "charts.py")
+        if os.path.isfile(path):
+            spec = importlib.util.spec_from_file_location(f"charts_{entry}", path)
+            mod = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(mod)
+            SPECS[entry] = mod.SPECS
 
 
 def matches(row, where):
@@ -118,6 +121,7 @@ def main():
     ap.add_argument("--out", default="bench/results")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
+    load_module_specs()
     rows = read_rows(args.csv)
     if not rows:
         sys.exit("plot.py: no rows in " + " ".join(args.csv))
