@@ -1,0 +1,93 @@
+#pragma once
+// The angular grid of Machado e Silva et al. (seed 003 §3–4): sectors around the
+// viewpoint C, one extreme candidate of the spherically flipped cloud per sector,
+// the EMPTY map, candidate propagation, and what the grid gives for free: the
+// partial view-dependent triangulation (§4.4), per-point normals (§5.3) and
+// splat radii (§5.5). Points are given relative to C (C at the origin).
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <vector>
+
+namespace pcl {
+namespace hpr {
+
+class AngularGrid
+{
+public:
+  // Sector frame: x axis through the cloud centre C_e, φ = atan2(y, x), θ = acos(z / ρ).
+  // `sectors` is k; the φ×θ cell shape is kept square in angle (see build()).
+  // `radius` is the flip radius R (> max ρ).
+  void build (const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3f& centre, double radius,
+              std::size_t sectors);
+
+  // Adaptive propagation (§4.3.1, scatter): only sectors changed in the previous step
+  // pass their candidate on; stops when stable or after `max_steps` (0 = until stable).
+  // Returns the number of steps done.
+  int propagateAdaptive (int max_steps);
+  // Fixed propagation (§4.3.2, gather): one pass over an m×m neighbourhood (m odd).
+  void propagateFixed (int m);
+  // Kavan et al.'s refinement (seed 000 §3.2): every candidate against all others, O(k²).
+  void refineGlobal ();
+
+  // Visible = the distinct sector candidates (hull vertices of the approximation).
+  std::vector<int> candidates () const;
+
+  // §4.4: two triangles per 2×2 sector neighbourhood with distinct vertices, facing C;
+  // triangles with an edge longer than max_edge (in point units, <= 0: no filter) dropped.
+  std::vector<Eigen::Vector3i> triangulate (const std::vector<Eigen::Vector3f>& points, float max_edge) const;
+  // §5.3: normals of the visible points from the triangle fans around each sector, facing C
+  // (NaN for points that are not candidates); §5.5: splat radius covering the sectors a
+  // point won.
+  void normalsAndSplats (const std::vector<Eigen::Vector3f>& points, std::vector<Eigen::Vector3f>& normals,
+                         std::vector<float>& splat_radius) const;
+
+  // Exact-method pre-filter: marks points that lie strictly inside a tetrahedron
+  // (C, a, b, c) of candidate points in flipped space. Such points are interior to
+  // the hull of the flipped cloud, so they cannot be hull vertices: culling them
+  // before Qhull changes no visible point.
+  std::vector<std::uint8_t> interiorPoints () const;
+
+  // Balls-in-bins calibration (§6) on this grid used as the coarse grid.
+  struct Calibration
+  {
+    double alpha = 0;            // estimated angular separation of visible points (rad)
+    double visible_estimate = 0;  // estimated number of visible points
+    double occupied_solid_angle = 0;
+  };
+  Calibration calibrate () const;
+
+  std::size_t sectorCount () const { return cand_.size (); }
+  int rows () const { return n_phi_; }
+  int cols () const { return n_theta_; }
+  double cellAngle () const { return cell_; }  // angular size of one sector (rad)
+  int emptyFactor () const { return empty_factor_; }
+  std::size_t occupiedSectors () const;
+  bool wrapsPhi () const { return wrap_phi_; }
+
+private:
+  // g = 1 − cos α + cos α·ρ/(2R) is the seed's DIST = (2R − ρ)·cos α rescaled so that
+  // smaller is better and the tiny differences survive in floating point (R ≫ ρ).
+  double score (int point, std::size_t sector) const;
+  Eigen::Vector3d direction (std::size_t sector) const;
+  bool isEmpty (std::size_t sector) const;  // EMPTY map: outside the object's projection
+  void neighbours (std::size_t s, int radius, std::vector<std::size_t>& out) const;
+
+  std::vector<Eigen::Vector3f> unit_;  // per point: direction from C
+  std::vector<float> rho_;             // per point: distance from C
+  std::vector<std::uint32_t> sector_;  // per point: its sector
+  double radius_ = 0;
+  Eigen::Matrix3d frame_ = Eigen::Matrix3d::Identity ();  // rows: frame axes
+  double phi0_ = 0, theta0_ = 0, cell_phi_ = 1, cell_theta_ = 1, cell_ = 1;
+  int n_phi_ = 0, n_theta_ = 0;
+  bool wrap_phi_ = false;
+  std::vector<double> cos_phi_, sin_phi_, cos_theta_, sin_theta_;  // sector centre angles
+  std::vector<int> cand_;      // per sector: candidate point or −1 (the seed's MAX array)
+  std::vector<double> best_;   // per sector: score of the candidate
+  int empty_factor_ = 1;       // EMPTY is kept on a grid coarser by this factor per axis
+  int coarse_theta_ = 0;
+  std::vector<std::uint8_t> occupied_coarse_;
+};
+
+}  // namespace hpr
+}  // namespace pcl

@@ -1,0 +1,155 @@
+#pragma once
+// pcl::HPRFilter: hidden point removal (Katz, Tal, Basri 2007) as a PCL filter, with the
+// exact convex-hull operator and the fast approximate angular-grid operator of Machado e
+// Silva et al. ("Image Space Rendering of Point Clouds Using the HPR Operator").
+//
+//   pcl::HPRFilter<pcl::PointXYZ> hpr;
+//   hpr.setInputCloud (cloud);
+//   hpr.setViewPoint (Eigen::Vector3f (0, 0, 2));
+//   pcl::Indices visible;
+//   hpr.filter (visible);          // or hpr.filter (visible_cloud)
+//
+// Kept indices are the visible points, removed indices the hidden ones; setNegative,
+// setKeepOrganized and setIndices behave as in every pcl::FilterIndices. NaN/Inf points
+// are never visible. By default R, the grid size k and the propagation length ℓ are
+// calibrated from the cloud itself (balls in bins, seed §6).
+#include <pcl/PolygonMesh.h>
+#include <pcl/filters/filter_indices.h>
+#include <pcl/point_types.h>
+#include <pclx/hpr/visibility.h>
+
+namespace pcl {
+
+template <typename PointT>
+class HPRFilter : public FilterIndices<PointT>
+{
+protected:
+  using PointCloud = typename FilterIndices<PointT>::PointCloud;
+  using PointCloudPtr = typename PointCloud::Ptr;
+  using PointCloudConstPtr = typename PointCloud::ConstPtr;
+
+public:
+  using Ptr = shared_ptr<HPRFilter<PointT>>;
+  using ConstPtr = shared_ptr<const HPRFilter<PointT>>;
+
+  enum class Method
+  {
+    AUTO,          // exact for small clouds, the angular grid otherwise
+    EXACT,         // Katz et al.: Qhull on the flipped cloud (+ an exact interior pre-filter)
+    ANGULAR_GRID,  // Machado e Silva et al.: sector candidates + propagation
+    BENTLEY_FAUST_PREPARATA,  // seed 000 §3.1: grid extremes, then exact hull of those
+    KAVAN,         // seed 000 §3.2: sector candidates refined against all others, O(k²)
+    HYBRID         // seed 000 §3.3: sector candidates (Kavan sampling), then exact hull
+  };
+  enum class Propagation
+  {
+    ADAPTIVE,  // scatter from changed sectors until stable or ℓ steps (§4.3.1)
+    FIXED      // one gather pass over an m×m neighbourhood (§4.3.2)
+  };
+  enum class RadiusMode
+  {
+    AUTO,      // from the angular separation of visible points (§6)
+    ABSOLUTE,  // R as given
+    GAMMA      // R = max‖p − C‖ · 10^γ (Katz's parametrisation)
+  };
+
+  HPRFilter (bool extract_removed_indices = false) : FilterIndices<PointT> (extract_removed_indices)
+  {
+    filter_name_ = "HPRFilter";
+  }
+
+  void setViewPoint (const Eigen::Vector3f& c) { viewpoint_ = c; }
+  const Eigen::Vector3f& getViewPoint () const { return viewpoint_; }
+
+  // Flip radius R; must exceed the distance from the viewpoint to the farthest point.
+  void setRadius (double radius) { radius_ = radius; radius_mode_ = RadiusMode::ABSOLUTE; }
+  // R = max‖p − C‖ · 10^γ, γ > 0 (Katz et al. use γ around 2–4 for dense clouds).
+  void setGamma (double gamma) { gamma_ = gamma; radius_mode_ = RadiusMode::GAMMA; }
+  // Calibrated R (default): a point `occlusion_depth` × cloud radius behind two
+  // neighbouring visible points is hidden (seed §6, Fig. 9).
+  void setAutoRadius (double occlusion_depth = 0.05) { occlusion_depth_ = occlusion_depth; radius_mode_ = RadiusMode::AUTO; }
+  RadiusMode getRadiusMode () const { return radius_mode_; }
+
+  void setMethod (Method m) { method_ = m; }
+  Method getMethod () const { return method_; }
+
+  // Number of sectors k (0 = calibrated). Sectors are square in angle, k is approximate.
+  void setSectorCount (std::size_t k) { sectors_ = k; }
+  std::size_t getSectorCount () const { return sectors_; }
+  // Calibrated k gives this many sectors per expected visible-point cell (default 4).
+  void setGridOversampling (double factor) { oversampling_ = factor; }
+  // Caps k at what a viewport shows: `pixels` across a field of view of `fov` radians
+  // (0 pixels = no cap). k follows the screen, not the cloud size.
+  void setViewResolution (int pixels, double fov) { view_pixels_ = pixels; view_fov_ = fov; }
+
+  // Adaptive: `steps` = ℓ (0 = calibrated). Fixed: `steps` = m, the odd mask size.
+  void setPropagation (Propagation mode, int steps = 0) { propagation_ = mode; steps_ = steps; }
+
+  // Exact method: cull points that are provably interior before Qhull (default on;
+  // the visible set is the same either way).
+  void setExactPrefilter (bool on) { exact_prefilter_ = on; }
+
+  // Partial view-dependent reconstruction: the hull triangles (exact) or the grid
+  // triangles (§4.4) of the visible points, edges longer than max_edge dropped
+  // (<= 0: 5 × the median edge). Read it with getMesh() after filter().
+  void setReconstructMesh (bool on, float max_edge = 0.f) { reconstruct_ = on; max_edge_ = max_edge; }
+  // Per-point normals (§5.3, facing the viewpoint) and splat radii (§5.5) of the visible
+  // points, NaN / 0 for the others; aligned with the input cloud. Read after filter().
+  void setComputeNormals (bool on) { compute_normals_ = on; }
+
+  const PolygonMesh& getMesh () const { return mesh_; }
+  const pcl::PointCloud<pcl::Normal>& getNormals () const { return normals_; }
+  const std::vector<float>& getSplatRadii () const { return splat_radii_; }
+
+  // What the last filter() used.
+  double getRadiusUsed () const { return radius_used_; }
+  std::size_t getSectorCountUsed () const { return sectors_used_; }
+  int getPropagationStepsUsed () const { return steps_used_; }
+  Method getMethodUsed () const { return method_used_; }
+
+  // Largest grid the approximate methods accept; larger requests are clamped with a warning.
+  static constexpr std::size_t kMaxSectors = hpr::kMaxSectors;
+  // Below this many points, AUTO picks the exact method.
+  static constexpr std::size_t kAutoExactLimit = 20000;
+
+protected:
+  using FilterIndices<PointT>::filter_name_;
+  using FilterIndices<PointT>::getClassName;
+  using FilterIndices<PointT>::input_;
+  using FilterIndices<PointT>::indices_;
+  using FilterIndices<PointT>::negative_;
+  using FilterIndices<PointT>::extract_removed_indices_;
+  using FilterIndices<PointT>::removed_indices_;
+
+  void applyFilter (Indices& indices) override;
+
+private:
+  Eigen::Vector3f viewpoint_ = Eigen::Vector3f::Zero ();
+  RadiusMode radius_mode_ = RadiusMode::AUTO;
+  double radius_ = 0, gamma_ = 0, occlusion_depth_ = 0.05;
+  Method method_ = Method::AUTO;
+  std::size_t sectors_ = 0;
+  double oversampling_ = 4.0;
+  int view_pixels_ = 0;
+  double view_fov_ = 0;
+  Propagation propagation_ = Propagation::ADAPTIVE;
+  int steps_ = 0;
+  bool exact_prefilter_ = true;
+  bool reconstruct_ = false;
+  float max_edge_ = 0.f;
+  bool compute_normals_ = false;
+
+  PolygonMesh mesh_;
+  pcl::PointCloud<pcl::Normal> normals_;
+  std::vector<float> splat_radii_;
+  double radius_used_ = 0;
+  std::size_t sectors_used_ = 0;
+  int steps_used_ = 0;
+  Method method_used_ = Method::AUTO;
+};
+
+}  // namespace pcl
+
+#ifdef PCL_NO_PRECOMPILE
+#include <pclx/hpr/impl/hpr_filter.hpp>
+#endif

@@ -1,0 +1,145 @@
+#pragma once
+#include <pclx/hpr/hpr_filter.h>
+#include <pclx/hpr/visibility.h>
+
+#include <pcl/common/io.h>
+#include <pcl/conversions.h>
+
+#include <cmath>
+
+template <typename PointT> void
+pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
+{
+  indices.clear ();
+  removed_indices_->clear ();
+  mesh_ = PolygonMesh ();
+  normals_.clear ();
+  splat_radii_.clear ();
+  radius_used_ = 0;
+  sectors_used_ = 0;
+  steps_used_ = 0;
+
+  // Nothing is visible on a bad request: report it and keep nothing (as PCL filters do).
+  auto reject = [&] (const std::string& why) {
+    PCL_ERROR ("[pcl::%s::applyFilter] %s\n", getClassName ().c_str (), why.c_str ());
+    indices.clear ();
+    if (extract_removed_indices_)
+      *removed_indices_ = *indices_;
+  };
+  if (!viewpoint_.allFinite ())
+    return reject ("the viewpoint is not finite");
+  if (radius_mode_ == RadiusMode::GAMMA && !(gamma_ > 0 && std::isfinite (gamma_)))
+    return reject ("gamma must be a finite number > 0 (R = max|p - C| * 10^gamma)");
+  if (radius_mode_ == RadiusMode::ABSOLUTE && !(radius_ > 0 && std::isfinite (radius_)))
+    return reject ("R must be a finite number > 0");
+  if (radius_mode_ == RadiusMode::AUTO && !(occlusion_depth_ > 0 && std::isfinite (occlusion_depth_)))
+    return reject ("the occlusion depth for the calibrated R must be > 0");
+  if (!(oversampling_ > 0))
+    return reject ("the grid oversampling must be > 0");
+  if (propagation_ == Propagation::FIXED && (steps_ < 1 || steps_ % 2 == 0))
+    return reject ("fixed propagation needs an odd mask size m >= 1");
+  if (steps_ < 0)
+    return reject ("the number of propagation steps must be >= 0");
+
+  // Finite points among the requested indices, relative to the viewpoint.
+  std::vector<int> finite;
+  std::vector<Eigen::Vector3f> rel;
+  finite.reserve (indices_->size ());
+  rel.reserve (indices_->size ());
+  double max_rho = 0;
+  for (const auto i : *indices_)
+  {
+    const PointT& p = (*input_)[i];
+    if (!std::isfinite (p.x) || !std::isfinite (p.y) || !std::isfinite (p.z))
+      continue;
+    finite.push_back (static_cast<int> (i));
+    rel.push_back (p.getVector3fMap () - viewpoint_);
+    max_rho = std::max<double> (max_rho, rel.back ().norm ());
+  }
+
+  hpr::VisibilityOptions opt;
+  method_used_ = method_;
+  if (method_ == Method::AUTO)
+    method_used_ = finite.size () <= kAutoExactLimit ? Method::EXACT : Method::ANGULAR_GRID;
+  switch (method_used_)
+  {
+  case Method::EXACT: opt.method = hpr::VisibilityMethod::EXACT; break;
+  case Method::BENTLEY_FAUST_PREPARATA: opt.method = hpr::VisibilityMethod::BENTLEY_FAUST_PREPARATA; break;
+  case Method::KAVAN: opt.method = hpr::VisibilityMethod::KAVAN; break;
+  case Method::HYBRID: opt.method = hpr::VisibilityMethod::HYBRID; break;
+  default: opt.method = hpr::VisibilityMethod::ANGULAR_GRID; break;
+  }
+  if (radius_mode_ == RadiusMode::ABSOLUTE)
+    opt.radius = radius_;
+  else if (radius_mode_ == RadiusMode::GAMMA)
+    opt.radius = max_rho * std::pow (10.0, gamma_);
+  opt.occlusion_depth = occlusion_depth_;
+  opt.sectors = sectors_;
+  opt.oversampling = oversampling_;
+  opt.view_pixels = view_pixels_;
+  opt.view_fov = view_fov_;
+  opt.fixed_propagation = propagation_ == Propagation::FIXED;
+  opt.steps = steps_;
+  opt.exact_prefilter = exact_prefilter_;
+  opt.triangles = reconstruct_;
+  opt.max_edge = max_edge_;
+  opt.normals = compute_normals_;
+
+  const hpr::VisibilityResult res = hpr::computeVisibility (rel, opt);
+  if (!res.error.empty ())
+    return reject (res.error);
+  if (!res.warning.empty ())
+    PCL_WARN ("[pcl::%s::applyFilter] %s\n", getClassName ().c_str (), res.warning.c_str ());
+  radius_used_ = res.radius;
+  sectors_used_ = res.sectors;
+  steps_used_ = res.steps;
+
+  // Kept = visible (or hidden when negative); NaN points are removed either way.
+  std::vector<std::uint8_t> visible (input_->size (), 0);
+  for (std::size_t j = 0; j < finite.size (); ++j)
+    visible[finite[j]] = res.visible[j];
+  std::vector<std::uint8_t> is_finite (input_->size (), 0);
+  for (int i : finite)
+    is_finite[i] = 1;
+  indices.reserve (indices_->size ());
+  for (const auto i : *indices_)
+  {
+    const bool keep = is_finite[i] && (visible[i] != 0) != negative_;
+    if (keep)
+      indices.push_back (i);
+    else if (extract_removed_indices_)
+      removed_indices_->push_back (i);
+  }
+
+  if (reconstruct_)
+  {
+    pcl::toPCLPointCloud2 (*input_, mesh_.cloud);
+    mesh_.header = input_->header;
+    for (const auto& t : res.triangles)
+    {
+      Vertices v;
+      v.vertices = {finite[t[0]], finite[t[1]], finite[t[2]]};
+      mesh_.polygons.push_back (v);
+    }
+  }
+  if (compute_normals_)
+  {
+    const float nan = std::numeric_limits<float>::quiet_NaN ();
+    normals_.resize (input_->size ());
+    normals_.width = input_->width;
+    normals_.height = input_->height;
+    normals_.is_dense = false;
+    splat_radii_.assign (input_->size (), 0.f);
+    for (auto& nrm : normals_)
+      nrm.normal_x = nrm.normal_y = nrm.normal_z = nrm.curvature = nan;
+    for (std::size_t j = 0; j < finite.size (); ++j)
+      if (res.visible[j])
+      {
+        normals_[finite[j]].getNormalVector3fMap () = res.normals[j];
+        normals_[finite[j]].curvature = 0.f;
+        splat_radii_[finite[j]] = res.splat_radius[j];
+      }
+  }
+}
+
+#define PCL_INSTANTIATE_HPRFilter(T) template class PCL_EXPORTS pcl::HPRFilter<T>;

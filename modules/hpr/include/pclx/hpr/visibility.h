@@ -1,0 +1,68 @@
+#pragma once
+// The point-type independent core of HPRFilter: every method on a plain array of
+// points given relative to the viewpoint.
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace pcl {
+namespace hpr {
+
+// Largest grid the approximate methods accept (~20 bytes per sector).
+constexpr std::size_t kMaxSectors = std::size_t (1) << 24;
+
+enum class VisibilityMethod { EXACT, ANGULAR_GRID, BENTLEY_FAUST_PREPARATA, KAVAN, HYBRID };
+
+struct VisibilityOptions
+{
+  VisibilityMethod method = VisibilityMethod::ANGULAR_GRID;
+  double radius = 0;          // R > max ρ; <= 0: calibrate (needs occlusion_depth)
+  double occlusion_depth = 0.05;
+  std::size_t sectors = 0;    // k; 0: calibrate
+  double oversampling = 4.0;
+  int view_pixels = 0;        // screen cap on k (0: none)
+  double view_fov = 0;
+  bool fixed_propagation = false;
+  int steps = 0;              // ℓ (adaptive, 0: calibrate) or m (fixed)
+  bool exact_prefilter = true;
+  bool triangles = false;
+  float max_edge = 0.f;       // <= 0: 5 × median edge
+  bool normals = false;
+};
+
+struct VisibilityResult
+{
+  std::string error;                      // non-empty: the input was rejected, nothing computed
+  std::string warning;                    // something was adjusted (e.g. k clamped)
+  std::vector<std::uint8_t> visible;      // per input point
+  std::vector<Eigen::Vector3i> triangles;  // point ids, facing the viewpoint
+  std::vector<Eigen::Vector3f> normals;   // per point (NaN where hidden)
+  std::vector<float> splat_radius;        // per point (0 where hidden)
+  double radius = 0;
+  std::size_t sectors = 0;
+  int steps = 0;
+  std::size_t prefilter_kept = 0;  // exact method: points left for Qhull
+};
+
+// Calibration (seed §6): R from the angular separation α of visible points, k from the
+// sectors needed for one visible point per sector (times `oversampling`), ℓ from α.
+struct HPRCalibration
+{
+  double alpha = 0;
+  double grid_area = 0;  // angular area of the grid (sr, φθ rectangle)
+  double visible_estimate = 0;
+  double radius = 0;
+  std::size_t sectors = 0;
+  int steps = 0;
+};
+HPRCalibration calibrateHPR (const std::vector<Eigen::Vector3f>& points, const VisibilityOptions& options);
+// ℓ for a grid of k sectors: enough steps to cover the sectors between two visible points.
+int propagationSteps (const HPRCalibration& cal, std::size_t k);
+
+// `points` are p − C for finite p; points at the viewpoint itself are visible.
+VisibilityResult computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityOptions& options);
+
+}  // namespace hpr
+}  // namespace pcl

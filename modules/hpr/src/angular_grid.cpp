@@ -1,0 +1,581 @@
+#include <pclx/hpr/angular_grid.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cstring>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace pcl {
+namespace hpr {
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+
+// Packs (score, point) so that an atomic integer min picks the smallest score,
+// ties going to the lowest point index (deterministic for any thread count).
+inline std::uint64_t
+packKey (float score, std::uint32_t point)
+{
+  std::uint32_t bits;
+  static_assert (sizeof (bits) == sizeof (score), "float is 32 bits");
+  std::memcpy (&bits, &score, sizeof bits);  // score > 0: bit order = numeric order
+  return (std::uint64_t (bits) << 32) | point;
+}
+
+inline void
+atomicMin (std::uint64_t& target, std::uint64_t value)
+{
+  std::uint64_t cur = __atomic_load_n (&target, __ATOMIC_RELAXED);
+  while (value < cur &&
+         !__atomic_compare_exchange_n (&target, &cur, value, true, __ATOMIC_RELAXED, __ATOMIC_RELAXED))
+  {
+  }
+}
+}  // namespace
+
+void
+AngularGrid::build (const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3f& centre, double radius,
+                    std::size_t sectors)
+{
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t> (points.size ());
+  if (n == 0 || sectors == 0)
+    throw std::invalid_argument ("AngularGrid: needs points and k > 0");
+  if (n >= std::numeric_limits<std::int32_t>::max ())
+    throw std::invalid_argument ("AngularGrid: too many points");
+  radius_ = radius;
+
+  // Frame (§4.1): x through the cloud centre; z from the world axis least aligned with x.
+  Eigen::Vector3d x = centre.cast<double> ();
+  x = x.norm () > 0 ? x.normalized () : Eigen::Vector3d::UnitX ();
+  Eigen::Vector3d e = Eigen::Vector3d::UnitZ ();
+  if (std::abs (x.z ()) > 0.9)
+    e = Eigen::Vector3d::UnitY ();
+  const Eigen::Vector3d z = (e - e.dot (x) * x).normalized ();
+  const Eigen::Vector3d y = z.cross (x);
+  frame_.row (0) = x;
+  frame_.row (1) = y;
+  frame_.row (2) = z;
+
+  unit_.resize (n);
+  rho_.resize (n);
+  sector_.resize (n);
+  std::vector<float> phi (n), theta (n);
+  double phi_min = kPi, phi_max = -kPi, th_min = kPi, th_max = 0;
+#pragma omp parallel for reduction(min : phi_min, th_min) reduction(max : phi_max, th_max)
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+  {
+    const Eigen::Vector3d p = points[i].cast<double> ();
+    const double r = p.norm ();
+    const Eigen::Vector3d u = r > 0 ? Eigen::Vector3d (p / r) : Eigen::Vector3d::UnitX ();
+    unit_[i] = u.cast<float> ();
+    rho_[i] = static_cast<float> (r);
+    const Eigen::Vector3d v = frame_ * u;
+    phi[i] = static_cast<float> (std::atan2 (v.y (), v.x ()));
+    theta[i] = static_cast<float> (std::acos (std::clamp (v.z (), -1.0, 1.0)));
+    phi_min = std::min<double> (phi_min, phi[i]);
+    phi_max = std::max<double> (phi_max, phi[i]);
+    th_min = std::min<double> (th_min, theta[i]);
+    th_max = std::max<double> (th_max, theta[i]);
+  }
+
+  // The grid covers the cloud's angular extent (tighter than the enclosing-sphere
+  // frustum of Eq. 2–3, same thing for round clouds). A cloud around the viewer
+  // (C inside it) gets the full φ circle, with neighbours wrapping around.
+  wrap_phi_ = (phi_max - phi_min) > kPi;
+  if (wrap_phi_)
+  {
+    phi_min = -kPi;
+    phi_max = kPi;
+  }
+  const double pad = 1e-6;
+  const double range_phi = std::max (phi_max - phi_min, 0.0) + 2 * pad;
+  const double range_theta = std::max (th_max - th_min, 0.0) + 2 * pad;
+  // Square cells in (φ, θ): k cells over the range rectangle.
+  const double cell = std::sqrt (range_phi * range_theta / double (sectors));
+  n_phi_ = std::max (1, int (std::ceil (range_phi / cell - 1e-9)));
+  n_theta_ = std::max (1, int (std::ceil (range_theta / cell - 1e-9)));
+  if (wrap_phi_)
+  {
+    phi0_ = -kPi;
+    cell_phi_ = 2 * kPi / n_phi_;
+  }
+  else
+  {
+    phi0_ = phi_min - pad;
+    cell_phi_ = cell;
+  }
+  theta0_ = th_min - pad;
+  cell_theta_ = cell;
+  cell_ = std::sqrt (cell_phi_ * cell_theta_);
+  const std::size_t k = std::size_t (n_phi_) * n_theta_;
+
+  cos_phi_.resize (n_phi_);
+  sin_phi_.resize (n_phi_);
+  for (int i = 0; i < n_phi_; ++i)
+  {
+    cos_phi_[i] = std::cos (phi0_ + (i + 0.5) * cell_phi_);
+    sin_phi_[i] = std::sin (phi0_ + (i + 0.5) * cell_phi_);
+  }
+  cos_theta_.resize (n_theta_);
+  sin_theta_.resize (n_theta_);
+  for (int j = 0; j < n_theta_; ++j)
+  {
+    cos_theta_[j] = std::cos (theta0_ + (j + 0.5) * cell_theta_);
+    sin_theta_[j] = std::sin (theta0_ + (j + 0.5) * cell_theta_);
+  }
+
+  // §4.2: sector of every point and the extreme (best scored) point per sector.
+  std::vector<std::uint64_t> keys (k, std::numeric_limits<std::uint64_t>::max ());
+#pragma omp parallel for
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+  {
+    const int a = std::clamp (int ((phi[i] - phi0_) / cell_phi_), 0, n_phi_ - 1);
+    const int b = std::clamp (int ((theta[i] - theta0_) / cell_theta_), 0, n_theta_ - 1);
+    const std::size_t s = std::size_t (a) * n_theta_ + b;
+    sector_[i] = static_cast<std::uint32_t> (s);
+    atomicMin (keys[s], packKey (static_cast<float> (score (int (i), s)), std::uint32_t (i)));
+  }
+  cand_.assign (k, -1);
+  best_.assign (k, std::numeric_limits<double>::infinity ());
+#pragma omp parallel for
+  for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
+    if (keys[s] != std::numeric_limits<std::uint64_t>::max ())
+    {
+      cand_[s] = int (keys[s] & 0xffffffffu);
+      best_[s] = score (cand_[s], std::size_t (s));
+    }
+
+  // §4.3 EMPTY map: when k/n > 25 % it is kept on a coarser grid, so sectors inside the
+  // object's projection that merely received no sample are still visited.
+  empty_factor_ = 1;
+  if (double (k) / double (n) > 0.25)
+    empty_factor_ = int (std::ceil (std::sqrt (double (k) / double (n) / 0.25)));
+  coarse_theta_ = (n_theta_ + empty_factor_ - 1) / empty_factor_;
+  const int coarse_phi = (n_phi_ + empty_factor_ - 1) / empty_factor_;
+  occupied_coarse_.assign (std::size_t (coarse_phi) * coarse_theta_, 0);
+  for (std::size_t s = 0; s < k; ++s)
+    if (cand_[s] >= 0)
+    {
+      const int a = int (s / n_theta_), b = int (s % n_theta_);
+      occupied_coarse_[std::size_t (a / empty_factor_) * coarse_theta_ + b / empty_factor_] = 1;
+    }
+}
+
+Eigen::Vector3d
+AngularGrid::direction (std::size_t s) const
+{
+  const int a = int (s / n_theta_), b = int (s % n_theta_);
+  const Eigen::Vector3d v (sin_theta_[b] * cos_phi_[a], sin_theta_[b] * sin_phi_[a], cos_theta_[b]);
+  return frame_.transpose () * v;
+}
+
+double
+AngularGrid::score (int point, std::size_t sector) const
+{
+  const Eigen::Vector3d d = direction (sector);
+  const double one_minus_cos = 0.5 * (unit_[point].cast<double> () - d).squaredNorm ();
+  return one_minus_cos + (1.0 - one_minus_cos) * double (rho_[point]) / (2.0 * radius_);
+}
+
+bool
+AngularGrid::isEmpty (std::size_t s) const
+{
+  const int a = int (s / n_theta_), b = int (s % n_theta_);
+  return !occupied_coarse_[std::size_t (a / empty_factor_) * coarse_theta_ + b / empty_factor_];
+}
+
+void
+AngularGrid::neighbours (std::size_t s, int radius, std::vector<std::size_t>& out) const
+{
+  out.clear ();
+  const int a = int (s / n_theta_), b = int (s % n_theta_);
+  for (int da = -radius; da <= radius; ++da)
+  {
+    int aa = a + da;
+    if (wrap_phi_)
+      aa = (aa % n_phi_ + n_phi_) % n_phi_;
+    else if (aa < 0 || aa >= n_phi_)
+      continue;
+    for (int db = -radius; db <= radius; ++db)
+    {
+      const int bb = b + db;
+      if ((da == 0 && db == 0) || bb < 0 || bb >= n_theta_)
+        continue;
+      out.push_back (std::size_t (aa) * n_theta_ + bb);
+    }
+  }
+}
+
+int
+AngularGrid::propagateAdaptive (int max_steps)
+{
+  const std::size_t k = cand_.size ();
+  std::vector<std::size_t> changed;
+  for (std::size_t s = 0; s < k; ++s)
+    if (cand_[s] >= 0)
+      changed.push_back (s);
+  // Each step is a Jacobi step: candidates move at most one sector per step.
+  const int cap = max_steps > 0 ? max_steps : 4 * (n_phi_ + n_theta_);
+  std::vector<int> prop_cand (k, -1);
+  std::vector<double> prop_best (k);
+  std::vector<std::uint32_t> stamp (k, 0);
+  std::vector<std::size_t> nb, touched;
+  int steps = 0;
+  while (!changed.empty () && steps < cap)
+  {
+    ++steps;
+    touched.clear ();
+    if (changed.size () > k / 8)
+    {
+      // Many sectors changed (the first steps): a parallel gather over all sectors.
+#pragma omp parallel for schedule(dynamic, 256) private(nb)
+      for (std::ptrdiff_t t = 0; t < std::ptrdiff_t (k); ++t)
+      {
+        if (isEmpty (std::size_t (t)))
+          continue;
+        neighbours (std::size_t (t), 1, nb);
+        double best = best_[t];
+        int who = -1;
+        for (std::size_t s : nb)
+        {
+          const int c = cand_[s];
+          if (c < 0 || c == cand_[t])
+            continue;
+          const double g = score (c, std::size_t (t));
+          if (g < best || (g == best && who >= 0 && c < who))
+          {
+            best = g;
+            who = c;
+          }
+        }
+        if (who >= 0)
+        {
+          prop_cand[t] = who;
+          prop_best[t] = best;
+        }
+        else
+          prop_cand[t] = -1;
+      }
+      for (std::size_t t = 0; t < k; ++t)
+        if (prop_cand[t] >= 0)
+          touched.push_back (t);
+    }
+    else
+    {
+      // Few changes: scatter from the changed sectors only (the seed's CPU variant).
+      for (std::size_t s : changed)
+      {
+        const int c = cand_[s];
+        neighbours (s, 1, nb);
+        for (std::size_t t : nb)
+        {
+          if (isEmpty (t) || cand_[t] == c)
+            continue;
+          const double g = score (c, t);
+          const bool fresh = stamp[t] != std::uint32_t (steps) + (1u << 31);
+          const double cur = fresh ? best_[t] : prop_best[t];
+          if (g < cur)
+          {
+            if (fresh)
+            {
+              stamp[t] = std::uint32_t (steps) + (1u << 31);
+              touched.push_back (t);
+            }
+            prop_cand[t] = c;
+            prop_best[t] = g;
+          }
+        }
+      }
+    }
+    changed.clear ();
+    for (std::size_t t : touched)
+    {
+      if (prop_cand[t] < 0)
+        continue;
+      cand_[t] = prop_cand[t];
+      best_[t] = prop_best[t];
+      prop_cand[t] = -1;
+      changed.push_back (t);
+    }
+  }
+  return steps;
+}
+
+void
+AngularGrid::propagateFixed (int m)
+{
+  const int radius = std::max (0, m / 2);
+  if (radius == 0)
+    return;
+  const std::vector<int> old = cand_;
+  const std::ptrdiff_t k = std::ptrdiff_t (cand_.size ());
+  std::vector<std::size_t> nb;
+#pragma omp parallel for schedule(dynamic, 256) private(nb)
+  for (std::ptrdiff_t t = 0; t < k; ++t)
+  {
+    if (isEmpty (std::size_t (t)))
+      continue;
+    neighbours (std::size_t (t), radius, nb);
+    for (std::size_t s : nb)
+    {
+      const int c = old[s];
+      if (c < 0 || c == cand_[t])
+        continue;
+      const double g = score (c, std::size_t (t));
+      if (g < best_[t])
+      {
+        best_[t] = g;
+        cand_[t] = c;
+      }
+    }
+  }
+}
+
+void
+AngularGrid::refineGlobal ()
+{
+  const std::vector<int> pool = candidates ();
+  const std::ptrdiff_t k = std::ptrdiff_t (cand_.size ());
+#pragma omp parallel for schedule(dynamic, 64)
+  for (std::ptrdiff_t t = 0; t < k; ++t)
+  {
+    if (cand_[t] < 0)
+      continue;
+    for (int c : pool)
+    {
+      const double g = score (c, std::size_t (t));
+      if (g < best_[t])
+      {
+        best_[t] = g;
+        cand_[t] = c;
+      }
+    }
+  }
+}
+
+std::vector<int>
+AngularGrid::candidates () const
+{
+  std::vector<int> out;
+  for (int c : cand_)
+    if (c >= 0)
+      out.push_back (c);
+  std::sort (out.begin (), out.end ());
+  out.erase (std::unique (out.begin (), out.end ()), out.end ());
+  return out;
+}
+
+std::size_t
+AngularGrid::occupiedSectors () const
+{
+  return std::size_t (std::count_if (cand_.begin (), cand_.end (), [] (int c) { return c >= 0; }));
+}
+
+std::vector<Eigen::Vector3i>
+AngularGrid::triangulate (const std::vector<Eigen::Vector3f>& points, float max_edge) const
+{
+  std::vector<Eigen::Vector3i> tris;
+  const int rows = wrap_phi_ ? n_phi_ : n_phi_ - 1;
+  const float max2 = max_edge > 0 ? max_edge * max_edge : std::numeric_limits<float>::infinity ();
+  auto add = [&] (int a, int b, int c) {
+    if (a < 0 || b < 0 || c < 0 || a == b || b == c || a == c)
+      return;
+    const Eigen::Vector3f &pa = points[a], &pb = points[b], &pc = points[c];
+    if ((pa - pb).squaredNorm () > max2 || (pb - pc).squaredNorm () > max2 || (pc - pa).squaredNorm () > max2)
+      return;
+    if ((pb - pa).cross (pc - pa).dot (-pa) < 0)  // face the viewpoint (origin)
+      std::swap (b, c);
+    // Canonical rotation (smallest index first) so duplicates can be removed.
+    if (b < a && b < c)
+      tris.emplace_back (b, c, a);
+    else if (c < a && c < b)
+      tris.emplace_back (c, a, b);
+    else
+      tris.emplace_back (a, b, c);
+  };
+  for (int i = 0; i < rows; ++i)
+  {
+    const int i1 = (i + 1) % n_phi_;
+    for (int j = 0; j + 1 < n_theta_; ++j)
+    {
+      const int a = cand_[std::size_t (i) * n_theta_ + j], b = cand_[std::size_t (i) * n_theta_ + j + 1];
+      const int c = cand_[std::size_t (i1) * n_theta_ + j], d = cand_[std::size_t (i1) * n_theta_ + j + 1];
+      add (a, b, d);
+      add (a, d, c);
+    }
+  }
+  std::sort (tris.begin (), tris.end (), [] (const Eigen::Vector3i& l, const Eigen::Vector3i& r) {
+    return std::lexicographical_compare (l.data (), l.data () + 3, r.data (), r.data () + 3);
+  });
+  tris.erase (std::unique (tris.begin (), tris.end ()), tris.end ());
+  return tris;
+}
+
+void
+AngularGrid::normalsAndSplats (const std::vector<Eigen::Vector3f>& points, std::vector<Eigen::Vector3f>& normals,
+                               std::vector<float>& splat_radius) const
+{
+  const std::size_t k = cand_.size ();
+  std::vector<Eigen::Vector3f> sector_normal (k, Eigen::Vector3f::Zero ());
+  std::vector<float> sector_splat (k, 0.f);
+  // Circulation order around a sector (§5.3, Fig. 8a).
+  static const int ring[8][2] = {{-1, -1}, {-1, 0}, {-1, 1}, {0, 1}, {1, 1}, {1, 0}, {1, -1}, {0, -1}};
+  const float half_diag = static_cast<float> (cell_ * std::sqrt (2.0) / 2);
+#pragma omp parallel for schedule(dynamic, 256)
+  for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
+  {
+    const int c0 = cand_[s];
+    if (c0 < 0)
+      continue;
+    const int a = int (s / n_theta_), b = int (s % n_theta_);
+    int fan[8], m = 0;
+    for (const auto& o : ring)
+    {
+      int aa = a + o[0];
+      const int bb = b + o[1];
+      if (wrap_phi_)
+        aa = (aa + n_phi_) % n_phi_;
+      if (aa < 0 || aa >= n_phi_ || bb < 0 || bb >= n_theta_)
+        continue;
+      const int c = cand_[std::size_t (aa) * n_theta_ + bb];
+      if (c >= 0 && c != c0 && (m == 0 || fan[m - 1] != c))
+        fan[m++] = c;
+    }
+    Eigen::Vector3f sum = Eigen::Vector3f::Zero ();
+    const Eigen::Vector3f& p0 = points[c0];
+    for (int t = 0; t + 1 < m + (m > 2 ? 1 : 0); ++t)
+    {
+      const int c1 = fan[t], c2 = fan[(t + 1) % m];
+      if (c1 == c2)
+        continue;
+      Eigen::Vector3f nrm = (points[c2] - p0).cross (points[c1] - p0);
+      if (nrm.dot (-p0) < 0)
+        nrm = -nrm;
+      sum += nrm;
+    }
+    sector_normal[s] = sum;
+    // §5.5: the splat must cover the footprint of every sector this point won.
+    const float r = rho_[c0];
+    sector_splat[s] = r * ((unit_[c0].cast<double> () - direction (std::size_t (s))).norm () + half_diag);
+  }
+  normals.assign (points.size (), Eigen::Vector3f::Constant (std::numeric_limits<float>::quiet_NaN ()));
+  splat_radius.assign (points.size (), 0.f);
+  std::vector<Eigen::Vector3f> acc (points.size (), Eigen::Vector3f::Zero ());
+  for (std::size_t s = 0; s < k; ++s)
+    if (cand_[s] >= 0)
+    {
+      acc[cand_[s]] += sector_normal[s];
+      splat_radius[cand_[s]] = std::max (splat_radius[cand_[s]], sector_splat[s]);
+    }
+  for (int c : candidates ())
+  {
+    if (acc[c].norm () > 0)
+      normals[c] = acc[c].normalized ();
+    else  // isolated candidate: facing the viewer is the only estimate
+      normals[c] = (-points[c]).normalized ();
+  }
+}
+
+std::vector<std::uint8_t>
+AngularGrid::interiorPoints () const
+{
+  const std::ptrdiff_t n = std::ptrdiff_t (unit_.size ());
+  std::vector<std::uint8_t> interior (n, 0);
+  std::vector<std::uint8_t> is_cand (n, 0);
+  for (int c : cand_)
+    if (c >= 0)
+      is_cand[c] = 1;
+  auto flipped = [this] (int i) -> Eigen::Vector3d {
+    return unit_[i].cast<double> () * (2.0 * radius_ - double (rho_[i]));
+  };
+#pragma omp parallel for schedule(dynamic, 1024)
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+  {
+    if (is_cand[i])
+      continue;
+    const Eigen::Vector3d q = flipped (int (i));
+    const Eigen::Vector3d uq = unit_[i].cast<double> ();
+    const int a = int (sector_[i] / n_theta_), b = int (sector_[i] % n_theta_);
+    bool inside = false;
+    // The four 2×2 quads around the point's sector, both diagonals of each.
+    for (int da = -1; da <= 0 && !inside; ++da)
+      for (int db = -1; db <= 0 && !inside; ++db)
+      {
+        int a0 = a + da, a1 = a + da + 1;
+        const int b0 = b + db, b1 = b + db + 1;
+        if (wrap_phi_)
+        {
+          a0 = (a0 + n_phi_) % n_phi_;
+          a1 = a1 % n_phi_;
+        }
+        if (a0 < 0 || a1 >= n_phi_ || b0 < 0 || b1 >= n_theta_)
+          continue;
+        const int c[4] = {cand_[std::size_t (a0) * n_theta_ + b0], cand_[std::size_t (a0) * n_theta_ + b1],
+                          cand_[std::size_t (a1) * n_theta_ + b1], cand_[std::size_t (a1) * n_theta_ + b0]};
+        static const int tri[4][3] = {{0, 1, 2}, {0, 2, 3}, {0, 1, 3}, {1, 2, 3}};
+        for (const auto& t : tri)
+        {
+          const int ia = c[t[0]], ib = c[t[1]], ic = c[t[2]];
+          if (ia < 0 || ib < 0 || ic < 0 || ia == ib || ib == ic || ia == ic)
+            continue;
+          const Eigen::Vector3d ua = unit_[ia].cast<double> (), ub = unit_[ib].cast<double> (),
+                                uc = unit_[ic].cast<double> ();
+          // Inside the cone spanned by the three directions (strictly)?
+          const double o = ua.cross (ub).dot (uc);
+          if (std::abs (o) < 1e-18)
+            continue;
+          const double s1 = ua.cross (ub).dot (uq) * o, s2 = ub.cross (uc).dot (uq) * o,
+                       s3 = uc.cross (ua).dot (uq) * o;
+          const double eps = 1e-9 * o * o;
+          if (s1 <= eps || s2 <= eps || s3 <= eps)
+            continue;
+          // On the viewpoint's side of the triangle's plane (strictly)?
+          const Eigen::Vector3d fa = flipped (ia), fb = flipped (ib), fc = flipped (ic);
+          const Eigen::Vector3d nrm = (fb - fa).cross (fc - fa);
+          const double side_origin = -nrm.dot (fa);
+          const double side_q = nrm.dot (q - fa);
+          if (side_origin * side_q > 0 && std::abs (side_q) > 1e-7 * std::abs (side_origin))
+          {
+            inside = true;
+            break;
+          }
+        }
+      }
+    interior[i] = inside;
+  }
+  return interior;
+}
+
+AngularGrid::Calibration
+AngularGrid::calibrate () const
+{
+  const std::size_t k = cand_.size ();
+  const std::ptrdiff_t n = std::ptrdiff_t (unit_.size ());
+  std::vector<float> min_rho (k, std::numeric_limits<float>::infinity ());
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+    min_rho[sector_[i]] = std::min (min_rho[sector_[i]], rho_[i]);
+  // Visible-count estimate (§6): per sector, points roughly as near as the nearest one,
+  // "roughly" being one sector footprint at that depth.
+  double visible = 0;
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+  {
+    const float m = min_rho[sector_[i]];
+    visible += rho_[i] <= m * (1.0 + 2.0 * cell_);
+  }
+  Calibration c;
+  for (std::size_t s = 0; s < k; ++s)
+    if (cand_[s] >= 0)
+      c.occupied_solid_angle += cell_phi_ * cell_theta_ * sin_theta_[s % n_theta_];
+  c.visible_estimate = std::max (1.0, visible);
+  // Eq. 5 with a = 0.5: the number of bins in which visible_estimate balls occupy half.
+  const double a = 0.5;
+  const double bins = -1.0 / (std::pow (1.0 - a, 1.0 / c.visible_estimate) - 1.0);
+  c.alpha = 2.0 * std::sqrt (c.occupied_solid_angle / bins);
+  return c;
+}
+
+}  // namespace hpr
+}  // namespace pcl

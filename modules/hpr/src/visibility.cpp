@@ -1,0 +1,395 @@
+#include <pclx/hpr/angular_grid.h>
+#include <pclx/hpr/qhull_visibility.h>
+#include <pclx/hpr/visibility.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <unordered_map>
+
+namespace pcl {
+namespace hpr {
+
+namespace {
+
+Eigen::Vector3f
+centroidOf (const std::vector<Eigen::Vector3f>& pts)
+{
+  Eigen::Vector3d c = Eigen::Vector3d::Zero ();
+  for (const auto& p : pts)
+    c += p.cast<double> ();
+  return (c / double (std::max<std::size_t> (1, pts.size ()))).cast<float> ();
+}
+
+// Flipped cloud (Eq. 1) in double: R ≫ ρ leaves the depth differences in the low digits.
+std::vector<Eigen::Vector3d>
+flip (const std::vector<Eigen::Vector3f>& pts, const std::vector<int>& ids, double R)
+{
+  std::vector<Eigen::Vector3d> out (ids.size ());
+  const std::ptrdiff_t m = std::ptrdiff_t (ids.size ());
+#pragma omp parallel for
+  for (std::ptrdiff_t i = 0; i < m; ++i)
+  {
+    const Eigen::Vector3d p = pts[ids[i]].cast<double> ();
+    const double rho = p.norm ();
+    out[i] = p * (2.0 * R / rho - 1.0);
+  }
+  return out;
+}
+
+// Hull of the flipped `ids` (+ C); marks vertices visible, maps triangles back.
+bool
+hullVisibility (const std::vector<Eigen::Vector3f>& pts, const std::vector<int>& ids, double R, bool triangles,
+                VisibilityResult& res)
+{
+  const std::vector<Eigen::Vector3d> flipped = flip (pts, ids, R);
+  HullResult hull = flippedHull (flipped, triangles);
+  if (!hull.ok)
+  {
+    // Degenerate input (e.g. every point in one plane through C): joggle gives a defined answer.
+    hull = flippedHull (flipped, triangles, true);
+    if (!hull.ok)
+    {
+      res.error = "Qhull failed: " + hull.error;
+      return false;
+    }
+    res.warning += "degenerate input for the convex hull (flat or collinear): Qhull joggled it (QJ); ";
+  }
+  for (int v : hull.vertices)
+    res.visible[ids[v]] = 1;
+  for (const auto& t : hull.triangles)
+    res.triangles.emplace_back (ids[t[0]], ids[t[1]], ids[t[2]]);
+  return true;
+}
+
+void
+filterLongEdges (const std::vector<Eigen::Vector3f>& pts, float max_edge, std::vector<Eigen::Vector3i>& tris)
+{
+  if (tris.empty ())
+    return;
+  if (max_edge <= 0)
+  {
+    std::vector<float> e;
+    e.reserve (tris.size ());
+    for (const auto& t : tris)
+      e.push_back ((pts[t[0]] - pts[t[1]]).norm ());
+    std::nth_element (e.begin (), e.begin () + e.size () / 2, e.end ());
+    max_edge = 5.f * e[e.size () / 2];
+  }
+  const float m2 = max_edge * max_edge;
+  tris.erase (std::remove_if (tris.begin (), tris.end (),
+                              [&] (const Eigen::Vector3i& t) {
+                                return (pts[t[0]] - pts[t[1]]).squaredNorm () > m2 ||
+                                       (pts[t[1]] - pts[t[2]]).squaredNorm () > m2 ||
+                                       (pts[t[2]] - pts[t[0]]).squaredNorm () > m2;
+                              }),
+              tris.end ());
+}
+
+// Normals and splats from hull triangles: area-weighted, facing the viewpoint.
+void
+meshNormals (const std::vector<Eigen::Vector3f>& pts, const std::vector<Eigen::Vector3i>& tris,
+             VisibilityResult& res)
+{
+  std::vector<Eigen::Vector3f> acc (pts.size (), Eigen::Vector3f::Zero ());
+  res.splat_radius.assign (pts.size (), 0.f);
+  for (const auto& t : tris)
+  {
+    const Eigen::Vector3f n = (pts[t[1]] - pts[t[0]]).cross (pts[t[2]] - pts[t[0]]);
+    for (int k = 0; k < 3; ++k)
+    {
+      acc[t[k]] += n;
+      const float e = (pts[t[k]] - pts[t[(k + 1) % 3]]).norm () / 2;
+      res.splat_radius[t[k]] = std::max (res.splat_radius[t[k]], e);
+      res.splat_radius[t[(k + 1) % 3]] = std::max (res.splat_radius[t[(k + 1) % 3]], e);
+    }
+  }
+  res.normals.assign (pts.size (), Eigen::Vector3f::Constant (std::numeric_limits<float>::quiet_NaN ()));
+  for (std::size_t i = 0; i < pts.size (); ++i)
+    if (res.visible[i])
+    {
+      Eigen::Vector3f n = acc[i].norm () > 0 ? acc[i].normalized () : Eigen::Vector3f (-pts[i].normalized ());
+      res.normals[i] = n.dot (-pts[i]) < 0 ? Eigen::Vector3f (-n) : n;
+    }
+}
+
+// Exact duplicates share the visibility of their visible twin (the hull keeps one copy).
+void
+shareWithDuplicates (const std::vector<Eigen::Vector3f>& pts, std::vector<std::uint8_t>& visible)
+{
+  struct Hash
+  {
+    std::size_t operator() (const Eigen::Vector3f& p) const
+    {
+      std::uint32_t b[3];
+      std::memcpy (b, p.data (), sizeof b);
+      return (std::size_t (b[0]) * 73856093u) ^ (std::size_t (b[1]) * 19349663u) ^ (std::size_t (b[2]) * 83492791u);
+    }
+  };
+  std::unordered_map<Eigen::Vector3f, int, Hash> seen;
+  seen.reserve (pts.size () / 2);
+  for (std::size_t i = 0; i < pts.size (); ++i)
+    if (visible[i])
+      seen.emplace (pts[i], int (i));
+  for (std::size_t i = 0; i < pts.size (); ++i)
+    if (!visible[i] && seen.count (pts[i]))
+      visible[i] = 1;
+}
+
+}  // namespace
+
+HPRCalibration
+calibrateHPR (const std::vector<Eigen::Vector3f>& points, const VisibilityOptions& options)
+{
+  HPRCalibration cal;
+  const std::size_t n = points.size ();
+  const Eigen::Vector3f centre = centroidOf (points);
+  double max_rho = 0, r = 0, mean_rho = 0;
+  for (const auto& p : points)
+  {
+    max_rho = std::max<double> (max_rho, p.norm ());
+    r = std::max<double> (r, (p - centre).norm ());
+    mean_rho += p.norm ();
+  }
+  mean_rho /= double (std::max<std::size_t> (n, 1));
+  // Typical distance of the surface from the viewer (inside the cloud: the mean).
+  const double rho_ref = centre.norm () > r ? double (centre.norm ()) : mean_rho;
+
+  // A coarse grid, ~16 points per sector, is the balls-in-bins sample.
+  AngularGrid coarse;
+  coarse.build (points, centre, 1e3 * max_rho + 1.0, std::clamp<std::size_t> (n / 16, 16, std::size_t (1) << 20));
+  const AngularGrid::Calibration c = coarse.calibrate ();
+  cal.alpha = c.alpha;
+  cal.visible_estimate = c.visible_estimate;
+
+  // Fig. 9: two points at unit distance, α apart, occlude a point d further away when
+  // (2R − 1 − d) / (2R − 1) = cos(α/2); d is the occlusion depth relative to rho_ref.
+  const double d = options.occlusion_depth * r / std::max (rho_ref, 1e-30);
+  const double one_minus_cos = std::max (1.0 - std::cos (c.alpha / 2), 1e-15);
+  cal.radius = rho_ref * (1.0 + d / one_minus_cos) / 2.0;
+  cal.radius = std::max (cal.radius, max_rho * (1.0 + 1e-3));
+
+  // k: `oversampling` sectors per visible-point cell of angular size α/2, capped by the screen.
+  const double area = double (coarse.rows ()) * coarse.cols () * coarse.cellAngle () * coarse.cellAngle ();
+  double k = options.oversampling * area / std::pow (c.alpha / 2, 2);
+  if (options.view_pixels > 0 && options.view_fov > 0)
+    k = std::min (k, area / std::pow (options.view_fov / options.view_pixels, 2));
+  cal.sectors = std::size_t (std::clamp (k, 16.0, double (kMaxSectors)));
+  cal.grid_area = area;
+  cal.steps = propagationSteps (cal, cal.sectors);
+  return cal;
+}
+
+int
+propagationSteps (const HPRCalibration& cal, std::size_t k)
+{
+  const double fine_cell = std::sqrt (cal.grid_area / double (std::max<std::size_t> (k, 1)));
+  return int (std::ceil (cal.alpha / fine_cell)) + 1;
+}
+
+VisibilityResult
+computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityOptions& opt)
+{
+  VisibilityResult res;
+  const std::size_t n = points.size ();
+  res.visible.assign (n, 0);
+  if (n == 0)
+    return res;
+  double max_rho = 0;
+  for (const auto& p : points)
+    max_rho = std::max<double> (max_rho, p.norm ());
+
+  // A point at the viewpoint is seen (and cannot be flipped): keep it out of the hull.
+  const double eye_eps = 1e-9 * std::max (max_rho, 1e-30);
+  std::vector<int> ids;
+  ids.reserve (n);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    if (points[i].norm () <= eye_eps)
+      res.visible[i] = 1;
+    else
+      ids.push_back (int (i));
+  }
+  if (ids.size () < 4)
+  {
+    // With C, at most 4 points: each is a vertex of their hull unless degenerate; call all visible.
+    for (int i : ids)
+      res.visible[i] = 1;
+    res.radius = opt.radius;
+    return res;
+  }
+  std::vector<Eigen::Vector3f> pts;
+  pts.reserve (ids.size ());
+  for (int i : ids)
+    pts.push_back (points[i]);
+
+  if (opt.radius > 0 && opt.radius <= max_rho)
+  {
+    res.error = "R = " + std::to_string (opt.radius) + " must exceed the distance from the viewpoint to the "
+                "farthest point (" + std::to_string (max_rho) + ")";
+    return res;
+  }
+  const bool need_cal = opt.radius <= 0 ||
+                        (opt.sectors == 0 && opt.method != VisibilityMethod::EXACT) ||
+                        (opt.steps == 0 && !opt.fixed_propagation);
+  HPRCalibration cal;
+  if (need_cal)
+    cal = calibrateHPR (pts, opt);
+  const double R = opt.radius > 0 ? opt.radius : cal.radius;
+  std::size_t k = opt.sectors > 0 ? opt.sectors : cal.sectors;
+  // More than 64 sectors per point only adds empty sectors (the visible count saturates
+  // near a few sectors per point, seed §7.2).
+  const std::size_t k_cap = std::min (kMaxSectors, 64 * pts.size ());
+  if (k > k_cap)
+  {
+    res.warning += "k = " + std::to_string (k) + " clamped to " + std::to_string (k_cap) + "; ";
+    k = k_cap;
+  }
+  const int steps = opt.steps > 0 ? opt.steps : propagationSteps (cal, k);
+  res.radius = R;
+  VisibilityResult sub;
+  sub.visible.assign (pts.size (), 0);
+  const Eigen::Vector3f centre = centroidOf (pts);
+  AngularGrid grid;
+
+  std::vector<int> all (pts.size ());
+  for (std::size_t i = 0; i < pts.size (); ++i)
+    all[i] = int (i);
+
+  switch (opt.method)
+  {
+  case VisibilityMethod::EXACT:
+  {
+    std::vector<int> keep = all;
+    if (opt.exact_prefilter && pts.size () >= 2000)
+    {
+      grid.build (pts, centre, R, std::max<std::size_t> (64, pts.size () / 4));
+      grid.propagateAdaptive (2);
+      const std::vector<std::uint8_t> interior = grid.interiorPoints ();
+      keep.clear ();
+      for (std::size_t i = 0; i < pts.size (); ++i)
+        if (!interior[i])
+          keep.push_back (int (i));
+    }
+    res.prefilter_kept = keep.size ();
+    if (!hullVisibility (pts, keep, R, opt.triangles || opt.normals, sub))
+    {
+      res.error = sub.error;
+      return res;
+    }
+    break;
+  }
+  case VisibilityMethod::ANGULAR_GRID:
+  case VisibilityMethod::KAVAN:
+  case VisibilityMethod::HYBRID:
+  {
+    grid.build (pts, centre, R, k);
+    if (opt.method == VisibilityMethod::KAVAN)
+      grid.refineGlobal ();
+    else if (opt.method == VisibilityMethod::ANGULAR_GRID)
+    {
+      if (opt.fixed_propagation)
+        grid.propagateFixed (steps);
+      else
+        res.steps = grid.propagateAdaptive (steps);
+    }
+    const std::vector<int> cands = grid.candidates ();
+    if (opt.method == VisibilityMethod::HYBRID)
+    {
+      if (!hullVisibility (pts, cands, R, opt.triangles || opt.normals, sub))
+      {
+        res.error = sub.error;
+        return res;
+      }
+    }
+    else
+    {
+      for (int c : cands)
+        sub.visible[c] = 1;
+      if (opt.triangles)
+        sub.triangles = grid.triangulate (pts, -1.f);
+      if (opt.normals)
+        grid.normalsAndSplats (pts, sub.normals, sub.splat_radius);
+    }
+    res.sectors = grid.sectorCount ();
+    break;
+  }
+  case VisibilityMethod::BENTLEY_FAUST_PREPARATA:
+  {
+    // Extremes along the viewing axis x in a g × g grid over the (y, z) plane of the flipped cloud.
+    const std::vector<Eigen::Vector3d> f = flip (pts, all, R);
+    const Eigen::Vector3d x = centre.cast<double> ().normalized ();
+    const Eigen::Vector3d e = std::abs (x.z ()) > 0.9 ? Eigen::Vector3d::UnitY () : Eigen::Vector3d::UnitZ ();
+    const Eigen::Vector3d z = (e - e.dot (x) * x).normalized (), y = z.cross (x);
+    const int g = std::max (1, int (std::lround (std::sqrt (double (k)))));
+    double y0 = 1e300, y1 = -1e300, z0 = 1e300, z1 = -1e300;
+    for (const auto& q : f)
+    {
+      y0 = std::min (y0, q.dot (y));
+      y1 = std::max (y1, q.dot (y));
+      z0 = std::min (z0, q.dot (z));
+      z1 = std::max (z1, q.dot (z));
+    }
+    const double sy = g / std::max (y1 - y0, 1e-300), sz = g / std::max (z1 - z0, 1e-300);
+    std::vector<int> lo (std::size_t (g) * g, -1), hi (std::size_t (g) * g, -1);
+    for (std::size_t i = 0; i < f.size (); ++i)
+    {
+      const int a = std::clamp (int ((f[i].dot (y) - y0) * sy), 0, g - 1);
+      const int b = std::clamp (int ((f[i].dot (z) - z0) * sz), 0, g - 1);
+      const std::size_t c = std::size_t (a) * g + b;
+      const double v = f[i].dot (x);
+      if (lo[c] < 0 || v < f[lo[c]].dot (x))
+        lo[c] = int (i);
+      if (hi[c] < 0 || v > f[hi[c]].dot (x))
+        hi[c] = int (i);
+    }
+    std::vector<int> sel;
+    for (std::size_t c = 0; c < lo.size (); ++c)
+    {
+      if (lo[c] >= 0)
+        sel.push_back (lo[c]);
+      if (hi[c] >= 0 && hi[c] != lo[c])
+        sel.push_back (hi[c]);
+    }
+    if (!hullVisibility (pts, sel, R, opt.triangles || opt.normals, sub))
+    {
+      res.error = sub.error;
+      return res;
+    }
+    res.sectors = std::size_t (g) * g;
+    break;
+  }
+  }
+  res.steps = opt.method == VisibilityMethod::ANGULAR_GRID && opt.fixed_propagation ? steps : res.steps;
+  if (opt.method == VisibilityMethod::EXACT)
+    res.sectors = 0;
+  res.warning += sub.warning;
+
+  shareWithDuplicates (pts, sub.visible);
+  if (opt.triangles)
+    filterLongEdges (pts, opt.max_edge, sub.triangles);
+  if (opt.normals && sub.normals.empty ())
+    meshNormals (pts, sub.triangles, sub);
+  for (std::size_t i = 0; i < pts.size (); ++i)
+    res.visible[ids[i]] = sub.visible[i];
+  for (const auto& t : sub.triangles)
+    res.triangles.emplace_back (ids[t[0]], ids[t[1]], ids[t[2]]);
+  if (opt.normals)
+  {
+    res.normals.assign (n, Eigen::Vector3f::Constant (std::numeric_limits<float>::quiet_NaN ()));
+    res.splat_radius.assign (n, 0.f);
+    for (std::size_t i = 0; i < pts.size (); ++i)
+      if (res.visible[ids[i]])
+      {
+        res.normals[ids[i]] = sub.normals[i];
+        res.splat_radius[ids[i]] = sub.splat_radius[i];
+      }
+  }
+  return res;
+}
+
+}  // namespace hpr
+}  // namespace pcl

@@ -1,0 +1,263 @@
+// The approximate operators: agreement with exact as k grows, propagation modes,
+// calibration, the partial triangulation, grid normals and the other hulls.
+#include "hpr_test_util.h"
+
+#include <pclx/hpr/angular_grid.h>
+#include <pclx/hpr/hpr_filter.h>
+#include <pclx/testing/ray_caster.h>
+#include <pclx/testing/shapes.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace pclx::testing;
+using hprtest::xyz;
+using Filter = pcl::HPRFilter<pcl::PointXYZ>;
+
+namespace {
+struct Scene
+{
+  TriangleMesh mesh;
+  SampledCloud samples;
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud;
+  Eigen::Vector3f C;
+  std::vector<bool> truth;
+};
+
+Scene
+torusScene (std::size_t n)
+{
+  Scene s;
+  s.mesh = makeTorus (1.f, 0.35f, 160, 64);
+  s.samples = sampleUniform (s.mesh, n, 21);
+  s.cloud = xyz (s.samples);
+  s.C = Eigen::Vector3f (0.3f, -4.f, 2.f);
+  s.truth = RayCaster (s.mesh).visibleFrom (s.samples.cloud, s.C);
+  return s;
+}
+
+pcl::Indices
+runGrid (const Scene& s, std::size_t k, Filter::Propagation mode = Filter::Propagation::ADAPTIVE, int steps = 0,
+         double gamma = 2.5)
+{
+  Filter f;
+  f.setInputCloud (s.cloud);
+  f.setViewPoint (s.C);
+  f.setMethod (Filter::Method::ANGULAR_GRID);
+  f.setGamma (gamma);
+  f.setSectorCount (k);
+  f.setPropagation (mode, steps);
+  pcl::Indices out;
+  f.filter (out);
+  return out;
+}
+}  // namespace
+
+TEST (HPRGrid, AgreesWithExactBetterAsKGrows)
+{
+  const Scene s = torusScene (20000);
+  Filter exact;
+  exact.setInputCloud (s.cloud);
+  exact.setViewPoint (s.C);
+  exact.setMethod (Filter::Method::EXACT);
+  exact.setGamma (2.5);
+  pcl::Indices ex;
+  exact.filter (ex);
+  double prev = 0;
+  for (std::size_t k : {1000, 10000, 40000, 100000})
+  {
+    const double j = hprtest::jaccard (runGrid (s, k), ex);
+    EXPECT_GT (j, prev - 0.01) << "k = " << k;
+    prev = j;
+  }
+  EXPECT_GT (prev, 0.75);
+  EXPECT_GT (hprtest::score (runGrid (s, 100000), s.truth).f1, 0.85);
+}
+
+TEST (HPRGrid, PropagationOnlyRemovesCandidatesAndModesAgree)
+{
+  const Scene s = torusScene (20000);
+  // Fixed m = 1 does nothing: every sector keeps its own extreme point.
+  const pcl::Indices none = runGrid (s, 60000, Filter::Propagation::FIXED, 1);
+  std::size_t prev = none.size ();
+  for (int steps : {1, 2, 4, 8})
+  {
+    const pcl::Indices a = runGrid (s, 60000, Filter::Propagation::ADAPTIVE, steps);
+    EXPECT_LE (a.size (), prev) << "steps " << steps;
+    prev = a.size ();
+  }
+  // One adaptive (Jacobi) step over the 8-neighbourhood is exactly a 3×3 gather.
+  EXPECT_EQ (runGrid (s, 60000, Filter::Propagation::ADAPTIVE, 1), runGrid (s, 60000, Filter::Propagation::FIXED, 3));
+  // Propagation improves precision against the ray-cast truth.
+  const auto p0 = hprtest::score (none, s.truth);
+  const auto p8 = hprtest::score (runGrid (s, 60000, Filter::Propagation::ADAPTIVE, 8), s.truth);
+  EXPECT_GT (p8.precision, p0.precision);
+  // Until stable (ℓ = 0 with a given k still calibrates ℓ; a large ℓ runs to stability).
+  Filter f;
+  f.setInputCloud (s.cloud);
+  f.setViewPoint (s.C);
+  f.setMethod (Filter::Method::ANGULAR_GRID);
+  f.setGamma (2.5);
+  f.setSectorCount (60000);
+  f.setPropagation (Filter::Propagation::ADAPTIVE, 100000);
+  pcl::Indices stable;
+  f.filter (stable);
+  EXPECT_LT (f.getPropagationStepsUsed (), 100000);
+  EXPECT_LE (stable.size (), prev);
+}
+
+TEST (HPRGrid, CalibrationPicksUsefulRKAndSteps)
+{
+  const Scene s = torusScene (40000);
+  Filter f;
+  f.setInputCloud (s.cloud);
+  f.setViewPoint (s.C);
+  f.setMethod (Filter::Method::ANGULAR_GRID);  // everything else automatic
+  pcl::Indices vis;
+  f.filter (vis);
+  const auto auto_score = hprtest::score (vis, s.truth);
+  EXPECT_GT (auto_score.f1, 0.88);
+  EXPECT_GT (f.getRadiusUsed (), 4.5);  // > max|p − C|
+  EXPECT_GT (f.getPropagationStepsUsed (), 0);
+  const std::size_t k_auto = f.getSectorCountUsed ();
+  EXPECT_GT (k_auto, 20000u);
+  // The calibrated R is close to the best of a γ sweep for the exact operator.
+  double best = 0;
+  for (double g : {1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0})
+  {
+    Filter e;
+    e.setInputCloud (s.cloud);
+    e.setViewPoint (s.C);
+    e.setMethod (Filter::Method::EXACT);
+    e.setGamma (g);
+    pcl::Indices v;
+    e.filter (v);
+    best = std::max (best, hprtest::score (v, s.truth).f1);
+  }
+  Filter e;
+  e.setInputCloud (s.cloud);
+  e.setViewPoint (s.C);
+  e.setMethod (Filter::Method::EXACT);
+  pcl::Indices v;
+  e.filter (v);
+  EXPECT_GT (hprtest::score (v, s.truth).f1, best - 0.03);
+
+  // k follows the view: a small viewport caps it, a sparser cloud needs fewer sectors.
+  f.setViewResolution (100, 0.5);
+  f.filter (vis);
+  EXPECT_LT (f.getSectorCountUsed (), k_auto / 4);
+  Filter sparse;
+  const Scene few = torusScene (5000);
+  sparse.setInputCloud (few.cloud);
+  sparse.setViewPoint (few.C);
+  sparse.setMethod (Filter::Method::ANGULAR_GRID);
+  sparse.filter (vis);
+  EXPECT_LT (sparse.getSectorCountUsed (), k_auto / 3);
+}
+
+TEST (HPRGrid, PartialTriangulationIsValid)
+{
+  const Scene s = torusScene (20000);
+  Filter f;
+  f.setInputCloud (s.cloud);
+  f.setViewPoint (s.C);
+  f.setMethod (Filter::Method::ANGULAR_GRID);
+  f.setGamma (2.5);
+  f.setSectorCount (40000);
+  f.setReconstructMesh (true, 0.15f);
+  pcl::Indices vis;
+  f.filter (vis);
+  std::vector<bool> v (s.cloud->size (), false);
+  for (auto i : vis)
+    v[i] = true;
+  const auto& mesh = f.getMesh ();
+  ASSERT_GT (mesh.polygons.size (), vis.size ());  // ~2 triangles per visible point
+  EXPECT_EQ (mesh.cloud.width * mesh.cloud.height, s.cloud->size ());
+  for (const auto& poly : mesh.polygons)
+  {
+    ASSERT_EQ (poly.vertices.size (), 3u);
+    const auto a = poly.vertices[0], b = poly.vertices[1], c = poly.vertices[2];
+    EXPECT_TRUE (a != b && b != c && a != c);
+    EXPECT_TRUE (v[a] && v[b] && v[c]);
+    const Eigen::Vector3f pa = (*s.cloud)[a].getVector3fMap (), pb = (*s.cloud)[b].getVector3fMap (),
+                          pc = (*s.cloud)[c].getVector3fMap ();
+    EXPECT_LE ((pa - pb).norm (), 0.15f + 1e-5f);
+    EXPECT_LE ((pb - pc).norm (), 0.15f + 1e-5f);
+    EXPECT_LE ((pc - pa).norm (), 0.15f + 1e-5f);
+    EXPECT_GE ((pb - pa).cross (pc - pa).dot (s.C - pa), 0.f) << "triangle faces away from the viewer";
+  }
+}
+
+TEST (HPRGrid, GridNormalsAndSplatsOnASphere)
+{
+  const auto cloud = xyz (sampleUniform (makeSphere (1.f, 5), 30000, 4));
+  Filter f;
+  f.setInputCloud (cloud);
+  f.setViewPoint (Eigen::Vector3f (0, 0, 4));
+  f.setMethod (Filter::Method::ANGULAR_GRID);
+  f.setGamma (2.5);
+  f.setComputeNormals (true);
+  pcl::Indices vis;
+  f.filter (vis);
+  ASSERT_GT (vis.size (), 5000u);
+  double sum = 0;
+  for (auto i : vis)
+  {
+    const Eigen::Vector3f n = f.getNormals ()[i].getNormalVector3fMap ();
+    const Eigen::Vector3f truth = (*cloud)[i].getVector3fMap ().normalized ();
+    sum += std::acos (std::clamp (n.dot (truth), -1.f, 1.f)) * 180.0 / M_PI;
+    EXPECT_GT (f.getSplatRadii ()[i], 0.f);
+    EXPECT_LT (f.getSplatRadii ()[i], 0.2f);
+  }
+  EXPECT_LT (sum / vis.size (), 10.0);  // mean angle error, degrees
+}
+
+TEST (HPRGrid, OtherApproximateHullsAreSubsetsWithSensibleAccuracy)
+{
+  const Scene s = torusScene (20000);
+  for (auto m : {Filter::Method::BENTLEY_FAUST_PREPARATA, Filter::Method::KAVAN, Filter::Method::HYBRID})
+  {
+    Filter f;
+    f.setInputCloud (s.cloud);
+    f.setViewPoint (s.C);
+    f.setMethod (m);
+    f.setGamma (2.5);
+    f.setSectorCount (m == Filter::Method::KAVAN ? 4000 : 20000);
+    pcl::Indices vis;
+    f.filter (vis);
+    const auto sc = hprtest::score (vis, s.truth);
+    EXPECT_GT (sc.precision, 0.8) << int (m);
+    EXPECT_GT (sc.recall, 0.1) << int (m);
+  }
+}
+
+TEST (HPRBadInput, SectorCountZeroAndAbsurd)
+{
+  const Scene s = torusScene (3000);
+  testing::internal::CaptureStderr ();
+  const pcl::Indices huge = runGrid (s, std::size_t (-1));
+  const std::string log = testing::internal::GetCapturedStderr ();
+  EXPECT_NE (log.find ("clamped"), std::string::npos);
+  EXPECT_FALSE (huge.empty ());
+  EXPECT_FALSE (runGrid (s, 0).empty ());  // 0 = calibrated
+}
+
+TEST (AngularGrid, SectorsCoverTheCloudAndCandidatesAreExtreme)
+{
+  std::vector<Eigen::Vector3f> pts;
+  // A flat patch at distance 5 facing the origin, plus a copy 1 unit behind it.
+  for (int i = 0; i < 50; ++i)
+    for (int j = 0; j < 50; ++j)
+    {
+      pts.emplace_back (5.f, (i - 25) * 0.02f, (j - 25) * 0.02f);
+      pts.emplace_back (6.f, (i - 25) * 0.024f + 0.001f, (j - 25) * 0.024f + 0.001f);
+    }
+  pcl::hpr::AngularGrid g;
+  g.build (pts, Eigen::Vector3f (5.5f, 0, 0), 1e4, 400);
+  EXPECT_NEAR (double (g.sectorCount ()), 400.0, 60.0);
+  // Every candidate is on the front patch: it is the nearer, so the more extreme when flipped.
+  for (int c : g.candidates ())
+    EXPECT_EQ (pts[c].x (), 5.f);
+  EXPECT_GT (g.occupiedSectors (), 0.9 * g.sectorCount ());  // cells are square: the rim may be empty
+}
