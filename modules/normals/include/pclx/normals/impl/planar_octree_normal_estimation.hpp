@@ -1,0 +1,272 @@
+#pragma once
+#include <pclx/normals/planar_octree_normal_estimation.h>
+
+#include <pcl/common/centroid.h>
+#include <pcl/common/point_tests.h>
+
+#include <Eigen/Eigenvalues>
+
+#include <cmath>
+#include <limits>
+#include <omp.h>
+
+namespace pcl {
+
+namespace detail {
+// Hoppe's plane of a neighbourhood: false when it spans no plane (< 3 points, collinear).
+template <typename PointT> bool
+planeOfNeighbours (const PointCloud<PointT>& cloud, const Indices& nn, Eigen::Vector3f& normal,
+                   float& curvature)
+{
+  if (nn.size () < 3)
+    return false;
+  Eigen::Matrix3d cov;
+  Eigen::Vector4d centroid;
+  if (computeMeanAndCovarianceMatrix (cloud, nn, cov, centroid) < 3 || !cov.allFinite ())
+    return false;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es (cov);
+  const Eigen::Vector3d ev = es.eigenvalues ().cwiseMax (0.0);  // ascending
+  if (!(ev (2) > 0) || ev (1) <= 1e-12 * ev (2))
+    return false;
+  normal = es.eigenvectors ().col (0).cast<float> ();
+  curvature = static_cast<float> (ev (0) / ev.sum ());
+  return true;
+}
+}  // namespace detail
+
+template <typename PointInT, typename PointOutT> bool
+PlanarOctreeNormalEstimation<PointInT, PointOutT>::initCompute ()
+{
+  const char* name = "PlanarOctreeNormalEstimation::initCompute";
+  // Parameters first: a bad threshold is an error, never a silently odd octree.
+  if (growth_passes_ < 0)
+  {
+    PCL_ERROR ("[pcl::%s] growth passes must be >= 0 (got %d)\n", name, growth_passes_);
+    return false;
+  }
+  if (!(params_.s_alpha > 0) || !(params_.s_beta > 0) || !std::isfinite (params_.s_alpha) ||
+      !std::isfinite (params_.s_beta))
+  {
+    PCL_ERROR ("[pcl::%s] planarity thresholds must be positive and finite (s_alpha %g, s_beta %g)\n",
+               name, params_.s_alpha, params_.s_beta);
+    return false;
+  }
+  if (params_.max_depth < 0 || params_.max_depth > 21)
+  {
+    PCL_ERROR ("[pcl::%s] max depth must be in [0, 21] (got %d)\n", name, params_.max_depth);
+    return false;
+  }
+  if (params_.min_points < 3)
+  {
+    PCL_ERROR ("[pcl::%s] min points per cell must be >= 3 (got %d)\n", name, params_.min_points);
+    return false;
+  }
+  if (!(border_ratio_ >= 0 && border_ratio_ < 1))
+  {
+    PCL_ERROR ("[pcl::%s] border ratio must be in [0, 1) (got %g)\n", name, border_ratio_);
+    return false;
+  }
+  if (!(merge_angle_deg_ > 0 && merge_angle_deg_ < 90) || !(merge_thickness_factor_ >= 1) ||
+      !std::isfinite (merge_thickness_factor_) || !(adoption_tolerance_ > 0) || !std::isfinite (adoption_tolerance_) ||
+      !(residual_split_ratio_ >= 0))
+  {
+    PCL_ERROR ("[pcl::%s] merge angle must be in (0, 90) degrees, thickness factor >= 1 and adoption "
+               "tolerance > 0 (got %g, %g, %g)\n", name, merge_angle_deg_, merge_thickness_factor_,
+               adoption_tolerance_);
+    return false;
+  }
+  if (!Feature<PointInT, PointOutT>::initCompute ())
+    return false;
+
+  // The octree is built over the finite points of the search surface.
+  surface_points_.clear ();
+  surface_to_octree_.assign (surface_->size (), -1);
+  for (std::size_t i = 0; i < surface_->size (); ++i)
+    if (isFinite ((*surface_)[i]))
+    {
+      surface_to_octree_[i] = static_cast<int> (surface_points_.size ());
+      surface_points_.push_back ((*surface_)[i].getVector3fMap ());
+    }
+  pclx::normals::PlanarOctreeParams params = params_;
+  params.s_alpha = getSAlpha ();
+  params.threads = static_cast<int> (threads_);
+  params.max_residual_ratio = method_ == Method::MERGED ? residual_split_ratio_ : 0.0;
+  if (!octree_.build (surface_points_, params))
+  {
+    PCL_ERROR ("[pcl::%s] the search surface has %zu finite points that do not span a plane "
+               "(fewer than 3, all identical or collinear): no normal is defined\n",
+               name, surface_points_.size ());
+    return false;
+  }
+  return true;
+}
+
+template <typename PointInT, typename PointOutT> void
+PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut& output)
+{
+  const auto& nodes = octree_.nodes ();
+  if (method_ == Method::MERGED)
+  {
+    octree_.mergeCoplanarLeaves (merge_angle_deg_, merge_thickness_factor_);
+    octree_.fitRegions (quadric_);
+  }
+  const auto& regions = octree_.regions ();
+  const auto& leaf_of_point = octree_.leafOfPoint ();
+  const double abs_eps = 1e-6 * nodes[0].half;
+  const int threads = threads_ > 0 ? static_cast<int> (threads_) : omp_get_max_threads ();
+
+  // Region of every search-surface point; MERGED grows regions into the non-planar cells:
+  // a point joins the neighbouring region whose surface passes within tolerance of it.
+  std::vector<int> surface_region (surface_->size (), -1);
+  for (std::size_t j = 0; j < surface_->size (); ++j)
+    if (surface_to_octree_[j] >= 0)
+      surface_region[j] = nodes[leaf_of_point[surface_to_octree_[j]]].region;
+  auto bestRegion = [&] (const Eigen::Vector3f& x, const pcl::Indices& nn, const std::vector<int>& region_of) {
+    double best = 1.0;
+    int region = -1;
+    for (const auto j : nn)
+    {
+      const int r = region_of[j];
+      if (r < 0)
+        continue;
+      const double ratio = octree_.regionResidual (r, x) / (adoption_tolerance_ * regions[r].rms + abs_eps);
+      if (ratio < best)
+      {
+        best = ratio;
+        region = r;
+      }
+    }
+    return region;
+  };
+  if (method_ == Method::MERGED && growth_passes_ > 0 && !regions.empty ())
+  {
+    std::vector<int> orphans;
+    for (std::size_t j = 0; j < surface_->size (); ++j)
+      if (surface_to_octree_[j] >= 0 && surface_region[j] < 0)
+        orphans.push_back (static_cast<int> (j));
+    const int no = static_cast<int> (orphans.size ());
+    std::vector<pcl::Indices> orphan_nn (no);
+#pragma omp parallel num_threads(threads)
+    {
+      std::vector<float> dist;
+#pragma omp for schedule(dynamic, 256)
+      for (int o = 0; o < no; ++o)
+        this->searchForNeighbors (*surface_, orphans[o], search_parameter_, orphan_nn[o], dist);
+    }
+    // Jacobi passes (read the previous pass, write the next): deterministic in parallel.
+    for (int pass = 0; pass < growth_passes_; ++pass)
+    {
+      std::vector<int> next = surface_region;
+      int changed = 0;
+#pragma omp parallel for schedule(dynamic, 256) num_threads(threads) reduction(+ : changed)
+      for (int o = 0; o < no; ++o)
+      {
+        const int j = orphans[o];
+        if (surface_region[j] >= 0)
+          continue;  // first come, first kept: re-judging lets far quadrics steal points
+        const int r = bestRegion ((*surface_)[j].getVector3fMap (), orphan_nn[o], surface_region);
+        if (r >= 0)
+        {
+          next[j] = r;
+          ++changed;
+        }
+      }
+      surface_region.swap (next);
+      if (changed == 0)
+        break;
+    }
+  }
+  const int n = static_cast<int> (indices_->size ());
+  status_.assign (n, INVALID_POINT);
+  region_ids_.assign (n, -1);
+  bool dense = true;
+
+#pragma omp parallel num_threads(threads) reduction(&& : dense)
+  {
+    pcl::Indices nn;
+    std::vector<float> dist;
+#pragma omp for schedule(dynamic, 256)
+    for (int i = 0; i < n; ++i)
+    {
+      PointOutT& out = output[i];
+      const int index = (*indices_)[i];
+      const PointInT& p = (*input_)[index];
+      if (!isFinite (p))
+      {
+        out.normal_x = out.normal_y = out.normal_z = 0.f;
+        out.curvature = 0.f;
+        dense = false;
+        continue;
+      }
+      const Eigen::Vector3f x = p.getVector3fMap ();
+      const int leaf = octree_.locate (x);
+      Eigen::Vector3f normal;
+      float curvature = 0.f;
+      std::uint8_t status = INVALID_POINT;
+      int region = -1;
+
+      if (leaf >= 0)
+      {
+        const pclx::normals::OctreeNode& L = nodes[leaf];
+        if (method_ == Method::OCTREE && !L.degenerate)
+          status = LEAF_PLANE;  // Algorithm 2 on every leaf, planar or not (the seed's method)
+        else if (method_ == Method::HYBRID && L.planar &&
+                 octree_.relativeCentreDistance (leaf, x) <= 1.0 - border_ratio_)
+          status = LEAF_PLANE;  // §5.4.3: inner points keep the cell's plane
+        else if (method_ == Method::MERGED && L.planar && L.region >= 0)
+        {
+          status = REGION_FIT;
+          region = L.region;
+          normal = octree_.regionNormalAt (region, x);
+          curvature = regions[region].curvature;
+        }
+        if (status == LEAF_PLANE)
+        {
+          normal = L.normal;
+          curvature = L.curvature;
+          region = L.planar ? leaf : -1;
+        }
+      }
+
+      if (status == INVALID_POINT)
+      {
+        const bool have_nn = this->searchForNeighbors (index, search_parameter_, nn, dist) > 0;
+        if (have_nn && method_ == Method::MERGED)
+        {
+          // Planarity-aware border: join the (grown) region whose surface passes through x.
+          region = bestRegion (x, nn, surface_region);
+          if (region >= 0)
+          {
+            status = ADOPTED_REGION;
+            normal = octree_.regionNormalAt (region, x);
+            curvature = regions[region].curvature;
+          }
+        }
+        if (status == INVALID_POINT && have_nn && detail::planeOfNeighbours (*surface_, nn, normal, curvature))
+          status = KNN_PCA;
+      }
+
+      if (status == INVALID_POINT || !normal.allFinite ())
+      {
+        // Degenerate neighbourhood: the smallest enclosing cell that spans a plane.
+        const int cell = octree_.nonDegenerateAncestor (leaf >= 0 ? leaf : 0);
+        normal = nodes[cell].normal;
+        curvature = nodes[cell].curvature;
+        status = NEIGHBOUR_FALLBACK;
+        region = -1;
+      }
+      out.normal_x = normal.x ();
+      out.normal_y = normal.y ();
+      out.normal_z = normal.z ();
+      out.curvature = curvature;
+      status_[i] = status;
+      region_ids_[i] = region;
+    }
+  }
+  output.is_dense = dense;
+}
+
+}  // namespace pcl
+
+#define PCL_INSTANTIATE_PlanarOctreeNormalEstimation(T, NT) \
+  template class PCL_EXPORTS pcl::PlanarOctreeNormalEstimation<T, NT>;

@@ -1,0 +1,50 @@
+#pragma once
+// Hoppe's consistent orientation (seed 002 §5.3.2), usable with any normals: a
+// Riemannian graph (symmetric kNN graph) with edge cost 1 − |ni·nj|, its minimum
+// spanning forest (Boost Graph Kruskal), and in every component a traversal from the
+// point of largest z, whose normal is made to point to +z; each child is flipped to
+// agree with its parent.
+#include <pcl/point_cloud.h>
+#include <pcl/search/search.h>
+
+#include <cstddef>
+
+namespace pcl {
+
+template <typename PointT, typename NormalT>
+class MSTNormalOrientation
+{
+public:
+  using PointCloudConstPtr = typename PointCloud<PointT>::ConstPtr;
+  using SearchPtr = typename search::Search<PointT>::Ptr;
+
+  void setInputCloud (const PointCloudConstPtr& cloud) { input_ = cloud; }
+  // Neighbours per point in the Riemannian graph (>= 1; default 10).
+  void setKSearch (int k) { k_ = k; }
+  int getKSearch () const { return k_; }
+  // Optional; a pcl::search::KdTree (FLANN) over the valid points is used otherwise.
+  void setSearchMethod (const SearchPtr& search) { search_ = search; }
+  void setNumberOfThreads (unsigned int threads) { threads_ = threads; }
+
+  // Orients `normals` (one per input point) in place. Points or normals that are not
+  // finite, and zero normals, stay out of the graph and are left untouched.
+  // Returns false with PCL_ERROR on bad input (no cloud, size mismatch, k < 1).
+  bool orient (PointCloud<NormalT>& normals);
+
+  std::size_t getNumberOfComponents () const { return components_; }  // of the last orient ()
+  std::size_t getNumberOfFlipped () const { return flipped_; }
+  std::size_t getNumberOfEdges () const { return edges_; }
+
+private:
+  PointCloudConstPtr input_;
+  SearchPtr search_;
+  int k_ = 10;
+  unsigned int threads_ = 0;
+  std::size_t components_ = 0, flipped_ = 0, edges_ = 0;
+};
+
+}  // namespace pcl
+
+#ifdef PCL_NO_PRECOMPILE
+#include <pclx/normals/impl/mst_normal_orientation.hpp>
+#endif

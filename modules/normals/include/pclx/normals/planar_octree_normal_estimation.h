@@ -1,0 +1,138 @@
+#pragma once
+// PlanarOctreeNormalEstimation: normals from the planarity octree of seed 002
+// (MSc dissertation, ch. 5): the space is split until every cell holds an
+// approximately planar patch (Algorithm 1), and a point's normal comes from its cell
+// (Algorithm 2). Three methods:
+//   OCTREE  the seed's method: the PCA plane of the point's leaf;
+//   HYBRID  seed §5.4.3: Hoppe's kNN PCA for points near a cell border, the leaf plane inside;
+//   MERGED  seed ch. 7: adjacent leaves whose planes agree are merged into regions, each
+//           region gets one least-squares surface (plane or quadric height field), points in
+//           non-planar cells join an adjacent region when they lie on its surface, else kNN PCA.
+// Orientation is separate (MSTNormalOrientation, orientNormalsTowardsViewpoint): the
+// output normals here are unoriented (sign of the fitted eigenvector / surface).
+//
+// Every output normal is finite. Invalid input points get a zero normal (status
+// INVALID_POINT); points whose neighbourhood spans no plane get the normal of the
+// smallest enclosing octree cell that does (status NEIGHBOUR_FALLBACK).
+#include <pclx/normals/planar_octree.h>
+
+#include <pcl/features/feature.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace pcl {
+
+template <typename PointInT, typename PointOutT>
+class PlanarOctreeNormalEstimation : public Feature<PointInT, PointOutT>
+{
+public:
+  using Ptr = shared_ptr<PlanarOctreeNormalEstimation<PointInT, PointOutT>>;
+  using ConstPtr = shared_ptr<const PlanarOctreeNormalEstimation<PointInT, PointOutT>>;
+  using PointCloudOut = typename Feature<PointInT, PointOutT>::PointCloudOut;
+  using Feature<PointInT, PointOutT>::feature_name_;
+  using Feature<PointInT, PointOutT>::input_;
+  using Feature<PointInT, PointOutT>::indices_;
+  using Feature<PointInT, PointOutT>::surface_;
+  using Feature<PointInT, PointOutT>::search_parameter_;
+
+  enum class Method { OCTREE, HYBRID, MERGED };
+
+  // How each output normal was obtained (getPointStatus ()).
+  enum PointStatus : std::uint8_t
+  {
+    LEAF_PLANE = 0,          // PCA of the point's octree leaf (OCTREE, HYBRID inside)
+    REGION_FIT = 1,          // surface fit of the point's merged region (MERGED)
+    ADOPTED_REGION = 2,      // point of a non-planar cell that lies on an adjacent region (MERGED)
+    KNN_PCA = 3,             // Hoppe's kNN PCA (HYBRID borders, non-planar cells)
+    NEIGHBOUR_FALLBACK = 4,  // degenerate neighbourhood: normal of the enclosing planar-enough cell
+    INVALID_POINT = 5        // NaN / Inf input point: zero normal, zero curvature
+  };
+
+  PlanarOctreeNormalEstimation ()
+  {
+    feature_name_ = "PlanarOctreeNormalEstimation";
+    this->setKSearch (18);  // Hoppe PCA neighbourhood for borders and fallbacks
+  }
+
+  void setMethod (Method m) { method_ = m; }
+  Method getMethod () const { return method_; }
+  // Planarity tolerances of Algorithm 1; both must be > 0. Until set, OCTREE and HYBRID
+  // use the seed's sα = 6.25, sβ = 1.5 and MERGED uses sα = 25, sβ = 1.5: at 6.25 a whole
+  // torus (R = 1, r = 0.3) or a 90° sphere octant passes as one plane, which per-leaf
+  // PCA tolerates no better, but a merged region's single surface fit cannot.
+  void setPlanarityThresholds (double s_alpha, double s_beta)
+  {
+    params_.s_alpha = s_alpha;
+    params_.s_beta = s_beta;
+    thresholds_set_ = true;
+  }
+  double getSAlpha () const { return thresholds_set_ || method_ != Method::MERGED ? params_.s_alpha : 25.0; }
+  double getSBeta () const { return params_.s_beta; }
+  void setMaxDepth (int depth) { params_.max_depth = depth; }
+  int getMaxDepth () const { return params_.max_depth; }
+  // Cells with fewer points are not split further and never count as planar (>= 3).
+  void setMinPointsPerCell (int n) { params_.min_points = n; }
+  int getMinPointsPerCell () const { return params_.min_points; }
+  // HYBRID: points farther than (1 − ratio) of the half edge from their cell's centre
+  // (max norm) are border points and get Hoppe's kNN PCA. In [0, 1).
+  void setBorderRatio (double r) { border_ratio_ = r; }
+  double getBorderRatio () const { return border_ratio_; }
+  // MERGED: leaves merge when their normals differ by less than this angle (0, 90) ...
+  void setMergeAngle (double degrees) { merge_angle_deg_ = degrees; }
+  double getMergeAngle () const { return merge_angle_deg_; }
+  // ... and their union is at most this factor thicker than its thickest part (>= 1).
+  void setMergeThicknessFactor (double f) { merge_thickness_factor_ = f; }
+  double getMergeThicknessFactor () const { return merge_thickness_factor_; }
+  // MERGED: quadric height field per region (default) or a plane.
+  void setQuadricFit (bool q) { quadric_ = q; }
+  bool getQuadricFit () const { return quadric_; }
+  // MERGED: a point of a non-planar cell joins a neighbouring region if it lies within
+  // this many RMS residuals of the region's surface (> 0); regions grow this way over
+  // the search surface for up to getGrowthPasses () passes (planarity-aware borders).
+  void setAdoptionTolerance (double t) { adoption_tolerance_ = t; }
+  double getAdoptionTolerance () const { return adoption_tolerance_; }
+  void setGrowthPasses (int passes) { growth_passes_ = passes; }
+  int getGrowthPasses () const { return growth_passes_; }
+  // MERGED only (not in the seed): split a planar cell when a point lies farther than
+  // this many RMS thicknesses from its plane (a minority surface across an edge). 0 = off.
+  void setResidualSplitRatio (double r) { residual_split_ratio_ = r; }
+  double getResidualSplitRatio () const { return residual_split_ratio_; }
+  void setNumberOfThreads (unsigned int threads) { threads_ = threads; }
+
+  // Per output point (same order as the output cloud), filled by compute ():
+  const std::vector<std::uint8_t>& getPointStatus () const { return status_; }
+  // Planar region of each output point: the leaf id for OCTREE/HYBRID planar leaves,
+  // the merged region for MERGED, -1 where the normal did not come from a planar cell.
+  const std::vector<int>& getRegionIds () const { return region_ids_; }
+  // The octree of the last compute () (over the search surface).
+  const pclx::normals::PlanarOctree& getOctree () const { return octree_; }
+
+protected:
+  bool initCompute () override;
+  void computeFeature (PointCloudOut& output) override;
+
+private:
+  pclx::normals::PlanarOctreeParams params_;
+  Method method_ = Method::MERGED;
+  double border_ratio_ = 0.25;
+  double merge_angle_deg_ = 15.0;
+  double merge_thickness_factor_ = 1.5;
+  double adoption_tolerance_ = 3.0;
+  double residual_split_ratio_ = 5.0;
+  bool quadric_ = true;
+  bool thresholds_set_ = false;
+  int growth_passes_ = 32;
+  unsigned int threads_ = 0;
+  pclx::normals::PlanarOctree octree_;
+  std::vector<Eigen::Vector3f> surface_points_;
+  std::vector<int> surface_to_octree_;  // surface index -> octree point, -1 if not finite
+  std::vector<std::uint8_t> status_;
+  std::vector<int> region_ids_;
+};
+
+}  // namespace pcl
+
+#ifdef PCL_NO_PRECOMPILE
+#include <pclx/normals/impl/planar_octree_normal_estimation.hpp>
+#endif

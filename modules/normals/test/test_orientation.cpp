@@ -1,0 +1,149 @@
+// MSTNormalOrientation and viewpoint orientation, with our normals and PCL's.
+#include "test_util.h"
+
+#include <pclx/normals/mst_normal_orientation.h>
+#include <pclx/normals/normal_error.h>
+#include <pclx/normals/planar_octree_normal_estimation.h>
+#include <pclx/normals/viewpoint_normal_orientation.h>
+#include <pclx/testing/mesh_sampling.h>
+#include <pclx/testing/shapes.h>
+
+#include <gtest/gtest.h>
+
+using pclx::normals::compareNormals;
+using namespace normals_test;
+
+namespace {
+
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+positions (const pcl::PointCloud<pcl::PointNormal>& c)
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr out (new pcl::PointCloud<pcl::PointXYZ>);
+  pcl::copyPointCloud (c, *out);
+  return out;
+}
+
+// Randomly flips half of the normals so that orientation has something to fix.
+void
+scramble (pcl::PointCloud<pcl::Normal>& n, std::uint32_t seed = 3)
+{
+  std::mt19937 rng (seed);
+  for (auto& p : n)
+    if (rng () & 1)
+      p.getNormalVector3fMap () *= -1.f;
+}
+
+double
+flippedShare (const pcl::PointCloud<pcl::Normal>& n, const pcl::PointCloud<pcl::PointNormal>& truth)
+{
+  return compareNormals (n, truth, true).flipped;
+}
+
+}  // namespace
+
+TEST (MSTOrientation, PclNormalsOnClosedShapesPointOutward)
+{
+  using pclx::testing::sampleUniform;
+  const std::pair<const char*, pclx::testing::TriangleMesh> shapes[] = {
+      {"sphere", pclx::testing::makeSphere (1.f, 5)},
+      {"torus", pclx::testing::makeTorus (1.f, 0.3f, 128, 48)},
+      {"box", pclx::testing::makeBox (Eigen::Vector3f (1, 2, 0.5f), 8)}};
+  for (const auto& [name, mesh] : shapes)
+  {
+    const auto s = sampleUniform (mesh, 20000, 2);
+    const auto cloud = positions (s.cloud);
+    auto n = pcaNormals<pcl::PointXYZ> (cloud, 18);
+    scramble (n);
+    ASSERT_GT (flippedShare (n, s.cloud), 0.3);
+    pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+    mst.setInputCloud (cloud);
+    ASSERT_TRUE (mst.orient (n));
+    EXPECT_EQ (mst.getNumberOfComponents (), 1u) << name;
+    // The root (max z) points to +z, i.e. outward on these shapes: all must follow.
+    EXPECT_LT (flippedShare (n, s.cloud), 0.01) << name;
+  }
+}
+
+TEST (MSTOrientation, OurMergedNormalsOnATorusPointOutward)
+{
+  const auto s = pclx::testing::sampleUniform (pclx::testing::makeTorus (1.f, 0.3f, 128, 48), 30000, 4);
+  const auto cloud = positions (s.cloud);
+  pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
+  ne.setInputCloud (cloud);
+  pcl::PointCloud<pcl::Normal> n;
+  ne.compute (n);
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+  mst.setInputCloud (cloud);
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_LT (flippedShare (n, s.cloud), 0.01);
+}
+
+TEST (MSTOrientation, EveryComponentIsRootedAtItsHighestPoint)
+{
+  auto a = analyticSphere (3000, 1.f, Eigen::Vector3f (0, 0, 0), 1);
+  const auto b = analyticSphere (3000, 0.5f, Eigen::Vector3f (10, 0, -3), 2);
+  a += b;
+  const auto cloud = positions (a);
+  auto n = pcaNormals<pcl::PointXYZ> (cloud, 12);
+  scramble (n);
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+  mst.setInputCloud (cloud);
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_EQ (mst.getNumberOfComponents (), 2u);
+  EXPECT_EQ (flippedShare (n, a), 0.0);
+  EXPECT_GT (mst.getNumberOfFlipped (), 0u);
+}
+
+TEST (MSTOrientation, InvalidNormalsStayOutOfTheGraph)
+{
+  const auto truth = analyticSphere (2000, 1.f, Eigen::Vector3f::Zero ());
+  const auto cloud = positions (truth);
+  auto n = pcaNormals<pcl::PointXYZ> (cloud, 12);
+  n[5].normal_x = std::numeric_limits<float>::quiet_NaN ();
+  n[6].getNormalVector3fMap ().setZero ();
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+  mst.setInputCloud (cloud);
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_TRUE (std::isnan (n[5].normal_x));
+  EXPECT_EQ (n[6].getNormalVector3fMap ().norm (), 0.f);
+  std::size_t wrong = 0;
+  for (std::size_t i = 0; i < n.size (); ++i)
+    if (i != 5 && i != 6)
+      wrong += n[i].getNormalVector3fMap ().dot (truth[i].getNormalVector3fMap ()) < 0;
+  EXPECT_EQ (wrong, 0u);
+}
+
+TEST (MSTOrientation, BadInputIsRejected)
+{
+  const auto cloud = positions (analyticSphere (100, 1.f, Eigen::Vector3f::Zero ()));
+  pcl::PointCloud<pcl::Normal> n (50, 1);
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+  EXPECT_FALSE (mst.orient (n));  // no input
+  mst.setInputCloud (cloud);
+  EXPECT_FALSE (mst.orient (n));  // size mismatch
+  n.resize (100);
+  mst.setKSearch (0);
+  EXPECT_FALSE (mst.orient (n));
+  pcl::PointCloud<pcl::PointXYZ>::Ptr empty (new pcl::PointCloud<pcl::PointXYZ>);
+  pcl::PointCloud<pcl::Normal> none;
+  mst.setKSearch (10);
+  mst.setInputCloud (empty);
+  EXPECT_TRUE (mst.orient (none));
+  EXPECT_EQ (mst.getNumberOfComponents (), 0u);
+}
+
+TEST (ViewpointOrientation, NormalsFaceTheViewpoint)
+{
+  const auto truth = analyticSphere (2000, 1.f, Eigen::Vector3f::Zero ());
+  const auto cloud = positions (truth);
+  auto n = pcaNormals<pcl::PointXYZ> (cloud, 12);
+  scramble (n);
+  const Eigen::Vector3f vp (0, 0, 0);  // from inside the sphere: all normals point inward
+  std::size_t flipped = 0;
+  ASSERT_TRUE (pcl::orientNormalsTowardsViewpoint (*cloud, n, vp, &flipped));
+  EXPECT_GT (flipped, 0u);
+  for (std::size_t i = 0; i < n.size (); ++i)
+    EXPECT_GT (n[i].getNormalVector3fMap ().dot (vp - (*cloud)[i].getVector3fMap ()), 0.f);
+  pcl::PointCloud<pcl::Normal> wrong (3, 1);
+  EXPECT_FALSE (pcl::orientNormalsTowardsViewpoint (*cloud, wrong, vp));
+}
