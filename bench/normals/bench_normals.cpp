@@ -1,0 +1,265 @@
+// Normal estimation benchmark. Rows (module=normals):
+//   estimation: ours_octree / ours_hybrid / ours_merged, pcl_omp_k18 / pcl_omp_k<K>, open3d_k18
+//     metrics rms, mean, min, max (unoriented angle error, degrees), below5, below10 (shares)
+//   orientation: orient_mst_<normals> (ours), orient_open3d (OrientNormalsConsistentTangentPlane)
+//     metrics flipped (share against the outward truth of closed generated shapes)
+// params: sweep=<main|noise|shadow|density|speed>;noise=<σ/diag>;shadow=<%>;min_ratio=<r>
+// PCPNet ground truth is unoriented: it only gets estimation rows.
+#include "bench_csv.h"
+#ifdef PCLX_HAVE_OPEN3D
+#include "open3d_peer.h"
+#endif
+
+#include <pclx/normals/mst_normal_orientation.h>
+#include <pclx/normals/normal_error.h>
+#include <pclx/normals/planar_octree_normal_estimation.h>
+#include <pclx/testing/degradation.h>
+#include <pclx/testing/mesh_sampling.h>
+#include <pclx/testing/shapes.h>
+
+#include <pcl/common/io.h>
+#include <pcl/features/normal_3d_omp.h>
+
+#include <CLI/CLI.hpp>
+#include <fstream>
+#include <omp.h>
+#include <sstream>
+
+using namespace pclx::testing;
+using pclx::bench::CsvWriter;
+using pclx::bench::Metrics;
+using pclx::bench::timeBest;
+using Estimator = pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal>;
+
+namespace {
+
+struct Options
+{
+  bool full = false;
+  int threads = 0;
+  int repeats = 1;
+  int k_large = 50;
+  std::size_t n_generated = 50000, n_speed = 200000, o3d_orient_max = 50000;
+  bool open3d = true;
+};
+
+struct Case
+{
+  std::string input, params;
+  SampledCloud s;
+  bool oriented;  // truth normals are oriented (closed generated shapes)
+};
+
+Metrics
+errorMetrics (const pclx::normals::NormalErrorStats& e)
+{
+  return {{"rms", e.rms_deg}, {"mean", e.mean_deg}, {"min", e.min_deg}, {"max", e.max_deg},
+          {"below5", e.below5}, {"below10", e.below10}};
+}
+
+std::string
+fmt (double v)
+{
+  std::ostringstream s;
+  s << v;
+  return s.str ();
+}
+
+// PCPNet: .xyz positions and .normals (unoriented truth), one point per line.
+bool
+loadPcpnet (const std::string& stem, SampledCloud& s)
+{
+  std::ifstream xyz (stem + ".xyz"), nrm (stem + ".normals");
+  if (!xyz || !nrm)
+    return false;
+  pcl::PointNormal p;
+  while (xyz >> p.x >> p.y >> p.z && nrm >> p.normal_x >> p.normal_y >> p.normal_z)
+    s.cloud.push_back (p);
+  s.face.assign (s.cloud.size (), 0);
+  return !s.cloud.empty ();
+}
+
+void
+run (const Case& c, const Options& opt, CsvWriter& out, bool orient)
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
+  pcl::copyPointCloud (c.s.cloud, *cloud);
+  const std::size_t n = cloud->size ();
+  const auto& truth = c.s.cloud;
+  const int threads = opt.threads > 0 ? opt.threads : omp_get_max_threads ();
+
+  pcl::PointCloud<pcl::Normal> merged;
+  for (auto [name, method] : {std::pair{"ours_octree", Estimator::Method::OCTREE},
+                              std::pair{"ours_hybrid", Estimator::Method::HYBRID},
+                              std::pair{"ours_merged", Estimator::Method::MERGED}})
+  {
+    Estimator ne;
+    ne.setInputCloud (cloud);
+    ne.setMethod (method);
+    ne.setNumberOfThreads (threads);
+    pcl::PointCloud<pcl::Normal> normals;
+    const double t = timeBest ([&] { ne.compute (normals); }, opt.repeats);
+    Metrics m = errorMetrics (pclx::normals::compareNormals (normals, truth));
+    m.emplace_back ("planar_leaves", ne.getOctree ().numPlanarLeaves ());
+    m.emplace_back ("regions", ne.getOctree ().regions ().size ());
+    out.row ("normals", name, c.params, c.input, n, t, m);
+    if (method == Estimator::Method::MERGED)
+      merged = normals;
+  }
+  pcl::PointCloud<pcl::Normal> pca18;
+  for (int k : {18, opt.k_large})
+  {
+    pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> ne (threads);
+    ne.setInputCloud (cloud);
+    ne.setKSearch (k);
+    pcl::PointCloud<pcl::Normal> normals;
+    const double t = timeBest ([&] { ne.compute (normals); }, opt.repeats);
+    out.row ("normals", "pcl_omp_k" + std::to_string (k), c.params, c.input, n, t,
+             errorMetrics (pclx::normals::compareNormals (normals, truth)));
+    if (k == 18)
+      pca18 = normals;
+  }
+#ifdef PCLX_HAVE_OPEN3D
+  std::vector<Eigen::Vector3d> o3d_points (n), o3d_normals;
+  for (std::size_t i = 0; i < n; ++i)
+    o3d_points[i] = (*cloud)[i].getVector3fMap ().cast<double> ();
+  if (opt.open3d)
+  {
+    double t = 1e300;
+    for (int r = 0; r < opt.repeats; ++r)
+      t = std::min (t, open3d_peer::estimateNormals (o3d_points, 18, o3d_normals));
+    pcl::PointCloud<pcl::Normal> normals (n, 1);
+    for (std::size_t i = 0; i < n; ++i)
+      normals[i].getNormalVector3fMap () = o3d_normals[i].cast<float> ();
+    out.row ("normals", "open3d_k18", c.params, c.input, n, t,
+             errorMetrics (pclx::normals::compareNormals (normals, truth)));
+  }
+#endif
+  if (!orient || !c.oriented)
+    return;
+  // Orientation, judged against the outward truth of closed shapes.
+  for (auto& [name, normals] : {std::pair{std::string ("orient_mst_ours_merged"), merged},
+                                std::pair{std::string ("orient_mst_pcl_k18"), pca18}})
+  {
+    pcl::PointCloud<pcl::Normal> oriented;
+    pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+    mst.setInputCloud (cloud);
+    mst.setKSearch (10);
+    mst.setNumberOfThreads (threads);
+    const double t = timeBest ([&] { oriented = normals; mst.orient (oriented); }, opt.repeats);
+    const auto e = pclx::normals::compareNormals (oriented, truth, true);
+    out.row ("normals", name, c.params + ";k=10", c.input, n, t,
+             {{"flipped", e.flipped}, {"rms_oriented", e.rms_deg}, {"components", double (mst.getNumberOfComponents ())}});
+  }
+#ifdef PCLX_HAVE_OPEN3D
+  if (opt.open3d && n <= opt.o3d_orient_max)
+  {
+    const double t = open3d_peer::orientConsistent (o3d_points, o3d_normals, 10);
+    pcl::PointCloud<pcl::Normal> normals (n, 1);
+    for (std::size_t i = 0; i < n; ++i)
+      normals[i].getNormalVector3fMap () = o3d_normals[i].cast<float> ();
+    const auto e = pclx::normals::compareNormals (normals, truth, true);
+    out.row ("normals", "orient_open3d", c.params + ";k=10", c.input, n, t,
+             {{"flipped", e.flipped}, {"rms_oriented", e.rms_deg}});
+  }
+#endif
+}
+
+}  // namespace
+
+int
+main (int argc, char** argv)
+{
+  CLI::App app ("pclx normal estimation benchmark (ours vs PCL NormalEstimationOMP vs Open3D)");
+  Options opt;
+  std::string csv;
+  app.add_option ("--csv", csv, "also write the CSV rows to this file");
+  app.add_flag ("--full", opt.full, "full run: all sweeps, 100k generated points, 1M speed rows (minutes)");
+  app.add_option ("--threads", opt.threads, "threads for every method (0: OpenMP default)");
+  app.add_option ("--k-large", opt.k_large, "the larger k of the PCL peer")->capture_default_str ();
+  app.add_flag ("!--no-open3d", opt.open3d, "skip the Open3D peer");
+  CLI11_PARSE (app, argc, argv);
+  if (opt.full)
+  {
+    opt.n_generated = 100000;
+    opt.n_speed = 1000000;
+    opt.o3d_orient_max = 100000;
+    opt.repeats = 2;
+  }
+#ifndef PCLX_HAVE_OPEN3D
+  std::cerr << "[bench_normals] built without Open3D: no Open3D rows\n";
+#endif
+  CsvWriter out (csv);
+
+  // Closed generated shapes (oriented truth) and PCPNet shapes (unoriented truth).
+  std::vector<std::pair<std::string, TriangleMesh>> meshes{
+      {"sphere", makeSphere (1.f, 6)},
+      {"torus", makeTorus (1.f, 0.3f, 256, 96)},
+      {"box", makeBox (Eigen::Vector3f (1.f, 0.6f, 0.4f), 16)},
+      {"thin_plate", makeThinPlate (1.f, 0.02f, 32)}};
+  std::vector<std::pair<std::string, SampledCloud>> pcpnet;
+  if (auto data = pclx::bench::sharedDataDir ())
+    for (const char* name : {"bunny100k", "fandisk100k"})
+    {
+      SampledCloud s;
+      if (loadPcpnet (*data + "/pcpnet/" + name, s))
+        pcpnet.emplace_back (name, std::move (s));
+    }
+
+  // main: every input, clean.
+  for (const auto& [name, mesh] : meshes)
+    run ({name, "sweep=main;noise=0;shadow=0", sampleUniform (mesh, opt.n_generated, 1), true}, opt, out, true);
+  for (const auto& [name, s] : pcpnet)
+    run ({name, "sweep=main;noise=0;shadow=0", s, false}, opt, out, false);
+
+  // noise: σ as a fraction of the bounding-box diagonal.
+  const std::vector<float> sigmas{0.f, 0.0012f, 0.006f, 0.012f};
+  std::vector<std::pair<std::string, SampledCloud>> noise_inputs;
+  if (!pcpnet.empty ())
+    noise_inputs.push_back (pcpnet.front ());
+  if (opt.full || pcpnet.empty ())
+    noise_inputs.emplace_back ("torus", sampleUniform (meshes[1].second, opt.n_generated, 2));
+  if (opt.full && pcpnet.size () > 1)
+    noise_inputs.push_back (pcpnet[1]);
+  for (const auto& [name, clean] : noise_inputs)
+    for (float sigma : sigmas)
+    {
+      SampledCloud s = clean;
+      if (sigma > 0)
+        addGaussianNoise (s, sigma, 5);
+      run ({name, "sweep=noise;noise=" + fmt (sigma) + ";shadow=0", s, name == "torus"}, opt, out, name == "torus");
+    }
+
+  // shadow (seed §6.2.1): holes removing a share of the surface.
+  const std::vector<int> shadows = opt.full ? std::vector<int>{0, 1, 2, 5, 10, 20, 25, 30, 50, 75}
+                                            : std::vector<int>{0, 10, 30, 50};
+  std::vector<std::pair<std::string, SampledCloud>> shadow_inputs;
+  if (!pcpnet.empty ())
+    shadow_inputs.push_back (pcpnet.front ());
+  if (opt.full || pcpnet.empty ())
+    shadow_inputs.emplace_back ("sphere", sampleUniform (meshes[0].second, opt.n_generated, 3));
+  for (const auto& [name, clean] : shadow_inputs)
+    for (int pct : shadows)
+    {
+      SampledCloud s = clean;
+      if (pct > 0)
+        applyShadowHoles (s, pct / 100.f, 7);
+      run ({name, "sweep=shadow;noise=0;shadow=" + std::to_string (pct), s, name == "sphere"}, opt, out, false);
+    }
+
+  // density gradient along x: min/max density ratio.
+  const std::vector<float> ratios = opt.full ? std::vector<float>{1.f, 0.3f, 0.1f, 0.03f} : std::vector<float>{0.1f};
+  for (float r : ratios)
+    run ({"torus", "sweep=density;min_ratio=" + fmt (r), sampleDensityGradient (meshes[1].second, opt.n_generated, 0, r, 4),
+          true},
+         opt, out, false);
+
+  // speed: many points (1M in the full run); Open3D's orientation is left out there.
+  {
+    Options fast = opt;
+    fast.repeats = 1;
+    run ({"torus", "sweep=speed;noise=0;shadow=0", sampleUniform (meshes[1].second, opt.n_speed, 6), true}, fast, out,
+         true);
+  }
+  return 0;
+}
