@@ -58,85 +58,118 @@ AngularGrid::build (const std::vector<Eigen::Vector3f>& points, const Eigen::Vec
   frame_.row (0) = x;
   frame_.row (1) = y;
   frame_.row (2) = z;
+  const Eigen::Matrix3f frame = frame_.cast<float> ();
 
+  // Directions in frame coordinates (all later tests are rotation invariant).
   unit_.resize (n);
   rho_.resize (n);
   sector_.resize (n);
-  std::vector<float> phi (n), theta (n);
-  double phi_min = kPi, phi_max = -kPi, th_min = kPi, th_max = 0;
-#pragma omp parallel for reduction(min : phi_min, th_min) reduction(max : phi_max, th_max)
+  float min_x = 1.f;
+#pragma omp parallel for reduction(min : min_x)
   for (std::ptrdiff_t i = 0; i < n; ++i)
   {
-    const Eigen::Vector3d p = points[i].cast<double> ();
-    const double r = p.norm ();
-    const Eigen::Vector3d u = r > 0 ? Eigen::Vector3d (p / r) : Eigen::Vector3d::UnitX ();
-    unit_[i] = u.cast<float> ();
-    rho_[i] = static_cast<float> (r);
-    const Eigen::Vector3d v = frame_ * u;
-    phi[i] = static_cast<float> (std::atan2 (v.y (), v.x ()));
-    theta[i] = static_cast<float> (std::acos (std::clamp (v.z (), -1.0, 1.0)));
-    phi_min = std::min<double> (phi_min, phi[i]);
-    phi_max = std::max<double> (phi_max, phi[i]);
-    th_min = std::min<double> (th_min, theta[i]);
-    th_max = std::max<double> (th_max, theta[i]);
+    const float r = points[i].norm ();
+    const Eigen::Vector3f u = r > 0 ? Eigen::Vector3f (frame * points[i] / r) : Eigen::Vector3f::UnitX ();
+    unit_[i] = u;
+    rho_[i] = r;
+    min_x = std::min (min_x, u.x ());
   }
 
-  // The grid covers the cloud's angular extent (tighter than the enclosing-sphere
-  // frustum of Eq. 2–3, same thing for round clouds). A cloud around the viewer
-  // (C inside it) gets the full φ circle, with neighbours wrapping around.
-  wrap_phi_ = (phi_max - phi_min) > kPi;
+  // Sector coordinates. Narrow views (every point within 60° of the axis) use the
+  // gnomonic tiling (a, b) = (y/x, z/x): sectors are pyramids bounded by planes through
+  // C, like a cube face projected on the sphere (one of the tilings of §3), and cost two
+  // divisions per point. Wide views (C inside or beside the cloud) use the seed's
+  // spherical angles (φ, θ), with φ wrapping around the viewer.
+  gnomonic_ = min_x > 0.5f;
+  std::vector<float> ca (n), cb (n);
+  float a_min = std::numeric_limits<float>::max (), a_max = std::numeric_limits<float>::lowest ();
+  float b_min = a_min, b_max = a_max;
+#pragma omp parallel for reduction(min : a_min, b_min) reduction(max : a_max, b_max)
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+  {
+    const Eigen::Vector3f& u = unit_[i];
+    if (gnomonic_)
+    {
+      ca[i] = u.y () / u.x ();
+      cb[i] = u.z () / u.x ();
+    }
+    else
+    {
+      ca[i] = std::atan2 (u.y (), u.x ());
+      cb[i] = std::acos (std::clamp (u.z (), -1.f, 1.f));
+    }
+    a_min = std::min (a_min, ca[i]);
+    a_max = std::max (a_max, ca[i]);
+    b_min = std::min (b_min, cb[i]);
+    b_max = std::max (b_max, cb[i]);
+  }
+  // The grid covers the cloud's extent (tighter than the enclosing-sphere frustum of
+  // Eq. 2–3; the same for round clouds), with square cells.
+  wrap_phi_ = !gnomonic_ && (a_max - a_min) > kPi;
   if (wrap_phi_)
   {
-    phi_min = -kPi;
-    phi_max = kPi;
+    a_min = float (-kPi);
+    a_max = float (kPi);
   }
   const double pad = 1e-6;
-  const double range_phi = std::max (phi_max - phi_min, 0.0) + 2 * pad;
-  const double range_theta = std::max (th_max - th_min, 0.0) + 2 * pad;
-  // Square cells in (φ, θ): k cells over the range rectangle.
-  const double cell = std::sqrt (range_phi * range_theta / double (sectors));
-  n_phi_ = std::max (1, int (std::ceil (range_phi / cell - 1e-9)));
-  n_theta_ = std::max (1, int (std::ceil (range_theta / cell - 1e-9)));
-  if (wrap_phi_)
-  {
-    phi0_ = -kPi;
-    cell_phi_ = 2 * kPi / n_phi_;
-  }
-  else
-  {
-    phi0_ = phi_min - pad;
-    cell_phi_ = cell;
-  }
-  theta0_ = th_min - pad;
+  const double range_a = std::max (double (a_max) - a_min, 0.0) + 2 * pad;
+  const double range_b = std::max (double (b_max) - b_min, 0.0) + 2 * pad;
+  const double cell = std::sqrt (range_a * range_b / double (sectors));
+  n_phi_ = std::max (1, int (std::ceil (range_a / cell - 1e-9)));
+  n_theta_ = std::max (1, int (std::ceil (range_b / cell - 1e-9)));
+  phi0_ = wrap_phi_ ? -kPi : a_min - pad;
+  cell_phi_ = wrap_phi_ ? 2 * kPi / n_phi_ : cell;
+  theta0_ = b_min - pad;
   cell_theta_ = cell;
+  // Angular size of a cell (gnomonic cells shrink as 1/(1 + a² + b²) away from the axis;
+  // the axis value is what calibration and splats use).
   cell_ = std::sqrt (cell_phi_ * cell_theta_);
   const std::size_t k = std::size_t (n_phi_) * n_theta_;
 
+  centre_a_.resize (n_phi_);
+  for (int i = 0; i < n_phi_; ++i)
+    centre_a_[i] = phi0_ + (i + 0.5) * cell_phi_;
+  centre_b_.resize (n_theta_);
+  for (int j = 0; j < n_theta_; ++j)
+    centre_b_[j] = theta0_ + (j + 0.5) * cell_theta_;
   cos_phi_.resize (n_phi_);
   sin_phi_.resize (n_phi_);
   for (int i = 0; i < n_phi_; ++i)
   {
-    cos_phi_[i] = std::cos (phi0_ + (i + 0.5) * cell_phi_);
-    sin_phi_[i] = std::sin (phi0_ + (i + 0.5) * cell_phi_);
+    cos_phi_[i] = std::cos (centre_a_[i]);
+    sin_phi_[i] = std::sin (centre_a_[i]);
   }
   cos_theta_.resize (n_theta_);
   sin_theta_.resize (n_theta_);
   for (int j = 0; j < n_theta_; ++j)
   {
-    cos_theta_[j] = std::cos (theta0_ + (j + 0.5) * cell_theta_);
-    sin_theta_[j] = std::sin (theta0_ + (j + 0.5) * cell_theta_);
+    cos_theta_[j] = std::cos (centre_b_[j]);
+    sin_theta_[j] = std::sin (centre_b_[j]);
   }
 
   // §4.2: sector of every point and the extreme (best scored) point per sector.
   std::vector<std::uint64_t> keys (k, std::numeric_limits<std::uint64_t>::max ());
+  const float inv_a = float (1.0 / cell_phi_), inv_b = float (1.0 / cell_theta_);
+  const float a0 = float (phi0_), b0 = float (theta0_);
+  const float inv_2r = float (1.0 / (2.0 * radius_));
 #pragma omp parallel for
   for (std::ptrdiff_t i = 0; i < n; ++i)
   {
-    const int a = std::clamp (int ((phi[i] - phi0_) / cell_phi_), 0, n_phi_ - 1);
-    const int b = std::clamp (int ((theta[i] - theta0_) / cell_theta_), 0, n_theta_ - 1);
+    const int a = std::clamp (int ((ca[i] - a0) * inv_a), 0, n_phi_ - 1);
+    const int b = std::clamp (int ((cb[i] - b0) * inv_b), 0, n_theta_ - 1);
     const std::size_t s = std::size_t (a) * n_theta_ + b;
     sector_[i] = static_cast<std::uint32_t> (s);
-    atomicMin (keys[s], packKey (static_cast<float> (score (int (i), s)), std::uint32_t (i)));
+    Eigen::Vector3f d;
+    if (gnomonic_)
+    {
+      const float da = float (centre_a_[a]), db = float (centre_b_[b]);
+      d = Eigen::Vector3f (1.f, da, db) / std::sqrt (1.f + da * da + db * db);
+    }
+    else
+      d = direction (s).cast<float> ();
+    const float one_minus_cos = 0.5f * (unit_[i] - d).squaredNorm ();
+    const float g = one_minus_cos + (1.f - one_minus_cos) * rho_[i] * inv_2r;
+    atomicMin (keys[s], packKey (g, std::uint32_t (i)));
   }
   cand_.assign (k, -1);
   best_.assign (k, std::numeric_limits<double>::infinity ());
@@ -168,8 +201,9 @@ Eigen::Vector3d
 AngularGrid::direction (std::size_t s) const
 {
   const int a = int (s / n_theta_), b = int (s % n_theta_);
-  const Eigen::Vector3d v (sin_theta_[b] * cos_phi_[a], sin_theta_[b] * sin_phi_[a], cos_theta_[b]);
-  return frame_.transpose () * v;
+  if (gnomonic_)
+    return Eigen::Vector3d (1.0, centre_a_[a], centre_b_[b]).normalized ();
+  return Eigen::Vector3d (sin_theta_[b] * cos_phi_[a], sin_theta_[b] * sin_phi_[a], cos_theta_[b]);
 }
 
 double
@@ -178,6 +212,25 @@ AngularGrid::score (int point, std::size_t sector) const
   const Eigen::Vector3d d = direction (sector);
   const double one_minus_cos = 0.5 * (unit_[point].cast<double> () - d).squaredNorm ();
   return one_minus_cos + (1.0 - one_minus_cos) * double (rho_[point]) / (2.0 * radius_);
+}
+
+double
+AngularGrid::cellSolidAngle (std::size_t s) const
+{
+  const int a = int (s / n_theta_), b = int (s % n_theta_);
+  if (gnomonic_)
+    return cell_phi_ * cell_theta_ /
+           std::pow (1.0 + centre_a_[a] * centre_a_[a] + centre_b_[b] * centre_b_[b], 1.5);
+  return cell_phi_ * cell_theta_ * sin_theta_[b];
+}
+
+double
+AngularGrid::gridSolidAngle () const
+{
+  double total = 0;
+  for (std::size_t s = 0; s < cand_.size (); ++s)
+    total += cellSolidAngle (s);
+  return total;
 }
 
 bool
@@ -480,29 +533,56 @@ AngularGrid::normalsAndSplats (const std::vector<Eigen::Vector3f>& points, std::
 }
 
 std::vector<std::uint8_t>
-AngularGrid::interiorPoints () const
+AngularGrid::interiorPoints (const std::vector<Eigen::Vector3f>& points) const
 {
-  const std::ptrdiff_t n = std::ptrdiff_t (unit_.size ());
+  const std::size_t n = unit_.size (), k = cand_.size ();
   std::vector<std::uint8_t> interior (n, 0);
   std::vector<std::uint8_t> is_cand (n, 0);
   for (int c : cand_)
     if (c >= 0)
       is_cand[c] = 1;
-  auto flipped = [this] (int i) -> Eigen::Vector3d {
-    return unit_[i].cast<double> () * (2.0 * radius_ - double (rho_[i]));
-  };
-#pragma omp parallel for schedule(dynamic, 1024)
-  for (std::ptrdiff_t i = 0; i < n; ++i)
+  // Points bucketed by sector (counting sort), so the triangles of a sector's
+  // neighbourhood are set up once for all its points.
+  std::vector<std::uint32_t> start (k + 1, 0), order (n);
+  for (std::size_t i = 0; i < n; ++i)
+    ++start[sector_[i] + 1];
+  for (std::size_t s = 0; s < k; ++s)
+    start[s + 1] += start[s];
   {
-    if (is_cand[i])
+    std::vector<std::uint32_t> fill (start.begin (), start.end () - 1);
+    for (std::size_t i = 0; i < n; ++i)
+      order[fill[sector_[i]]++] = std::uint32_t (i);
+  }
+  // Exactly the flip the hull sees (double, from the input points): a culled point must
+  // be interior to the very hull Qhull computes.
+  const double R2 = 2.0 * radius_;
+  auto flipped = [&points, R2] (int i) -> Eigen::Vector3d {
+    const Eigen::Vector3d p = points[i].cast<double> ();
+    return p * (R2 / p.norm () - 1.0);
+  };
+  auto dir = [&points] (int i) -> Eigen::Vector3d { return points[i].cast<double> ().normalized (); };
+  // Tetrahedron (C, a, b, c) in flipped space: q is strictly inside when it is strictly
+  // inside the cone of the three directions and strictly on C's side of plane(a, b, c).
+  struct Tetra
+  {
+    Eigen::Vector3d edge[3];  // cone side normals, pointing inwards
+    double cone_eps;
+    Eigen::Vector3d w;        // plane normal, C's side positive
+    double h;                 // inside when w·q > h
+  };
+  static const int tri[4][3] = {{0, 1, 2}, {0, 2, 3}, {0, 1, 3}, {1, 2, 3}};
+
+#pragma omp parallel for schedule(dynamic, 64)
+  for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
+  {
+    if (start[s] == start[s + 1])
       continue;
-    const Eigen::Vector3d q = flipped (int (i));
-    const Eigen::Vector3d uq = unit_[i].cast<double> ();
-    const int a = int (sector_[i] / n_theta_), b = int (sector_[i] % n_theta_);
-    bool inside = false;
-    // The four 2×2 quads around the point's sector, both diagonals of each.
-    for (int da = -1; da <= 0 && !inside; ++da)
-      for (int db = -1; db <= 0 && !inside; ++db)
+    Tetra tets[16];
+    int m = 0;
+    const int a = int (s / n_theta_), b = int (s % n_theta_);
+    // The four 2×2 quads around the sector, both diagonals of each.
+    for (int da = -1; da <= 0; ++da)
+      for (int db = -1; db <= 0; ++db)
       {
         int a0 = a + da, a1 = a + da + 1;
         const int b0 = b + db, b1 = b + db + 1;
@@ -515,36 +595,53 @@ AngularGrid::interiorPoints () const
           continue;
         const int c[4] = {cand_[std::size_t (a0) * n_theta_ + b0], cand_[std::size_t (a0) * n_theta_ + b1],
                           cand_[std::size_t (a1) * n_theta_ + b1], cand_[std::size_t (a1) * n_theta_ + b0]};
-        static const int tri[4][3] = {{0, 1, 2}, {0, 2, 3}, {0, 1, 3}, {1, 2, 3}};
         for (const auto& t : tri)
         {
           const int ia = c[t[0]], ib = c[t[1]], ic = c[t[2]];
           if (ia < 0 || ib < 0 || ic < 0 || ia == ib || ib == ic || ia == ic)
             continue;
-          const Eigen::Vector3d ua = unit_[ia].cast<double> (), ub = unit_[ib].cast<double> (),
-                                uc = unit_[ic].cast<double> ();
-          // Inside the cone spanned by the three directions (strictly)?
+          const Eigen::Vector3d ua = dir (ia), ub = dir (ib), uc = dir (ic);
           const double o = ua.cross (ub).dot (uc);
           if (std::abs (o) < 1e-18)
             continue;
-          const double s1 = ua.cross (ub).dot (uq) * o, s2 = ub.cross (uc).dot (uq) * o,
-                       s3 = uc.cross (ua).dot (uq) * o;
-          const double eps = 1e-9 * o * o;
-          if (s1 <= eps || s2 <= eps || s3 <= eps)
-            continue;
-          // On the viewpoint's side of the triangle's plane (strictly)?
+          const double sgn = o > 0 ? 1.0 : -1.0;
+          Tetra& T = tets[m];
+          T.edge[0] = sgn * ua.cross (ub);
+          T.edge[1] = sgn * ub.cross (uc);
+          T.edge[2] = sgn * uc.cross (ua);
+          T.cone_eps = 1e-9 * std::abs (o);
           const Eigen::Vector3d fa = flipped (ia), fb = flipped (ib), fc = flipped (ic);
-          const Eigen::Vector3d nrm = (fb - fa).cross (fc - fa);
-          const double side_origin = -nrm.dot (fa);
-          const double side_q = nrm.dot (q - fa);
-          if (side_origin * side_q > 0 && std::abs (side_q) > 1e-7 * std::abs (side_origin))
-          {
-            inside = true;
-            break;
-          }
+          Eigen::Vector3d nrm = (fb - fa).cross (fc - fa);
+          if (nrm.dot (fa) > 0)  // make C (the origin) the positive side
+            nrm = -nrm;
+          T.w = nrm;
+          T.h = nrm.dot (fa) * (1.0 - 1e-7);  // strict, with a relative margin
+          ++m;
         }
       }
-    interior[i] = inside;
+    if (m == 0)
+      continue;
+    for (std::uint32_t r = start[s]; r < start[s + 1]; ++r)
+    {
+      const std::uint32_t i = order[r];
+      if (is_cand[i])
+        continue;
+      const Eigen::Vector3d p = points[i].cast<double> ();
+      const double rho = p.norm ();
+      const Eigen::Vector3d uq = p / rho, q = p * (R2 / rho - 1.0);  // same flip as flipped()
+      for (int t = 0; t < m; ++t)
+      {
+        const Tetra& T = tets[t];
+        if (T.edge[0].dot (uq) <= T.cone_eps || T.edge[1].dot (uq) <= T.cone_eps ||
+            T.edge[2].dot (uq) <= T.cone_eps)
+          continue;
+        if (T.w.dot (q) > T.h)
+        {
+          interior[i] = 1;
+          break;
+        }
+      }
+    }
   }
   return interior;
 }
@@ -568,7 +665,7 @@ AngularGrid::calibrate () const
   Calibration c;
   for (std::size_t s = 0; s < k; ++s)
     if (cand_[s] >= 0)
-      c.occupied_solid_angle += cell_phi_ * cell_theta_ * sin_theta_[s % n_theta_];
+      c.occupied_solid_angle += cellSolidAngle (s);
   c.visible_estimate = std::max (1.0, visible);
   // Eq. 5 with a = 0.5: the number of bins in which visible_estimate balls occupy half.
   const double a = 0.5;

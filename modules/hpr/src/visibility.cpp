@@ -139,6 +139,24 @@ shareWithDuplicates (const std::vector<Eigen::Vector3f>& pts, std::vector<std::u
       visible[i] = 1;
 }
 
+// Points that are not provably interior to the hull of the flipped cloud: the angular
+// grid's candidates after `steps` of propagation span local tetrahedra (C, a, b, c);
+// points strictly inside one are hidden. The rest holds every hull vertex.
+std::vector<int>
+cullInterior (AngularGrid& grid, const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& centre, double R,
+              std::size_t sectors, int steps)
+{
+  grid.build (pts, centre, R, sectors);
+  grid.propagateAdaptive (steps);
+  const std::vector<std::uint8_t> interior = grid.interiorPoints (pts);
+  std::vector<int> keep;
+  keep.reserve (pts.size () / 2);
+  for (std::size_t i = 0; i < pts.size (); ++i)
+    if (!interior[i])
+      keep.push_back (int (i));
+  return keep;
+}
+
 }  // namespace
 
 HPRCalibration
@@ -173,7 +191,7 @@ calibrateHPR (const std::vector<Eigen::Vector3f>& points, const VisibilityOption
   cal.radius = std::max (cal.radius, max_rho * (1.0 + 1e-3));
 
   // k: `oversampling` sectors per visible-point cell of angular size α/2, capped by the screen.
-  const double area = double (coarse.rows ()) * coarse.cols () * coarse.cellAngle () * coarse.cellAngle ();
+  const double area = coarse.gridSolidAngle ();
   double k = options.oversampling * area / std::pow (c.alpha / 2, 2);
   if (options.view_pixels > 0 && options.view_fov > 0)
     k = std::min (k, area / std::pow (options.view_fov / options.view_pixels, 2));
@@ -186,8 +204,10 @@ calibrateHPR (const std::vector<Eigen::Vector3f>& points, const VisibilityOption
 int
 propagationSteps (const HPRCalibration& cal, std::size_t k)
 {
+  if (!(cal.grid_area > 0) || !(cal.alpha > 0))
+    return 1;
   const double fine_cell = std::sqrt (cal.grid_area / double (std::max<std::size_t> (k, 1)));
-  return int (std::ceil (cal.alpha / fine_cell)) + 1;
+  return int (std::min (std::ceil (cal.alpha / fine_cell), 1e6)) + 1;
 }
 
 VisibilityResult
@@ -232,9 +252,12 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
                 "farthest point (" + std::to_string (max_rho) + ")";
     return res;
   }
-  const bool need_cal = opt.radius <= 0 ||
-                        (opt.sectors == 0 && opt.method != VisibilityMethod::EXACT) ||
-                        (opt.steps == 0 && !opt.fixed_propagation);
+  // Calibration only where something calibrated is used (the grid-sampling methods' k and ℓ).
+  const bool grid_sampled = opt.method == VisibilityMethod::ANGULAR_GRID || opt.method == VisibilityMethod::KAVAN ||
+                            opt.method == VisibilityMethod::HYBRID ||
+                            opt.method == VisibilityMethod::BENTLEY_FAUST_PREPARATA;
+  const bool need_cal = opt.radius <= 0 || (grid_sampled && opt.sectors == 0) ||
+                        (opt.method == VisibilityMethod::ANGULAR_GRID && opt.steps == 0 && !opt.fixed_propagation);
   HPRCalibration cal;
   if (need_cal)
     cal = calibrateHPR (pts, opt);
@@ -248,7 +271,7 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
     res.warning += "k = " + std::to_string (k) + " clamped to " + std::to_string (k_cap) + "; ";
     k = k_cap;
   }
-  const int steps = opt.steps > 0 ? opt.steps : propagationSteps (cal, k);
+  const int steps = opt.steps > 0 ? opt.steps : (need_cal ? propagationSteps (cal, k) : 0);
   res.radius = R;
   VisibilityResult sub;
   sub.visible.assign (pts.size (), 0);
@@ -261,19 +284,24 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
 
   switch (opt.method)
   {
+  case VisibilityMethod::CANDIDATE_HULL:
+  {
+    const std::size_t kc = opt.sectors > 0 ? k : std::max<std::size_t> (64, pts.size () / 32);
+    for (int i : cullInterior (grid, pts, centre, R, kc, opt.steps > 0 ? steps : 4))
+      sub.visible[i] = 1;
+    res.sectors = grid.sectorCount ();
+    res.steps = opt.steps > 0 ? steps : 4;
+    // The grid's triangulation spans the candidates; other visible points get normals
+    // facing the viewer (meshNormals' fallback).
+    if (opt.triangles || opt.normals)
+      sub.triangles = grid.triangulate (pts, -1.f);
+    break;
+  }
   case VisibilityMethod::EXACT:
   {
     std::vector<int> keep = all;
     if (opt.exact_prefilter && pts.size () >= 2000)
-    {
-      grid.build (pts, centre, R, std::max<std::size_t> (64, pts.size () / 4));
-      grid.propagateAdaptive (2);
-      const std::vector<std::uint8_t> interior = grid.interiorPoints ();
-      keep.clear ();
-      for (std::size_t i = 0; i < pts.size (); ++i)
-        if (!interior[i])
-          keep.push_back (int (i));
-    }
+      keep = cullInterior (grid, pts, centre, R, std::max<std::size_t> (64, pts.size () / 32), 4);
     res.prefilter_kept = keep.size ();
     if (!hullVisibility (pts, keep, R, opt.triangles || opt.normals, sub))
     {

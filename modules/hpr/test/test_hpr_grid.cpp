@@ -261,3 +261,45 @@ TEST (AngularGrid, SectorsCoverTheCloudAndCandidatesAreExtreme)
     EXPECT_EQ (pts[c].x (), 5.f);
   EXPECT_GT (g.occupiedSectors (), 0.9 * g.sectorCount ());  // cells are square: the rim may be empty
 }
+
+TEST (HPRCandidateHull, KeepsEveryExactVisiblePointAndCullsMostHidden)
+{
+  const Scene s = torusScene (40000);
+  Filter exact;
+  exact.setInputCloud (s.cloud);
+  exact.setViewPoint (s.C);
+  exact.setMethod (Filter::Method::EXACT);
+  exact.setGamma (2.5);
+  exact.setExactPrefilter (false);
+  pcl::Indices ex;
+  exact.filter (ex);
+  Filter f;
+  f.setInputCloud (s.cloud);
+  f.setViewPoint (s.C);
+  f.setMethod (Filter::Method::CANDIDATE_HULL);
+  f.setGamma (2.5);
+  pcl::Indices ch;
+  f.filter (ch);
+  // Culling is exact: every hull vertex survives, so the result contains EXACT's.
+  std::vector<bool> in (s.cloud->size (), false);
+  for (auto i : ch)
+    in[i] = true;
+  for (auto i : ex)
+    EXPECT_TRUE (in[i]) << "hull vertex " << i << " was culled";
+  // ... and it is not everything: most hidden points are culled.
+  const std::size_t hidden = std::count (s.truth.begin (), s.truth.end (), false);
+  EXPECT_LT (ch.size (), ex.size () + hidden / 4);
+  EXPECT_GT (hprtest::score (ch, s.truth).f1, hprtest::score (ex, s.truth).f1 - 0.1);
+  EXPECT_EQ (f.getPropagationStepsUsed (), 4);
+  EXPECT_GT (f.getSectorCountUsed (), 0u);
+  // AUTO picks it for large clouds without a view resolution.
+  Filter a;
+  a.setInputCloud (s.cloud);
+  a.setViewPoint (s.C);
+  pcl::Indices av;
+  a.filter (av);
+  EXPECT_EQ (a.getMethodUsed (), Filter::Method::CANDIDATE_HULL);
+  a.setViewResolution (200, 0.8);
+  a.filter (av);
+  EXPECT_EQ (a.getMethodUsed (), Filter::Method::ANGULAR_GRID);
+}

@@ -15,8 +15,9 @@ namespace hpr {
 class AngularGrid
 {
 public:
-  // Sector frame: x axis through the cloud centre C_e, φ = atan2(y, x), θ = acos(z / ρ).
-  // `sectors` is k; the φ×θ cell shape is kept square in angle (see build()).
+  // Sector frame: x axis through the cloud centre C_e. Narrow views are tiled in the
+  // tangent plane (y/x, z/x); wide ones in the seed's φ = atan2(y, x), θ = acos(z / ρ).
+  // `sectors` is k; cells are square (see build()).
   // `radius` is the flip radius R (> max ρ).
   void build (const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3f& centre, double radius,
               std::size_t sectors);
@@ -45,8 +46,8 @@ public:
   // Exact-method pre-filter: marks points that lie strictly inside a tetrahedron
   // (C, a, b, c) of candidate points in flipped space. Such points are interior to
   // the hull of the flipped cloud, so they cannot be hull vertices: culling them
-  // before Qhull changes no visible point.
-  std::vector<std::uint8_t> interiorPoints () const;
+  // before Qhull changes no visible point. `points` are the ones given to build().
+  std::vector<std::uint8_t> interiorPoints (const std::vector<Eigen::Vector3f>& points) const;
 
   // Balls-in-bins calibration (§6) on this grid used as the coarse grid.
   struct Calibration
@@ -64,6 +65,9 @@ public:
   int emptyFactor () const { return empty_factor_; }
   std::size_t occupiedSectors () const;
   bool wrapsPhi () const { return wrap_phi_; }
+  bool gnomonic () const { return gnomonic_; }
+  double cellSolidAngle (std::size_t sector) const;
+  double gridSolidAngle () const;
 
 private:
   // g = 1 − cos α + cos α·ρ/(2R) is the seed's DIST = (2R − ρ)·cos α rescaled so that
@@ -73,7 +77,7 @@ private:
   bool isEmpty (std::size_t sector) const;  // EMPTY map: outside the object's projection
   void neighbours (std::size_t s, int radius, std::vector<std::size_t>& out) const;
 
-  std::vector<Eigen::Vector3f> unit_;  // per point: direction from C
+  std::vector<Eigen::Vector3f> unit_;  // per point: direction from C, in frame coordinates
   std::vector<float> rho_;             // per point: distance from C
   std::vector<std::uint32_t> sector_;  // per point: its sector
   double radius_ = 0;
@@ -81,6 +85,8 @@ private:
   double phi0_ = 0, theta0_ = 0, cell_phi_ = 1, cell_theta_ = 1, cell_ = 1;
   int n_phi_ = 0, n_theta_ = 0;
   bool wrap_phi_ = false;
+  bool gnomonic_ = false;                    // tangent-plane tiling (narrow views)
+  std::vector<double> centre_a_, centre_b_;  // sector centre coordinates
   std::vector<double> cos_phi_, sin_phi_, cos_theta_, sin_theta_;  // sector centre angles
   std::vector<int> cand_;      // per sector: candidate point or −1 (the seed's MAX array)
   std::vector<double> best_;   // per sector: score of the candidate

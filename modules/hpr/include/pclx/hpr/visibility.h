@@ -13,7 +13,7 @@ namespace hpr {
 // Largest grid the approximate methods accept (~20 bytes per sector).
 constexpr std::size_t kMaxSectors = std::size_t (1) << 24;
 
-enum class VisibilityMethod { EXACT, ANGULAR_GRID, BENTLEY_FAUST_PREPARATA, KAVAN, HYBRID };
+enum class VisibilityMethod { EXACT, ANGULAR_GRID, CANDIDATE_HULL, BENTLEY_FAUST_PREPARATA, KAVAN, HYBRID };
 
 struct VisibilityOptions
 {

@@ -60,10 +60,16 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   hpr::VisibilityOptions opt;
   method_used_ = method_;
   if (method_ == Method::AUTO)
-    method_used_ = finite.size () <= kAutoExactLimit ? Method::EXACT : Method::ANGULAR_GRID;
+  {
+    if (finite.size () <= kAutoExactLimit)
+      method_used_ = Method::EXACT;
+    else
+      method_used_ = view_pixels_ > 0 ? Method::ANGULAR_GRID : Method::CANDIDATE_HULL;
+  }
   switch (method_used_)
   {
   case Method::EXACT: opt.method = hpr::VisibilityMethod::EXACT; break;
+  case Method::CANDIDATE_HULL: opt.method = hpr::VisibilityMethod::CANDIDATE_HULL; break;
   case Method::BENTLEY_FAUST_PREPARATA: opt.method = hpr::VisibilityMethod::BENTLEY_FAUST_PREPARATA; break;
   case Method::KAVAN: opt.method = hpr::VisibilityMethod::KAVAN; break;
   case Method::HYBRID: opt.method = hpr::VisibilityMethod::HYBRID; break;
