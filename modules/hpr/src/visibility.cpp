@@ -183,12 +183,10 @@ calibrateHPR (const std::vector<Eigen::Vector3f>& points, const VisibilityOption
   cal.alpha = c.alpha;
   cal.visible_estimate = c.visible_estimate;
 
-  // Fig. 9: two points at unit distance, α apart, occlude a point d further away when
-  // (2R − 1 − d) / (2R − 1) = cos(α/2); d is the occlusion depth relative to rho_ref.
-  const double d = options.occlusion_depth * r / std::max (rho_ref, 1e-30);
-  const double one_minus_cos = std::max (1.0 - std::cos (c.alpha / 2), 1e-15);
-  cal.radius = rho_ref * (1.0 + d / one_minus_cos) / 2.0;
-  cal.radius = std::max (cal.radius, max_rho * (1.0 + 1e-3));
+  cal.cloud_radius = r;
+  cal.reference_distance = rho_ref;
+  cal.max_distance = max_rho;
+  cal.radius = radiusForSeparation (cal, c.alpha, options.occlusion_depth);
 
   // k: `oversampling` sectors per visible-point cell of angular size α/2, capped by the screen.
   const double area = coarse.gridSolidAngle ();
@@ -199,6 +197,17 @@ calibrateHPR (const std::vector<Eigen::Vector3f>& points, const VisibilityOption
   cal.grid_area = area;
   cal.steps = propagationSteps (cal, cal.sectors);
   return cal;
+}
+
+double
+radiusForSeparation (const HPRCalibration& cal, double alpha, double occlusion_depth)
+{
+  // Fig. 9: two points at unit distance, α apart, occlude a point d further away when
+  // (2R − 1 − d) / (2R − 1) = cos(α/2); d is the occlusion depth relative to rho_ref.
+  const double d = occlusion_depth * cal.cloud_radius / std::max (cal.reference_distance, 1e-30);
+  const double one_minus_cos = std::max (1.0 - std::cos (alpha / 2), 1e-15);
+  const double R = cal.reference_distance * (1.0 + d / one_minus_cos) / 2.0;
+  return std::max (R, cal.max_distance * (1.0 + 1e-3));
 }
 
 int
@@ -241,10 +250,15 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
     res.radius = opt.radius;
     return res;
   }
-  std::vector<Eigen::Vector3f> pts;
-  pts.reserve (ids.size ());
-  for (int i : ids)
-    pts.push_back (points[i]);
+  // Work on the input itself unless points at the viewpoint had to be left out.
+  std::vector<Eigen::Vector3f> compact;
+  if (ids.size () != n)
+  {
+    compact.reserve (ids.size ());
+    for (int i : ids)
+      compact.push_back (points[i]);
+  }
+  const std::vector<Eigen::Vector3f>& pts = ids.size () == n ? points : compact;
 
   if (opt.radius > 0 && opt.radius <= max_rho)
   {
@@ -261,7 +275,16 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
   HPRCalibration cal;
   if (need_cal)
     cal = calibrateHPR (pts, opt);
-  const double R = opt.radius > 0 ? opt.radius : cal.radius;
+  // CANDIDATE_HULL culls with triangles of neighbouring candidates, whose angular size is a
+  // cell diagonal of its grid (k = n/32), not the spacing of visible points: R is set so
+  // that such a triangle hides a point one occlusion depth behind it.
+  // k = 2·n^0.7 was the best culling grid on the bench (bunny and torus scene, 100k–3M
+  // points): finer grids make smaller triangles that cover fewer points, coarser ones sag.
+  const std::size_t k_cull_default = std::size_t (std::max (64.0, 2.0 * std::pow (double (pts.size ()), 0.7)));
+  const std::size_t k_cull = opt.sectors > 0 ? std::min (opt.sectors, kMaxSectors) : k_cull_default;
+  double R = opt.radius > 0 ? opt.radius : cal.radius;
+  if (opt.radius <= 0 && opt.method == VisibilityMethod::CANDIDATE_HULL)
+    R = radiusForSeparation (cal, std::sqrt (2.0 * cal.grid_area / double (k_cull)), opt.occlusion_depth);
   std::size_t k = opt.sectors > 0 ? opt.sectors : cal.sectors;
   // More than 64 sectors per point only adds empty sectors (the visible count saturates
   // near a few sectors per point, seed §7.2).
@@ -286,8 +309,7 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
   {
   case VisibilityMethod::CANDIDATE_HULL:
   {
-    const std::size_t kc = opt.sectors > 0 ? k : std::max<std::size_t> (64, pts.size () / 32);
-    for (int i : cullInterior (grid, pts, centre, R, kc, opt.steps > 0 ? steps : 4))
+    for (int i : cullInterior (grid, pts, centre, R, k_cull, opt.steps > 0 ? steps : 4))
       sub.visible[i] = 1;
     res.sectors = grid.sectorCount ();
     res.steps = opt.steps > 0 ? steps : 4;
@@ -301,7 +323,7 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
   {
     std::vector<int> keep = all;
     if (opt.exact_prefilter && pts.size () >= 2000)
-      keep = cullInterior (grid, pts, centre, R, std::max<std::size_t> (64, pts.size () / 32), 4);
+      keep = cullInterior (grid, pts, centre, R, k_cull_default, 4);
     res.prefilter_kept = keep.size ();
     if (!hullVisibility (pts, keep, R, opt.triangles || opt.normals, sub))
     {
@@ -396,7 +418,10 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
     res.sectors = 0;
   res.warning += sub.warning;
 
-  shareWithDuplicates (pts, sub.visible);
+  // (Exact duplicates pass the candidate-hull test together, so only the other methods,
+  // which pick one point per hull vertex or sector, need this.)
+  if (opt.method != VisibilityMethod::CANDIDATE_HULL)
+    shareWithDuplicates (pts, sub.visible);
   if (opt.triangles)
     filterLongEdges (pts, opt.max_edge, sub.triangles);
   if (opt.normals && sub.normals.empty ())

@@ -39,7 +39,7 @@ public:
     EXACT,         // Katz et al.: Qhull on the flipped cloud (+ an exact interior pre-filter)
     ANGULAR_GRID,  // Machado e Silva et al.: sector candidates + propagation
     CANDIDATE_HULL,  // ours: every point not strictly inside a tetrahedron (C, a, b, c) of
-                     // neighbouring grid candidates (k = n/32, ℓ = 4 by default); keeps all
+                     // neighbouring grid candidates (k = 2·n^0.7, ℓ = 4 by default); keeps all
                      // hull vertices, so recall matches EXACT at a fraction of its time
     BENTLEY_FAUST_PREPARATA,  // seed 000 §3.1: grid extremes, then exact hull of those
     KAVAN,         // seed 000 §3.2: sector candidates refined against all others, O(k²)

@@ -56,8 +56,14 @@ struct HPRCalibration
   double radius = 0;
   std::size_t sectors = 0;
   int steps = 0;
+  double cloud_radius = 0;        // max |p − C_e|
+  double reference_distance = 0;  // |C − C_e| (mean |p − C| when C is inside the cloud)
+  double max_distance = 0;        // max |p − C|
 };
 HPRCalibration calibrateHPR (const std::vector<Eigen::Vector3f>& points, const VisibilityOptions& options);
+// R at which two points α apart (seen from reference_distance) hide a point
+// occlusion_depth × cloud_radius behind them (Fig. 9); always > max_distance.
+double radiusForSeparation (const HPRCalibration& cal, double alpha, double occlusion_depth);
 // ℓ for a grid of k sectors: enough steps to cover the sectors between two visible points.
 int propagationSteps (const HPRCalibration& cal, std::size_t k);
 
