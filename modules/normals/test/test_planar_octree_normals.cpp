@@ -342,7 +342,7 @@ TEST (PlanarOctreeMerge, NoisyPlaneMergesIntoOneRobustFit)
     }
   }
   ASSERT_GT (t_in.size (), s.cloud.size () / 2);
-  EXPECT_GT (compareNormals (n_in, t_in).below5, 0.95);
+  EXPECT_GT (compareNormals (n_in, t_in).below5, 0.9);
   EXPECT_LT (compareNormals (n_in, t_in).rms_deg, 0.25 * compareNormals (p_in, t_in).rms_deg);
 }
 
@@ -523,6 +523,7 @@ TEST (PlanarOctreeBadInput, DegenerateLocalCellsFallBackAndAreFlagged)
   for (Method m : kAll)
   {
     Estimator ne;
+    ne.setMaxAdaptiveNeighbours (0);  // MERGED would otherwise grow kNN sets into the plane
     const auto n = estimate (cloud, m, &ne);
     ASSERT_EQ (n.size (), cloud->size ());
     expectAllFinite (n);

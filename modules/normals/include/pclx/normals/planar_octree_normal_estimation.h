@@ -30,6 +30,7 @@ public:
   using Ptr = shared_ptr<PlanarOctreeNormalEstimation<PointInT, PointOutT>>;
   using ConstPtr = shared_ptr<const PlanarOctreeNormalEstimation<PointInT, PointOutT>>;
   using PointCloudOut = typename Feature<PointInT, PointOutT>::PointCloudOut;
+  using PointCloudIn = typename Feature<PointInT, PointOutT>::PointCloudIn;
   using Feature<PointInT, PointOutT>::feature_name_;
   using Feature<PointInT, PointOutT>::input_;
   using Feature<PointInT, PointOutT>::indices_;
@@ -44,7 +45,7 @@ public:
     LEAF_PLANE = 0,          // PCA of the point's octree leaf (OCTREE, HYBRID inside)
     REGION_FIT = 1,          // surface fit of the point's merged region (MERGED)
     ADOPTED_REGION = 2,      // point of a non-planar cell that lies on an adjacent region (MERGED)
-    KNN_PCA = 3,             // Hoppe's kNN PCA (HYBRID borders, non-planar cells)
+    KNN_PCA = 3,             // Hoppe's kNN PCA (HYBRID borders, non-planar cells; MERGED: adaptive k)
     NEIGHBOUR_FALLBACK = 4,  // degenerate neighbourhood: normal of the enclosing planar-enough cell
     INVALID_POINT = 5        // NaN / Inf input point: zero normal, zero curvature
   };
@@ -92,6 +93,20 @@ public:
   // the search surface for up to getGrowthPasses () passes (planarity-aware borders).
   void setAdoptionTolerance (double t) { adoption_tolerance_ = t; }
   double getAdoptionTolerance () const { return adoption_tolerance_; }
+  // MERGED: a region is only used when its fit's RMS residual is at most this factor ×
+  // the median thickness of kNN planes sampled inside it, i.e. when the surface model
+  // explains the region as well as local planes do (noise, not shape). 0 = always use.
+  void setRegionValidationRatio (double r) { region_validation_ratio_ = r; }
+  double getRegionValidationRatio () const { return region_validation_ratio_; }
+  // MERGED: where no region applies, the kNN neighbourhood grows (k, 2k, 4k, ... up to
+  // this many points) until it passes the planarity test λ2 > sα·λ3 (the seed's criterion
+  // on kNN sets), else the most planar one is kept. <= k: plain Hoppe PCA.
+  void setMaxAdaptiveNeighbours (int n) { max_adaptive_neighbours_ = n; }
+  int getMaxAdaptiveNeighbours () const { return max_adaptive_neighbours_; }
+  // MERGED: ... and if the region's normal there is within this angle of the point's own
+  // local plane (degrees, (0, 90]).
+  void setAdoptionAngle (double degrees) { adoption_angle_deg_ = degrees; }
+  double getAdoptionAngle () const { return adoption_angle_deg_; }
   void setGrowthPasses (int passes) { growth_passes_ = passes; }
   int getGrowthPasses () const { return growth_passes_; }
   // MERGED only (not in the seed): split a planar cell when a point lies farther than
@@ -123,10 +138,15 @@ private:
   bool quadric_ = true;
   bool thresholds_set_ = false;
   int growth_passes_ = 32;
+  double adoption_angle_deg_ = 15.0;
+  double region_validation_ratio_ = 0.5;
+  int max_adaptive_neighbours_ = 144;
   unsigned int threads_ = 0;
   pclx::normals::PlanarOctree octree_;
   std::vector<Eigen::Vector3f> surface_points_;
   std::vector<int> surface_to_octree_;  // surface index -> octree point, -1 if not finite
+  std::vector<int> octree_to_surface_;
+  std::vector<char> region_ok_;  // MERGED: region passed validation
   std::vector<std::uint8_t> status_;
   std::vector<int> region_ids_;
 };

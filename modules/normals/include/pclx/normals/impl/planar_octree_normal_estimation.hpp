@@ -32,6 +32,63 @@ planeOfNeighbours (const PointCloud<PointT>& cloud, const Indices& nn, Eigen::Ve
   curvature = static_cast<float> (ev (0) / ev.sum ());
   return true;
 }
+
+// Hoppe's plane over growing prefixes (k0, 2·k0, 4·k0, ..., all) of a neighbourhood sorted
+// by distance: the first that passes λ2 > sα·λ3, else the one with the largest λ2 / λ3.
+template <typename PointT> bool
+adaptivePlane (const PointCloud<PointT>& cloud, const Indices& sorted, std::size_t k0, double s_alpha,
+               Eigen::Vector3f& normal, float& curvature, double* best_ratio = nullptr)
+{
+  if (sorted.size () < 3)
+    return false;
+  const Eigen::Vector3d ref = cloud[sorted[0]].getVector3fMap ().template cast<double> ();
+  Eigen::Vector3d s1 = Eigen::Vector3d::Zero ();
+  Eigen::Matrix3d s2 = Eigen::Matrix3d::Zero ();
+  double best = -1;
+  std::size_t next = std::max<std::size_t> (k0, 3);
+  for (std::size_t i = 0; i < sorted.size (); ++i)
+  {
+    const Eigen::Vector3d d = cloud[sorted[i]].getVector3fMap ().template cast<double> () - ref;
+    s1 += d;
+    s2.noalias () += d * d.transpose ();
+    const std::size_t n = i + 1;
+    if (n != next && n != sorted.size ())
+      continue;
+    next *= 2;
+    const Eigen::Vector3d mean = s1 / n;
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es (s2 / n - mean * mean.transpose ());
+    const Eigen::Vector3d ev = es.eigenvalues ().cwiseMax (0.0);  // ascending
+    if (!(ev (2) > 0) || ev (1) <= 1e-12 * ev (2))
+      continue;
+    const double ratio = ev (1) / std::max (ev (0), 1e-300);
+    if (ratio > best)
+    {
+      best = ratio;
+      normal = es.eigenvectors ().col (0).cast<float> ();
+      curvature = static_cast<float> (ev (0) / ev.sum ());
+    }
+    if (ratio > s_alpha)
+      break;
+  }
+  if (best_ratio)
+    *best_ratio = best;
+  return best >= 0;
+}
+
+// Neighbours sorted by distance (the default feature tree returns them unsorted).
+inline void
+sortByDistance (Indices& nn, std::vector<float>& dist)
+{
+  std::vector<std::pair<float, index_t>> order (nn.size ());
+  for (std::size_t i = 0; i < nn.size (); ++i)
+    order[i] = {dist[i], nn[i]};
+  std::sort (order.begin (), order.end ());
+  for (std::size_t i = 0; i < nn.size (); ++i)
+  {
+    dist[i] = order[i].first;
+    nn[i] = order[i].second;
+  }
+}
 }  // namespace detail
 
 template <typename PointInT, typename PointOutT> bool
@@ -68,7 +125,8 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::initCompute ()
   }
   if (!(merge_angle_deg_ > 0 && merge_angle_deg_ < 90) || !(merge_thickness_factor_ >= 1) ||
       !std::isfinite (merge_thickness_factor_) || !(adoption_tolerance_ > 0) || !std::isfinite (adoption_tolerance_) ||
-      !(residual_split_ratio_ >= 0))
+      !(residual_split_ratio_ >= 0) || !(adoption_angle_deg_ > 0 && adoption_angle_deg_ <= 90) ||
+      !(region_validation_ratio_ >= 0))
   {
     PCL_ERROR ("[pcl::%s] merge angle must be in (0, 90) degrees, thickness factor >= 1 and adoption "
                "tolerance > 0 (got %g, %g, %g)\n", name, merge_angle_deg_, merge_thickness_factor_,
@@ -81,10 +139,12 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::initCompute ()
   // The octree is built over the finite points of the search surface.
   surface_points_.clear ();
   surface_to_octree_.assign (surface_->size (), -1);
+  octree_to_surface_.clear ();
   for (std::size_t i = 0; i < surface_->size (); ++i)
     if (isFinite ((*surface_)[i]))
     {
       surface_to_octree_[i] = static_cast<int> (surface_points_.size ());
+      octree_to_surface_.push_back (static_cast<int> (i));
       surface_points_.push_back ((*surface_)[i].getVector3fMap ());
     }
   pclx::normals::PlanarOctreeParams params = params_;
@@ -115,22 +175,78 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   const double abs_eps = 1e-6 * nodes[0].half;
   const int threads = threads_ > 0 ? static_cast<int> (threads_) : omp_get_max_threads ();
 
+  // MERGED: keep a region only if its surface fits it as well as local kNN planes fit
+  // their neighbourhoods (median over up to 16 sampled points): otherwise the region is
+  // shape, not noise, and its points are better served by local planes.
+  region_ok_.assign (regions.size (), 1);
+  if (method_ == Method::MERGED && region_validation_ratio_ > 0)
+  {
+    std::vector<std::vector<int>> samples (regions.size ());
+    const auto& order = octree_.order ();
+    for (int id = 0; id < static_cast<int> (nodes.size ()); ++id)
+      if (nodes[id].isLeaf () && nodes[id].region >= 0)
+        samples[nodes[id].region].push_back (id);
+#pragma omp parallel num_threads(threads)
+    {
+      pcl::Indices nn;
+      std::vector<float> dist;
+      std::vector<double> thickness;
+#pragma omp for schedule(dynamic, 4)
+      for (int r = 0; r < static_cast<int> (regions.size ()); ++r)
+      {
+        thickness.clear ();
+        const auto& leaves = samples[r];
+        const int per_leaf = std::max (1, 16 / static_cast<int> (leaves.size ()));
+        for (std::size_t l = 0; l < leaves.size () && thickness.size () < 16; ++l)
+        {
+          const auto& L = nodes[leaves[l]];
+          for (int q = 0; q < per_leaf && q < L.size (); ++q)
+          {
+            const int j = octree_to_surface_[order[L.begin + q * L.size () / per_leaf]];
+            if (this->searchForNeighbors (*surface_, j, search_parameter_, nn, dist) < 3)
+              continue;
+            Eigen::Matrix3d cov;
+            Eigen::Vector4d centroid;
+            computeMeanAndCovarianceMatrix (*surface_, nn, cov, centroid);
+            Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es (cov, Eigen::EigenvaluesOnly);
+            thickness.push_back (std::sqrt (std::max (0.0, es.eigenvalues () (0))));
+          }
+        }
+        if (thickness.empty ())
+          continue;
+        std::nth_element (thickness.begin (), thickness.begin () + thickness.size () / 2, thickness.end ());
+        region_ok_[r] = regions[r].rms <= region_validation_ratio_ * thickness[thickness.size () / 2] + abs_eps;
+      }
+    }
+  }
+
   // Region of every search-surface point; MERGED grows regions into the non-planar cells:
   // a point joins the neighbouring region whose surface passes within tolerance of it.
   std::vector<int> surface_region (surface_->size (), -1);
   for (std::size_t j = 0; j < surface_->size (); ++j)
     if (surface_to_octree_[j] >= 0)
-      surface_region[j] = nodes[leaf_of_point[surface_to_octree_[j]]].region;
-  auto bestRegion = [&] (const Eigen::Vector3f& x, const pcl::Indices& nn, const std::vector<int>& region_of) {
+    {
+      const int r = nodes[leaf_of_point[surface_to_octree_[j]]].region;
+      surface_region[j] = r >= 0 && region_ok_[r] ? r : -1;
+    }
+  const double s_alpha = getSAlpha ();
+  const double cos_adopt = std::cos (adoption_angle_deg_ * M_PI / 180.0);
+  // A region may take point x if its surface passes within tolerance of x and its normal
+  // there agrees with x's own local plane (so a region cannot swallow the far side of an edge).
+  auto bestRegion = [&] (const Eigen::Vector3f& x, const Eigen::Vector3f* own, const pcl::Indices& nn,
+                         const std::vector<int>& region_of) {
     double best = 1.0;
     int region = -1;
     for (const auto j : nn)
     {
       const int r = region_of[j];
-      if (r < 0)
+      if (r < 0 || r == region)
         continue;
       const double ratio = octree_.regionResidual (r, x) / (adoption_tolerance_ * regions[r].rms + abs_eps);
-      if (ratio < best)
+      // On the surface within 2 RMS residuals, x belongs to r whatever its own (possibly
+      // edge-blended) plane says; farther out, the two normals must agree.
+      if (ratio < best && (!own || ratio * adoption_tolerance_ <= 2.0 ||
+                           std::abs (octree_.regionNormalAt (r, x).dot (*own)) >= cos_adopt))
       {
         best = ratio;
         region = r;
@@ -138,22 +254,62 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
     }
     return region;
   };
+  // The local plane of a point where no region applies: Hoppe's kNN PCA, and for MERGED
+  // with k growing until the neighbourhood passes the planarity test (noise needs support).
+  const bool adaptive = method_ == Method::MERGED && this->getKSearch () > 0 &&
+                        max_adaptive_neighbours_ > this->getKSearch ();
+  auto localPlane = [&] (const PointCloudIn& cloud, int index, pcl::Indices& nn, std::vector<float>& dist,
+                         Eigen::Vector3f& normal, float& curvature) {
+    if (!adaptive)
+      return detail::planeOfNeighbours (*surface_, nn, normal, curvature);
+    detail::sortByDistance (nn, dist);
+    double ratio = 0;
+    bool ok = detail::adaptivePlane (*surface_, nn, nn.size (), s_alpha, normal, curvature, &ratio);
+    if (!(ok && ratio > s_alpha))
+    {
+      pcl::Indices big;
+      std::vector<float> big_dist;
+      if (this->searchForNeighbors (cloud, index, max_adaptive_neighbours_, big, big_dist) > 0)
+      {
+        detail::sortByDistance (big, big_dist);
+        ok = detail::adaptivePlane (*surface_, big, this->getKSearch (), s_alpha, normal, curvature) || ok;
+      }
+    }
+    return ok;
+  };
+
+  // Orphans: search-surface points in non-planar cells (or rejected regions).
+  std::vector<int> orphans, orphan_slot;
+  std::vector<Eigen::Vector3f> orphan_normal;
+  std::vector<float> orphan_curvature;
+  std::vector<char> orphan_ok;
   if (method_ == Method::MERGED && growth_passes_ > 0 && !regions.empty ())
   {
-    std::vector<int> orphans;
+    orphan_slot.assign (surface_->size (), -1);
     for (std::size_t j = 0; j < surface_->size (); ++j)
       if (surface_to_octree_[j] >= 0 && surface_region[j] < 0)
+      {
+        orphan_slot[j] = static_cast<int> (orphans.size ());
         orphans.push_back (static_cast<int> (j));
+      }
     const int no = static_cast<int> (orphans.size ());
     std::vector<pcl::Indices> orphan_nn (no);
+    orphan_normal.resize (no);
+    orphan_curvature.resize (no);
+    orphan_ok.assign (no, 0);
 #pragma omp parallel num_threads(threads)
     {
       std::vector<float> dist;
+      pcl::Indices nn;
 #pragma omp for schedule(dynamic, 256)
       for (int o = 0; o < no; ++o)
+      {
         this->searchForNeighbors (*surface_, orphans[o], search_parameter_, orphan_nn[o], dist);
+        nn = orphan_nn[o];
+        orphan_ok[o] = localPlane (*surface_, orphans[o], nn, dist, orphan_normal[o], orphan_curvature[o]);
+      }
     }
-    // Jacobi passes (read the previous pass, write the next): deterministic in parallel.
+    // Region growing in Jacobi passes (read the previous pass, write the next): deterministic in parallel.
     for (int pass = 0; pass < growth_passes_; ++pass)
     {
       std::vector<int> next = surface_region;
@@ -164,7 +320,8 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         const int j = orphans[o];
         if (surface_region[j] >= 0)
           continue;  // first come, first kept: re-judging lets far quadrics steal points
-        const int r = bestRegion ((*surface_)[j].getVector3fMap (), orphan_nn[o], surface_region);
+        const int r = bestRegion ((*surface_)[j].getVector3fMap (), orphan_ok[o] ? &orphan_normal[o] : nullptr,
+                                  orphan_nn[o], surface_region);
         if (r >= 0)
         {
           next[j] = r;
@@ -176,6 +333,8 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         break;
     }
   }
+  // When the input is its own search surface, orphans' results are reused as they are.
+  const bool same_cloud = surface_ == input_;
   const int n = static_cast<int> (indices_->size ());
   status_.assign (n, INVALID_POINT);
   region_ids_.assign (n, -1);
@@ -213,7 +372,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         else if (method_ == Method::HYBRID && L.planar &&
                  octree_.relativeCentreDistance (leaf, x) <= 1.0 - border_ratio_)
           status = LEAF_PLANE;  // §5.4.3: inner points keep the cell's plane
-        else if (method_ == Method::MERGED && L.planar && L.region >= 0)
+        else if (method_ == Method::MERGED && L.planar && L.region >= 0 && region_ok_[L.region])
         {
           status = REGION_FIT;
           region = L.region;
@@ -228,13 +387,32 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         }
       }
 
-      if (status == INVALID_POINT)
+      const int slot = same_cloud && !orphan_slot.empty () ? orphan_slot[index] : -1;
+      if (status == INVALID_POINT && slot >= 0)
       {
-        const bool have_nn = this->searchForNeighbors (index, search_parameter_, nn, dist) > 0;
-        if (have_nn && method_ == Method::MERGED)
+        if (surface_region[index] >= 0)
+        {
+          status = ADOPTED_REGION;
+          region = surface_region[index];
+          normal = octree_.regionNormalAt (region, x);
+          curvature = regions[region].curvature;
+        }
+        else if (orphan_ok[slot])
+        {
+          status = KNN_PCA;
+          normal = orphan_normal[slot];
+          curvature = orphan_curvature[slot];
+        }
+      }
+      else if (status == INVALID_POINT && this->searchForNeighbors (index, search_parameter_, nn, dist) > 0)
+      {
+        const pcl::Indices knn = nn;
+        if (localPlane (*input_, index, nn, dist, normal, curvature))
+          status = KNN_PCA;
+        if (method_ == Method::MERGED)
         {
           // Planarity-aware border: join the (grown) region whose surface passes through x.
-          region = bestRegion (x, nn, surface_region);
+          region = bestRegion (x, status == KNN_PCA ? &normal : nullptr, knn, surface_region);
           if (region >= 0)
           {
             status = ADOPTED_REGION;
@@ -242,8 +420,6 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
             curvature = regions[region].curvature;
           }
         }
-        if (status == INVALID_POINT && have_nn && detail::planeOfNeighbours (*surface_, nn, normal, curvature))
-          status = KNN_PCA;
       }
 
       if (status == INVALID_POINT || !normal.allFinite ())
