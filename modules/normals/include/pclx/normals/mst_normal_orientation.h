@@ -1,7 +1,8 @@
 #pragma once
 // Hoppe's consistent orientation (seed 002 §5.3.2), usable with any normals: a
-// Riemannian graph (symmetric kNN graph) with edge cost 1 − |ni·nj|, its minimum
-// spanning forest (Boost Graph Kruskal), and in every component a traversal from the
+// Riemannian graph (symmetric kNN graph) with edge cost 1 − |ni·nj| (+ a tiny length
+// term that only breaks ties), its minimum
+// spanning forest (Kruskal with Boost's disjoint sets), and in every component a traversal from the
 // point of largest z, whose normal is made to point to +z; each child is flipped to
 // agree with its parent.
 #include <pcl/point_cloud.h>
@@ -25,6 +26,10 @@ public:
   // Optional; a pcl::search::KdTree (FLANN) over the valid points is used otherwise.
   void setSearchMethod (const SearchPtr& search) { search_ = search; }
   void setNumberOfThreads (unsigned int threads) { threads_ = threads; }
+  // Edge cost is 1 − |ni·nj| + w · length / mean length: a small w (default 1e-3) only
+  // breaks ties between equally parallel normals in favour of the shorter edge.
+  void setDistanceTieBreak (double w) { tie_break_ = w; }
+  double getDistanceTieBreak () const { return tie_break_; }
 
   // Orients `normals` (one per input point) in place. Points or normals that are not
   // finite, and zero normals, stay out of the graph and are left untouched.
@@ -39,6 +44,7 @@ private:
   PointCloudConstPtr input_;
   SearchPtr search_;
   int k_ = 10;
+  double tie_break_ = 1e-3;
   unsigned int threads_ = 0;
   std::size_t components_ = 0, flipped_ = 0, edges_ = 0;
 };

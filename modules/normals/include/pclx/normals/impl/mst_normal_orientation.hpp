@@ -4,8 +4,7 @@
 #include <pcl/common/point_tests.h>
 #include <pcl/search/kdtree.h>
 
-#include <boost/graph/compressed_sparse_row_graph.hpp>
-#include <boost/graph/kruskal_min_spanning_tree.hpp>
+#include <boost/pending/disjoint_sets.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -62,7 +61,7 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
   using Edge = std::pair<std::uint32_t, std::uint32_t>;
   const int threads = threads_ > 0 ? static_cast<int> (threads_) : omp_get_max_threads ();
   std::vector<std::vector<Edge>> thread_edges (threads);
-  std::vector<std::vector<float>> thread_costs (threads);
+  std::vector<std::vector<float>> thread_costs (threads), thread_dist (threads);
 #pragma omp parallel num_threads(threads)
   {
     const int t = omp_get_thread_num ();
@@ -74,66 +73,80 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
       const auto i = (*vertices)[v];
       search->nearestKSearch ((*input_)[i], k_ + 1, nn, dist);
       const auto ni = normals[i].getNormalVector3fMap ().normalized ();
-      for (const auto j : nn)
+      for (std::size_t q = 0; q < nn.size (); ++q)
       {
+        const auto j = nn[q];
         const std::uint32_t w = vertex_of[j];
         if (w == UINT32_MAX || w == static_cast<std::uint32_t> (v))
           continue;
         const auto nj = normals[j].getNormalVector3fMap ().normalized ();
         thread_edges[t].emplace_back (static_cast<std::uint32_t> (v), w);
         thread_costs[t].push_back (1.f - std::abs (ni.dot (nj)));
+        thread_dist[t].push_back (std::sqrt (dist[q]));
       }
     }
   }
   std::vector<Edge> edges;
-  std::vector<float> costs;
+  std::vector<float> costs, lengths;
   for (int t = 0; t < threads; ++t)
   {
     edges.insert (edges.end (), thread_edges[t].begin (), thread_edges[t].end ());
     costs.insert (costs.end (), thread_costs[t].begin (), thread_costs[t].end ());
+    lengths.insert (lengths.end (), thread_dist[t].begin (), thread_dist[t].end ());
     std::vector<Edge> ().swap (thread_edges[t]);
     std::vector<float> ().swap (thread_costs[t]);
+    std::vector<float> ().swap (thread_dist[t]);
   }
+  // Ties (exactly parallel normals, e.g. both sides of a thin plate fitted by one plane)
+  // go to the shorter edge, so propagation stays on a sheet instead of jumping across.
+  if (tie_break_ > 0 && !lengths.empty ())
+  {
+    const double mean = std::accumulate (lengths.begin (), lengths.end (), 0.0) / lengths.size ();
+    if (mean > 0)
+      for (std::size_t e = 0; e < costs.size (); ++e)
+        costs[e] += static_cast<float> (tie_break_ * lengths[e] / mean);
+  }
+  std::vector<float> ().swap (lengths);
   edges_ = edges.size ();
 
-  // Minimum spanning forest with Boost Graph's Kruskal over a CSR edge list.
-  struct Cost { float w; };
-  using Graph = boost::compressed_sparse_row_graph<boost::directedS, boost::no_property, Cost,
-                                                   boost::no_property, std::uint32_t, std::uint32_t>;
-  std::vector<Cost> cost_props (costs.size ());
-  for (std::size_t e = 0; e < costs.size (); ++e)
-    cost_props[e].w = costs[e];
+  // Minimum spanning forest: Kruskal, i.e. edges by increasing cost into Boost's
+  // disjoint sets (boost::kruskal_minimum_spanning_tree's priority queue was 3x slower).
+  std::vector<std::uint32_t> by_cost (edges.size ());
+  std::iota (by_cost.begin (), by_cost.end (), 0u);
+  std::sort (by_cost.begin (), by_cost.end (), [&] (std::uint32_t a, std::uint32_t b) { return costs[a] < costs[b]; });
   std::vector<float> ().swap (costs);
-  const Graph g (boost::edges_are_unsorted_multi_pass, edges.begin (), edges.end (), cost_props.begin (), nv);
-  std::vector<Edge> ().swap (edges);
-  std::vector<Cost> ().swap (cost_props);
-  std::vector<typename boost::graph_traits<Graph>::edge_descriptor> tree;
+  std::vector<Edge> tree;
   tree.reserve (nv);
   {
-    // 32-bit vertices halve the graph's memory; Kruskal then needs explicit maps.
-    std::vector<std::uint32_t> rank (nv), pred (nv);
-    const auto index = boost::get (boost::vertex_index, g);
-    boost::kruskal_minimum_spanning_tree (
-        g, std::back_inserter (tree),
-        boost::weight_map (boost::get (&Cost::w, g))
-            .vertex_index_map (index)
-            .rank_map (boost::make_iterator_property_map (rank.begin (), index))
-            .predecessor_map (boost::make_iterator_property_map (pred.begin (), index)));
+    boost::disjoint_sets_with_storage<> sets (nv);
+    for (std::size_t v = 0; v < nv; ++v)
+      sets.make_set (v);
+    for (const std::uint32_t e : by_cost)
+    {
+      const auto a = sets.find_set (edges[e].first), b = sets.find_set (edges[e].second);
+      if (a == b)
+        continue;
+      sets.link (a, b);
+      tree.push_back (edges[e]);
+      if (tree.size () + 1 == nv)
+        break;
+    }
   }
+  std::vector<Edge> ().swap (edges);
 
   // Forest adjacency (CSR arrays).
   std::vector<std::uint32_t> offset (nv + 1, 0), adj (2 * tree.size ());
   for (const auto& e : tree)
   {
-    ++offset[boost::source (e, g) + 1];
-    ++offset[boost::target (e, g) + 1];
+    ++offset[e.first + 1];
+    ++offset[e.second + 1];
   }
   std::partial_sum (offset.begin (), offset.end (), offset.begin ());
   {
     std::vector<std::uint32_t> fill (offset.begin (), offset.end () - 1);
     for (const auto& e : tree)
     {
-      const auto a = boost::source (e, g), b = boost::target (e, g);
+      const auto a = e.first, b = e.second;
       adj[fill[a]++] = b;
       adj[fill[b]++] = a;
     }
