@@ -1,9 +1,12 @@
-// Writes organized depth frames of a generated scene as PCD files (sensor frame, y down),
-// the way pcl::PCDGrabber replays recorded Kinect sequences. Used by the viewer test.
+// make_scene: a generated torus-and-sphere scene, as organized depth frames in PCD files
+// (sensor frame, y down, Kinect-like noise) the way pcl::PCDGrabber replays recorded
+// sequences, and/or as a uniformly sampled cloud (PLY). Used by the viewer test and the demo.
 #include <pclx/testing/depth_renderer.h>
 #include <pclx/testing/shapes.h>
 
 #include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
+#include <pclx/testing/mesh_sampling.h>
 
 #include <CLI/CLI.hpp>
 
@@ -14,10 +17,13 @@ using namespace pclx::testing;
 int
 main (int argc, char** argv)
 {
-  CLI::App app ("Render organized test frames of a torus-and-sphere scene to PCD files");
-  std::string dir = ".";
+  CLI::App app ("Generated torus-and-sphere scene: depth frames (PCD) and/or a sampled cloud (PLY)");
+  std::string dir, cloud_file;
   int frames = 3, width = 320, height = 240;
-  app.add_option ("--dir", dir, "output folder")->capture_default_str ();
+  std::size_t points = 200000;
+  app.add_option ("--dir", dir, "write depth frames (PCD) to this folder");
+  app.add_option ("--cloud", cloud_file, "write a uniformly sampled cloud of the scene (PLY)");
+  app.add_option ("--points", points, "points of --cloud")->capture_default_str ();
   app.add_option ("--frames", frames, "number of frames")->capture_default_str ();
   app.add_option ("--width", width)->capture_default_str ();
   app.add_option ("--height", height)->capture_default_str ();
@@ -28,6 +34,18 @@ main (int argc, char** argv)
   TriangleMesh wall = makeBox (Eigen::Vector3f (3.f, 3.f, 0.05f), 4);
   wall.transform (Eigen::Affine3f (Eigen::Translation3f (0, 0, -0.4f)));
   scene.append (wall);
+  if (!cloud_file.empty ())
+  {
+    const SampledCloud s = sampleUniform (scene, points, 1);
+    pcl::PointCloud<pcl::PointXYZ> xyz;
+    for (const auto& p : s.cloud)
+      xyz.push_back (pcl::PointXYZ (p.x, p.y, p.z));
+    if (pcl::io::savePLYFileBinary (cloud_file, xyz) != 0)
+      return 1;
+    std::printf ("wrote %zu points to %s\n", xyz.size (), cloud_file.c_str ());
+  }
+  if (dir.empty ())
+    return 0;
   const RayCaster caster (scene);
   PinholeIntrinsics K;
   K.width = width;
