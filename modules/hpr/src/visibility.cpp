@@ -116,10 +116,12 @@ meshNormals (const std::vector<Eigen::Vector3f>& pts, const std::vector<Eigen::V
     }
 }
 
-// Exact duplicates share the visibility of their visible twin (the hull keeps one copy).
+// Exact duplicates share the visibility (and normal, splat) of their visible twin: the hull
+// and the grid keep one copy.
 void
-shareWithDuplicates (const std::vector<Eigen::Vector3f>& pts, std::vector<std::uint8_t>& visible)
+shareWithDuplicates (const std::vector<Eigen::Vector3f>& pts, VisibilityResult& sub)
 {
+  std::vector<std::uint8_t>& visible = sub.visible;
   struct Hash
   {
     std::size_t operator() (const Eigen::Vector3f& p) const
@@ -135,8 +137,19 @@ shareWithDuplicates (const std::vector<Eigen::Vector3f>& pts, std::vector<std::u
     if (visible[i])
       seen.emplace (pts[i], int (i));
   for (std::size_t i = 0; i < pts.size (); ++i)
-    if (!visible[i] && seen.count (pts[i]))
-      visible[i] = 1;
+  {
+    if (visible[i])
+      continue;
+    const auto twin = seen.find (pts[i]);
+    if (twin == seen.end ())
+      continue;
+    visible[i] = 1;
+    if (!sub.normals.empty ())
+    {
+      sub.normals[i] = sub.normals[twin->second];
+      sub.splat_radius[i] = sub.splat_radius[twin->second];
+    }
+  }
 }
 
 // Points that are not provably interior to the hull of the flipped cloud: the angular
@@ -420,12 +433,12 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
 
   // (Exact duplicates pass the candidate-hull test together, so only the other methods,
   // which pick one point per hull vertex or sector, need this.)
-  if (opt.method != VisibilityMethod::CANDIDATE_HULL)
-    shareWithDuplicates (pts, sub.visible);
   if (opt.triangles)
     filterLongEdges (pts, opt.max_edge, sub.triangles);
   if (opt.normals && sub.normals.empty ())
     meshNormals (pts, sub.triangles, sub);
+  if (opt.method != VisibilityMethod::CANDIDATE_HULL)
+    shareWithDuplicates (pts, sub);
   for (std::size_t i = 0; i < pts.size (); ++i)
     res.visible[ids[i]] = sub.visible[i];
   for (const auto& t : sub.triangles)

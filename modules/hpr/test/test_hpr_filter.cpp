@@ -242,6 +242,14 @@ TEST (HPRBadInput, FewPointsDuplicatesAndPointAtViewpoint)
     v[i] = true;
   for (std::size_t j = n, i = 0; j < dup->size (); ++j, i += 3)
     EXPECT_EQ (v[j], v[i]) << "copy " << j << " of " << i;
+  // ... and a visible copy gets its twin's normal.
+  f.setComputeNormals (true);
+  run (f);
+  for (std::size_t j = n, i = 0; j < dup->size (); ++j, i += 3)
+    if (v[j])
+      EXPECT_TRUE (f.getNormals ()[j].getNormalVector3fMap ().isApprox (f.getNormals ()[i].getNormalVector3fMap ()))
+          << "copy " << j;
+  f.setComputeNormals (false);
 
   // A point exactly at the viewpoint is visible and does not break the flip.
   auto eye = xyz (sampleUniform (makeSphere (1.f, 4), 1500, 6));

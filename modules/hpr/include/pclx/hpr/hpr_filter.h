@@ -111,7 +111,8 @@ public:
   int getPropagationStepsUsed () const { return steps_used_; }
   Method getMethodUsed () const { return method_used_; }
 
-  // Largest grid the approximate methods accept; larger requests are clamped with a warning.
+  // Largest grid the approximate methods accept (also at most 64 sectors per point);
+  // larger requests are clamped with a warning.
   static constexpr std::size_t kMaxSectors = hpr::kMaxSectors;
   // Below this many points, AUTO picks the exact method.
   static constexpr std::size_t kAutoExactLimit = 20000;
