@@ -6,8 +6,13 @@
 //   OCTREE  the seed's method: the PCA plane of the point's leaf;
 //   HYBRID  seed §5.4.3: Hoppe's kNN PCA for points near a cell border, the leaf plane inside;
 //   MERGED  seed ch. 7: adjacent leaves whose planes agree are merged into regions, each
-//           region gets one least-squares surface (plane or quadric height field), points in
-//           non-planar cells join an adjacent region when they lie on its surface, else kNN PCA.
+//           region gets one least-squares surface (plane or quadric height field: the seed's
+//           "polynomial fit"). A region is used only if its residual is no larger than local
+//           kNN planes' thickness (noise, not missed shape). Points of non-planar cells join
+//           an adjacent region when they lie on its surface and agree with it; the rest get
+//           Hoppe's PCA over a kNN set grown (k, 2k, 4k, ...) until it passes the seed's
+//           planarity test λ2 > sα·λ3 — the seed's criterion applied to neighbourhoods, which
+//           is what makes MERGED robust to noise.
 // Orientation is separate (MSTNormalOrientation, orientNormalsTowardsViewpoint): the
 // output normals here are unoriented (sign of the fitted eigenvector / surface).
 //
