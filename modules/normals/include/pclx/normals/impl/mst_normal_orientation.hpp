@@ -7,6 +7,8 @@
 #include <boost/pending/disjoint_sets.hpp>
 
 #include <algorithm>
+#include <cstring>
+#include <parallel/algorithm>
 #include <cmath>
 #include <cstdint>
 #include <numeric>
@@ -52,6 +54,11 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
   if (nv == 0)
     return true;
 
+  if (nv * static_cast<std::size_t> (k_) >= UINT32_MAX)
+  {
+    PCL_ERROR ("[pcl::MSTNormalOrientation::orient] %zu points x k = %d exceed the 32-bit edge ids\n", nv, k_);
+    return false;
+  }
   SearchPtr search = search_;
   if (!search)
     search.reset (new search::KdTree<PointT> (false));
@@ -60,79 +67,99 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
   // Riemannian graph: each vertex to its k nearest valid neighbours, cost 1 − |ni·nj|.
   using Edge = std::pair<std::uint32_t, std::uint32_t>;
   const int threads = threads_ > 0 ? static_cast<int> (threads_) : omp_get_max_threads ();
-  std::vector<std::vector<Edge>> thread_edges (threads);
-  std::vector<std::vector<float>> thread_costs (threads), thread_dist (threads);
-#pragma omp parallel num_threads(threads)
+  const std::size_t k = static_cast<std::size_t> (k_);
+  std::vector<std::uint32_t> nbr (nv * k, UINT32_MAX);  // row v: v's neighbours (vertex ids)
+  std::vector<float> len (nv * k, 0.f);
+  double len_sum = 0;
+  std::size_t len_count = 0;
+#pragma omp parallel num_threads(threads) reduction(+ : len_sum, len_count)
   {
-    const int t = omp_get_thread_num ();
     pcl::Indices nn;
     std::vector<float> dist;
 #pragma omp for schedule(dynamic, 1024)
     for (std::ptrdiff_t v = 0; v < static_cast<std::ptrdiff_t> (nv); ++v)
     {
-      const auto i = (*vertices)[v];
-      search->nearestKSearch ((*input_)[i], k_ + 1, nn, dist);
-      const auto ni = normals[i].getNormalVector3fMap ().normalized ();
-      for (std::size_t q = 0; q < nn.size (); ++q)
+      search->nearestKSearch ((*input_)[(*vertices)[v]], k_ + 1, nn, dist);
+      std::size_t slot = v * k;
+      for (std::size_t q = 0; q < nn.size () && slot < (v + 1) * k; ++q)
       {
-        const auto j = nn[q];
-        const std::uint32_t w = vertex_of[j];
+        const std::uint32_t w = vertex_of[nn[q]];
         if (w == UINT32_MAX || w == static_cast<std::uint32_t> (v))
           continue;
-        const auto nj = normals[j].getNormalVector3fMap ().normalized ();
-        thread_edges[t].emplace_back (static_cast<std::uint32_t> (v), w);
-        thread_costs[t].push_back (1.f - std::abs (ni.dot (nj)));
-        thread_dist[t].push_back (std::sqrt (dist[q]));
+        nbr[slot] = w;
+        len[slot] = std::sqrt (dist[q]);
+        len_sum += len[slot];
+        ++len_count;
+        ++slot;
       }
     }
   }
-  std::vector<Edge> edges;
-  std::vector<float> costs, lengths;
-  for (int t = 0; t < threads; ++t)
-  {
-    edges.insert (edges.end (), thread_edges[t].begin (), thread_edges[t].end ());
-    costs.insert (costs.end (), thread_costs[t].begin (), thread_costs[t].end ());
-    lengths.insert (lengths.end (), thread_dist[t].begin (), thread_dist[t].end ());
-    std::vector<Edge> ().swap (thread_edges[t]);
-    std::vector<float> ().swap (thread_costs[t]);
-    std::vector<float> ().swap (thread_dist[t]);
-  }
+  const double mean_len = len_count ? len_sum / len_count : 0.0;
+
+  // One key per undirected edge (a mutual pair is kept once): the cost's float bits
+  // (costs are >= 0, so they order like the floats) above the slot of the edge.
   // Ties (exactly parallel normals, e.g. both sides of a thin plate fitted by one plane)
   // go to the shorter edge, so propagation stays on a sheet instead of jumping across.
-  if (tie_break_ > 0 && !lengths.empty ())
+  std::vector<std::vector<std::uint64_t>> thread_keys (threads);
+#pragma omp parallel num_threads(threads)
   {
-    const double mean = std::accumulate (lengths.begin (), lengths.end (), 0.0) / lengths.size ();
-    if (mean > 0)
-      for (std::size_t e = 0; e < costs.size (); ++e)
-        costs[e] += static_cast<float> (tie_break_ * lengths[e] / mean);
+    auto& keys = thread_keys[omp_get_thread_num ()];
+#pragma omp for schedule(dynamic, 1024)
+    for (std::ptrdiff_t v = 0; v < static_cast<std::ptrdiff_t> (nv); ++v)
+    {
+      const auto ni = normals[(*vertices)[v]].getNormalVector3fMap ().normalized ();
+      for (std::size_t slot = v * k; slot < (v + 1) * k && nbr[slot] != UINT32_MAX; ++slot)
+      {
+        const std::uint32_t w = nbr[slot];
+        if (w < static_cast<std::uint32_t> (v))
+        {
+          const auto row = nbr.begin () + w * k;
+          if (std::find (row, row + k, static_cast<std::uint32_t> (v)) != row + k)
+            continue;  // already listed from w's side
+        }
+        const auto nj = normals[(*vertices)[w]].getNormalVector3fMap ().normalized ();
+        float cost = std::max (0.f, 1.f - std::abs (ni.dot (nj)));
+        if (tie_break_ > 0 && mean_len > 0)
+          cost += static_cast<float> (tie_break_ * len[slot] / mean_len);
+        std::uint32_t bits;
+        std::memcpy (&bits, &cost, sizeof bits);
+        keys.push_back ((static_cast<std::uint64_t> (bits) << 32) | static_cast<std::uint32_t> (slot));
+      }
+    }
   }
-  std::vector<float> ().swap (lengths);
-  edges_ = edges.size ();
+  std::vector<float> ().swap (len);
+  std::vector<std::uint64_t> keys;
+  for (auto& t : thread_keys)
+  {
+    keys.insert (keys.end (), t.begin (), t.end ());
+    std::vector<std::uint64_t> ().swap (t);
+  }
+  edges_ = keys.size ();
+  __gnu_parallel::sort (keys.begin (), keys.end ());
 
   // Minimum spanning forest: Kruskal, i.e. edges by increasing cost into Boost's
   // disjoint sets (boost::kruskal_minimum_spanning_tree's priority queue was 3x slower).
-  std::vector<std::uint32_t> by_cost (edges.size ());
-  std::iota (by_cost.begin (), by_cost.end (), 0u);
-  std::sort (by_cost.begin (), by_cost.end (), [&] (std::uint32_t a, std::uint32_t b) { return costs[a] < costs[b]; });
-  std::vector<float> ().swap (costs);
   std::vector<Edge> tree;
   tree.reserve (nv);
   {
     boost::disjoint_sets_with_storage<> sets (nv);
     for (std::size_t v = 0; v < nv; ++v)
       sets.make_set (v);
-    for (const std::uint32_t e : by_cost)
+    for (const std::uint64_t key : keys)
     {
-      const auto a = sets.find_set (edges[e].first), b = sets.find_set (edges[e].second);
+      const std::uint32_t slot = static_cast<std::uint32_t> (key & 0xffffffffu);
+      const std::uint32_t v = static_cast<std::uint32_t> (slot / k), w = nbr[slot];
+      const auto a = sets.find_set (v), b = sets.find_set (w);
       if (a == b)
         continue;
       sets.link (a, b);
-      tree.push_back (edges[e]);
+      tree.emplace_back (v, w);
       if (tree.size () + 1 == nv)
         break;
     }
   }
-  std::vector<Edge> ().swap (edges);
+  std::vector<std::uint64_t> ().swap (keys);
+  std::vector<std::uint32_t> ().swap (nbr);
 
   // Forest adjacency (CSR arrays).
   std::vector<std::uint32_t> offset (nv + 1, 0), adj (2 * tree.size ());
