@@ -578,11 +578,11 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3f>& points) const
     if (start[s] == start[s + 1])
       continue;
     Tetra tets[16];
-    int m = 0;
+    int m = 0, quad_end[4] = {0, 0, 0, 0};
     const int a = int (s / n_theta_), b = int (s % n_theta_);
-    // The four 2×2 quads around the sector, both diagonals of each.
+    // The four 2×2 quads around the sector (q = 2·(da+1) + (db+1)), both diagonals of each.
     for (int da = -1; da <= 0; ++da)
-      for (int db = -1; db <= 0; ++db)
+      for (int db = -1; db <= 0; quad_end[2 * (da + 1) + (db + 1)] = m, ++db)
       {
         int a0 = a + da, a1 = a + da + 1;
         const int b0 = b + db, b1 = b + db + 1;
@@ -629,16 +629,29 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3f>& points) const
       const Eigen::Vector3d p = points[i].cast<double> ();
       const double rho = p.norm ();
       const Eigen::Vector3d uq = p / rho, q = p * (R2 / rho - 1.0);  // same flip as flipped()
-      for (int t = 0; t < m; ++t)
+      // Try first the quad whose sector centres surround the point (the one most likely to
+      // contain it), then the other three.
+      int first = 0;
+      if (gnomonic_)
       {
-        const Tetra& T = tets[t];
-        if (T.edge[0].dot (uq) <= T.cone_eps || T.edge[1].dot (uq) <= T.cone_eps ||
-            T.edge[2].dot (uq) <= T.cone_eps)
-          continue;
-        if (T.w.dot (q) > T.h)
+        const Eigen::Vector3f& u = unit_[i];
+        const double fa = (u.y () / u.x () - phi0_) / cell_phi_ - a, fb = (u.z () / u.x () - theta0_) / cell_theta_ - b;
+        first = 2 * (fa >= 0.5) + (fb >= 0.5);
+      }
+      for (int k = 0; k < 4 && !interior[i]; ++k)
+      {
+        const int quad = (first + k) % 4;
+        for (int t = quad == 0 ? 0 : quad_end[quad - 1]; t < quad_end[quad]; ++t)
         {
-          interior[i] = 1;
-          break;
+          const Tetra& T = tets[t];
+          if (T.edge[0].dot (uq) <= T.cone_eps || T.edge[1].dot (uq) <= T.cone_eps ||
+              T.edge[2].dot (uq) <= T.cone_eps)
+            continue;
+          if (T.w.dot (q) > T.h)
+          {
+            interior[i] = 1;
+            break;
+          }
         }
       }
     }

@@ -246,32 +246,35 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
 
   // A point at the viewpoint is seen (and cannot be flipped): keep it out of the hull.
   const double eye_eps = 1e-9 * std::max (max_rho, 1e-30);
-  std::vector<int> ids;
-  ids.reserve (n);
+  std::size_t at_eye = 0;
   for (std::size_t i = 0; i < n; ++i)
-  {
     if (points[i].norm () <= eye_eps)
+    {
       res.visible[i] = 1;
-    else
-      ids.push_back (int (i));
-  }
-  if (ids.size () < 4)
+      ++at_eye;
+    }
+  if (n - at_eye < 4)
   {
     // With C, at most 4 points: each is a vertex of their hull unless degenerate; call all visible.
-    for (int i : ids)
-      res.visible[i] = 1;
+    res.visible.assign (n, 1);
     res.radius = opt.radius;
     return res;
   }
-  // Work on the input itself unless points at the viewpoint had to be left out.
+  // Work on the input itself unless points at the viewpoint had to be left out; id(i) maps
+  // back to the input.
+  std::vector<int> ids;
   std::vector<Eigen::Vector3f> compact;
-  if (ids.size () != n)
+  if (at_eye > 0)
   {
-    compact.reserve (ids.size ());
-    for (int i : ids)
-      compact.push_back (points[i]);
+    for (std::size_t i = 0; i < n; ++i)
+      if (!res.visible[i])
+      {
+        ids.push_back (int (i));
+        compact.push_back (points[i]);
+      }
   }
-  const std::vector<Eigen::Vector3f>& pts = ids.size () == n ? points : compact;
+  const std::vector<Eigen::Vector3f>& pts = at_eye > 0 ? compact : points;
+  auto id = [&ids] (std::size_t i) { return ids.empty () ? int (i) : ids[i]; };
 
   if (opt.radius > 0 && opt.radius <= max_rho)
   {
@@ -314,16 +317,22 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
   const Eigen::Vector3f centre = centroidOf (pts);
   AngularGrid grid;
 
-  std::vector<int> all (pts.size ());
-  for (std::size_t i = 0; i < pts.size (); ++i)
-    all[i] = int (i);
+  auto everyPoint = [&pts] {
+    std::vector<int> all (pts.size ());
+    for (std::size_t i = 0; i < pts.size (); ++i)
+      all[i] = int (i);
+    return all;
+  };
 
   switch (opt.method)
   {
   case VisibilityMethod::CANDIDATE_HULL:
   {
-    for (int i : cullInterior (grid, pts, centre, R, k_cull, opt.steps > 0 ? steps : 4))
-      sub.visible[i] = 1;
+    grid.build (pts, centre, R, k_cull);
+    grid.propagateAdaptive (opt.steps > 0 ? steps : 4);
+    sub.visible = grid.interiorPoints (pts);
+    for (auto& v : sub.visible)
+      v = !v;
     res.sectors = grid.sectorCount ();
     res.steps = opt.steps > 0 ? steps : 4;
     // The grid's triangulation spans the candidates; other visible points get normals
@@ -334,9 +343,9 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
   }
   case VisibilityMethod::EXACT:
   {
-    std::vector<int> keep = all;
-    if (opt.exact_prefilter && pts.size () >= 2000)
-      keep = cullInterior (grid, pts, centre, R, k_cull_default, 4);
+    const std::vector<int> keep = opt.exact_prefilter && pts.size () >= 2000
+                                      ? cullInterior (grid, pts, centre, R, k_cull_default, 4)
+                                      : everyPoint ();
     res.prefilter_kept = keep.size ();
     if (!hullVisibility (pts, keep, R, opt.triangles || opt.normals, sub))
     {
@@ -383,7 +392,7 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
   case VisibilityMethod::BENTLEY_FAUST_PREPARATA:
   {
     // Extremes along the viewing axis x in a g × g grid over the (y, z) plane of the flipped cloud.
-    const std::vector<Eigen::Vector3d> f = flip (pts, all, R);
+    const std::vector<Eigen::Vector3d> f = flip (pts, everyPoint (), R);
     const Eigen::Vector3d x = centre.cast<double> ().normalized ();
     const Eigen::Vector3d e = std::abs (x.z ()) > 0.9 ? Eigen::Vector3d::UnitY () : Eigen::Vector3d::UnitZ ();
     const Eigen::Vector3d z = (e - e.dot (x) * x).normalized (), y = z.cross (x);
@@ -440,18 +449,18 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
   if (opt.method != VisibilityMethod::CANDIDATE_HULL)
     shareWithDuplicates (pts, sub);
   for (std::size_t i = 0; i < pts.size (); ++i)
-    res.visible[ids[i]] = sub.visible[i];
+    res.visible[id (i)] = sub.visible[i];
   for (const auto& t : sub.triangles)
-    res.triangles.emplace_back (ids[t[0]], ids[t[1]], ids[t[2]]);
+    res.triangles.emplace_back (id (t[0]), id (t[1]), id (t[2]));
   if (opt.normals)
   {
     res.normals.assign (n, Eigen::Vector3f::Constant (std::numeric_limits<float>::quiet_NaN ()));
     res.splat_radius.assign (n, 0.f);
     for (std::size_t i = 0; i < pts.size (); ++i)
-      if (res.visible[ids[i]])
+      if (res.visible[id (i)])
       {
-        res.normals[ids[i]] = sub.normals[i];
-        res.splat_radius[ids[i]] = sub.splat_radius[i];
+        res.normals[id (i)] = sub.normals[i];
+        res.splat_radius[id (i)] = sub.splat_radius[i];
       }
   }
   return res;

@@ -101,16 +101,14 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   steps_used_ = res.steps;
 
   // Kept = visible (or hidden when negative); NaN points are removed either way.
-  std::vector<std::uint8_t> visible (input_->size (), 0);
+  // Per input point: 0 = not finite, 1 = hidden, 2 = visible.
+  std::vector<std::uint8_t> state (input_->size (), 0);
   for (std::size_t j = 0; j < finite.size (); ++j)
-    visible[finite[j]] = res.visible[j];
-  std::vector<std::uint8_t> is_finite (input_->size (), 0);
-  for (int i : finite)
-    is_finite[i] = 1;
+    state[finite[j]] = res.visible[j] ? 2 : 1;
   indices.reserve (indices_->size ());
   for (const auto i : *indices_)
   {
-    const bool keep = is_finite[i] && (visible[i] != 0) != negative_;
+    const bool keep = state[i] != 0 && (state[i] == 2) != negative_;
     if (keep)
       indices.push_back (i);
     else if (extract_removed_indices_)
