@@ -39,7 +39,7 @@ struct Options
   int threads = 0;
   int repeats = 1;
   int k_large = 50;
-  std::size_t n_generated = 50000, n_speed = 200000, o3d_orient_max = 50000;
+  std::size_t n_generated = 30000, n_speed = 200000, o3d_orient_max = 30000;
   bool open3d = true;
 };
 
@@ -240,7 +240,7 @@ main (int argc, char** argv)
 
   // shadow (seed §6.2.1): holes removing a share of the surface.
   const std::vector<int> shadows = opt.full ? std::vector<int>{0, 1, 2, 5, 10, 20, 25, 30, 50, 75}
-                                            : std::vector<int>{0, 10, 30, 50};
+                                            : std::vector<int>{0, 30};
   std::vector<std::pair<std::string, SampledCloud>> shadow_inputs;
   if (!pcpnet.empty ())
     shadow_inputs.push_back (pcpnet.front ());
