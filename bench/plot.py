@@ -83,11 +83,21 @@ def chart(rows, spec, out_dir):
             and isinstance(r.get(spec["x"]), float) and isinstance(r.get(spec["y"]), float)]
     if not rows:
         return []
+    # `split` (a column or a list of columns) makes one panel per value, at most 3 per row.
+    split = spec.get("split") or []
+    split = [split] if isinstance(split, str) else split
     groups = collections.OrderedDict()
-    for r in rows:
-        groups.setdefault(r.get(spec.get("split"), "") if spec.get("split") else "", []).append(r)
-    fig, axes = plt.subplots(1, len(groups), figsize=(6.5 * len(groups), 5), squeeze=False)
-    for ax, (gname, grows) in zip(axes[0], groups.items()):
+    for r in sorted(rows, key=lambda r: tuple(str(r.get(k, "")) for k in split)
+                    if not any(k == "points" for k in split)
+                    else tuple((r.get(k, 0) if k == "points" else str(r.get(k, ""))) for k in split)):
+        key = ", ".join(f"{int(r[k])} pts" if k == "points" else str(r.get(k, "")) for k in split)
+        groups.setdefault(key, []).append(r)
+    ncols = min(3, len(groups))
+    nrows = (len(groups) + ncols - 1) // ncols
+    fig, axes = plt.subplots(nrows, ncols, figsize=(6.5 * ncols, 5 * nrows), squeeze=False)
+    for ax in axes.flat[len(groups):]:
+        ax.set_visible(False)
+    for ax, (gname, grows) in zip(axes.flat, groups.items()):
         series = collections.OrderedDict()
         for r in grows:
             series.setdefault(str(r.get(spec["series"], "")), []).append(r)
