@@ -124,14 +124,14 @@ main (int argc, char** argv)
   int adaptive_max = 144;
   std::vector<float> viewpoint{0, 0, 0};
   bool view = false;
-  auto* in_opt = app.add_option ("input", input, "PCD, PLY or XYZ (text) file");
+  auto* in_opt = app.add_option ("input,-i,--input", input, "PCD, PLY or XYZ (text) file");
   app.add_option ("--demo", demo, "instead of a file: a generated shape with exact normals")
       ->check (CLI::IsMember ({"sphere", "torus", "box", "thin_plate"}))
       ->excludes (in_opt);
   app.add_option ("--points", points, "--demo: number of points")->capture_default_str ();
   app.add_option ("--noise", noise, "--demo: Gaussian noise sigma / bounding-box diagonal")->capture_default_str ();
   app.add_option ("--shadow", shadow, "--demo: share of the surface removed as holes (0..1)")->capture_default_str ();
-  app.add_option ("-o,--out", output, "write a PCD with points and normals");
+  app.add_option ("-o,--out,--output", output, "write a PCD with points and normals");
   app.add_option ("-m,--method", method, "octree (seed), hybrid (seed 5.4.3), merged (seed ch. 7), pca (PCL)")
       ->check (CLI::IsMember ({"octree", "hybrid", "merged", "pca"}))
       ->capture_default_str ();
