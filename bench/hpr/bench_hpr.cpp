@@ -6,6 +6,7 @@
 #include <pclx/hpr/hpr_filter.h>
 #include <pclx/testing/degradation.h>
 #include <pclx/testing/ray_caster.h>
+#include <pclx/testing/set_scores.h>
 #include <pclx/testing/shapes.h>
 
 #include <CLI/CLI.hpp>
@@ -53,32 +54,8 @@ fmt (double v)
 Metrics
 accuracy (const std::vector<int>& visible, const std::vector<bool>& truth)
 {
-  std::vector<bool> v (truth.size (), false);
-  for (int i : visible)
-    v[i] = true;
-  double tp = 0, fp = 0, fn = 0;
-  for (std::size_t i = 0; i < truth.size (); ++i)
-  {
-    tp += v[i] && truth[i];
-    fp += v[i] && !truth[i];
-    fn += !v[i] && truth[i];
-  }
-  const double p = tp / std::max (1.0, tp + fp), r = tp / std::max (1.0, tp + fn);
-  return {{"visible", double (visible.size ())},
-          {"precision", p},
-          {"recall", r},
-          {"f1", 2 * p * r / std::max (1e-12, p + r)}};
-}
-
-double
-jaccard (std::vector<int> a, std::vector<int> b)
-{
-  std::sort (a.begin (), a.end ());
-  std::sort (b.begin (), b.end ());
-  std::vector<int> i, u;
-  std::set_intersection (a.begin (), a.end (), b.begin (), b.end (), std::back_inserter (i));
-  std::set_union (a.begin (), a.end (), b.begin (), b.end (), std::back_inserter (u));
-  return u.empty () ? 1.0 : double (i.size ()) / double (u.size ());
+  const SubsetScore s = scoreSubset (visible, truth);
+  return {{"visible", double (s.predicted)}, {"precision", s.precision}, {"recall", s.recall}, {"f1", s.f1}};
 }
 
 pcl::PointCloud<pcl::PointXYZ>::Ptr
@@ -138,7 +115,7 @@ public:
 
 #ifdef PCLX_HAVE_OPEN3D
   std::vector<int>
-  open3d (const Case& c, const std::string& sweep, double R_over_d)
+  open3d (const Case& c, const std::string& sweep, double R_over_d, const std::string& extra = "")
   {
     open3d::geometry::PointCloud pc;
     pc.points_.reserve (c.cloud->size ());
@@ -149,8 +126,9 @@ public:
         [&] { vis = std::get<1> (pc.HiddenPointRemoval (c.viewpoint.cast<double> (), R_over_d * c.diameter)); },
         repeats_);
     std::vector<int> v (vis.begin (), vis.end ());
-    out_.row ("hpr", "open3d_exact", "sweep=" + sweep + ";view=" + std::to_string (c.view) + ";R=" + fmt (R_over_d) + "d",
-              c.input, c.cloud->size (), t, accuracy (v, c.truth));
+    out_.row ("hpr", "open3d_exact",
+              "sweep=" + sweep + ";view=" + std::to_string (c.view) + ";R=" + fmt (R_over_d) + "d" + extra, c.input,
+              c.cloud->size (), t, accuracy (v, c.truth));
     return v;
   }
 #endif
@@ -169,7 +147,7 @@ main (int argc, char** argv)
   std::string csv;
   std::vector<std::size_t> sizes{100000, 1000000, 3000000};
   int views = 3, repeats = 1;
-  bool quick = false, no_sweeps = false;
+  bool quick = false, no_sweeps = false, sweeps_only = false;
   float distance = 3.f;
   app.add_option ("--csv", csv, "also write rows to this file");
   app.add_option ("--sizes", sizes, "point counts of the main sweep")->capture_default_str ();
@@ -178,6 +156,7 @@ main (int argc, char** argv)
   app.add_option ("--repeats", repeats, "best of N timings")->capture_default_str ();
   app.add_flag ("--quick", quick, "demo size: 100k points, one view, no 3M");
   app.add_flag ("--no-sweeps", no_sweeps, "only the main time-vs-accuracy sweep");
+  app.add_flag ("--sweeps-only", sweeps_only, "only the noise and density sweeps");
   CLI11_PARSE (app, argc, argv);
   if (quick)
   {
@@ -207,7 +186,7 @@ main (int argc, char** argv)
     const RayCaster caster (in.mesh);
     const double diameter = in.mesh.diagonal ();
     const auto vps = viewpoints (in.mesh, views, distance);
-    for (std::size_t n : sizes)
+    for (std::size_t n : sweeps_only ? std::vector<std::size_t>{} : sizes)
     {
       const SampledCloud s = sampleUniform (in.mesh, n, 7);
       for (int v = 0; v < int (vps.size ()); ++v)
@@ -225,7 +204,7 @@ main (int argc, char** argv)
           exact.setRadius (r * diameter);
           // The exact result should equal Open3D's at equal R: report the overlap.
           run.ours (c, "main", "pclx_exact", exact, "", [&] (const std::vector<int>& vis) {
-            return o3d.empty () ? Metrics{} : Metrics{{"jaccard_vs_open3d", jaccard (vis, o3d)}};
+            return o3d.empty () ? Metrics{} : Metrics{{"jaccard_vs_open3d", pclx::testing::jaccard (vis, o3d)}};
           });
         }
         {
@@ -293,48 +272,40 @@ main (int argc, char** argv)
     if (no_sweeps)
       continue;
     // Stability: noise and density gradient at 100k points, first viewpoint; ground truth
-    // is the visibility of the clean samples.
+    // is the visibility of the clean samples. Exact with a calibrated R and with the fixed
+    // R = 10⁴·diameter (Open3D's best above, also run), the grid, the candidate hull.
     const std::size_t n = 100000;
     const Eigen::Vector3f vp = vps[0];
+    auto stability = [&] (const Case& c, const std::string& sweep, const std::string& tag) {
+#ifdef PCLX_HAVE_OPEN3D
+      run.open3d (c, sweep, 1e4, tag);
+#endif
+      Filter exact;
+      exact.setMethod (Filter::Method::EXACT);
+      run.ours (c, sweep, "pclx_exact_autoR", exact, tag);
+      Filter exact_fixed;
+      exact_fixed.setMethod (Filter::Method::EXACT);
+      exact_fixed.setRadius (1e4 * diameter);
+      run.ours (c, sweep, "pclx_exact", exact_fixed, tag);
+      Filter grid;
+      grid.setMethod (Filter::Method::ANGULAR_GRID);
+      run.ours (c, sweep, "pclx_grid_auto", grid, tag);
+      Filter ch;
+      ch.setMethod (Filter::Method::CANDIDATE_HULL);
+      run.ours (c, sweep, "pclx_candidate_hull_autoR", ch, tag);
+    };
     for (double sigma : {0.0, 0.0025, 0.005, 0.01, 0.02})
     {
       SampledCloud s = sampleUniform (in.mesh, n, 7);
       const std::vector<bool> truth = caster.visibleFrom (s.cloud, vp);
       addGaussianNoise (s, float (sigma), 3);
-      const Case c{in.name, toXYZ (s), truth, vp, diameter, 0};
-      const std::string tag = ";noise=" + fmt (sigma);
-      Filter exact;
-      exact.setMethod (Filter::Method::EXACT);
-      run.ours (c, "noise", "pclx_exact_autoR", exact, tag);
-      Filter exact_fixed;
-      exact_fixed.setMethod (Filter::Method::EXACT);
-      exact_fixed.setRadius (1e2 * diameter);
-      run.ours (c, "noise", "pclx_exact_R100d", exact_fixed, tag);
-      Filter grid;
-      grid.setMethod (Filter::Method::ANGULAR_GRID);
-      run.ours (c, "noise", "pclx_grid_auto", grid, tag);
-      Filter ch;
-      ch.setMethod (Filter::Method::CANDIDATE_HULL);
-      run.ours (c, "noise", "pclx_candidate_hull_autoR", ch, tag);
+      stability (Case{in.name, toXYZ (s), truth, vp, diameter, 0}, "noise", ";noise=" + fmt (sigma));
     }
     for (double ratio : {1.0, 0.3, 0.1, 0.03})
     {
       const SampledCloud s = sampleDensityGradient (in.mesh, n, 0, float (ratio), 5);
-      const Case c{in.name, toXYZ (s), caster.visibleFrom (s.cloud, vp), vp, diameter, 0};
-      const std::string tag = ";min_ratio=" + fmt (ratio);
-      Filter exact;
-      exact.setMethod (Filter::Method::EXACT);
-      run.ours (c, "density", "pclx_exact_autoR", exact, tag);
-      Filter exact_fixed;
-      exact_fixed.setMethod (Filter::Method::EXACT);
-      exact_fixed.setRadius (1e2 * diameter);
-      run.ours (c, "density", "pclx_exact_R100d", exact_fixed, tag);
-      Filter grid;
-      grid.setMethod (Filter::Method::ANGULAR_GRID);
-      run.ours (c, "density", "pclx_grid_auto", grid, tag);
-      Filter ch;
-      ch.setMethod (Filter::Method::CANDIDATE_HULL);
-      run.ours (c, "density", "pclx_candidate_hull_autoR", ch, tag);
+      stability (Case{in.name, toXYZ (s), caster.visibleFrom (s.cloud, vp), vp, diameter, 0}, "density",
+                 ";min_ratio=" + fmt (ratio));
     }
   }
   return 0;

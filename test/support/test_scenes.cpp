@@ -1,5 +1,6 @@
 // Tests of the synthetic scene generators: shapes, sampling, degradations.
 #include <pclx/testing/degradation.h>
+#include <pclx/testing/set_scores.h>
 #include <pclx/testing/shapes.h>
 
 #include <gtest/gtest.h>
@@ -145,4 +146,17 @@ TEST (Degradation, ShadowRemovesRequestedFractionAsCompactHoles)
   // Mean spacing of 20k samples on the unit sphere is ~0.025; a 200-point hole has radius ~0.2.
   EXPECT_GT (std::sqrt (worst_gap), 0.1f);
   EXPECT_THROW (applyShadowHoles (s, 1.5f), std::invalid_argument);
+}
+
+TEST (SetScores, PrecisionRecallF1AndJaccard)
+{
+  const std::vector<bool> truth{true, true, false, false, true};
+  const SubsetScore s = scoreSubset (std::vector<int>{0, 2, 4}, truth);  // tp 2, fp 1, fn 1
+  EXPECT_EQ (s.predicted, 3u);
+  EXPECT_DOUBLE_EQ (s.precision, 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ (s.recall, 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ (s.f1, 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ (scoreSubset (std::vector<int>{}, truth).f1, 0.0);
+  EXPECT_DOUBLE_EQ (jaccard (std::vector<int>{3, 1, 2}, std::vector<int>{2, 3, 4}), 0.5);
+  EXPECT_DOUBLE_EQ (jaccard (std::vector<int>{}, std::vector<int>{}), 1.0);
 }

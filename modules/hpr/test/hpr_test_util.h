@@ -1,10 +1,10 @@
 #pragma once
 #include <pclx/testing/mesh_sampling.h>
+#include <pclx/testing/set_scores.h>
 
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
-#include <algorithm>
 #include <vector>
 
 namespace hprtest {
@@ -18,40 +18,18 @@ xyz (const pclx::testing::SampledCloud& s)
   return c;
 }
 
-struct Score
-{
-  double precision = 0, recall = 0, f1 = 0;
-};
+using Score = pclx::testing::SubsetScore;
 
 inline Score
 score (const pcl::Indices& visible, const std::vector<bool>& truth)
 {
-  std::vector<bool> v (truth.size (), false);
-  for (auto i : visible)
-    v[i] = true;
-  double tp = 0, fp = 0, fn = 0;
-  for (std::size_t i = 0; i < truth.size (); ++i)
-  {
-    tp += v[i] && truth[i];
-    fp += v[i] && !truth[i];
-    fn += !v[i] && truth[i];
-  }
-  Score s;
-  s.precision = tp / std::max (1.0, tp + fp);
-  s.recall = tp / std::max (1.0, tp + fn);
-  s.f1 = 2 * s.precision * s.recall / std::max (1e-12, s.precision + s.recall);
-  return s;
+  return pclx::testing::scoreSubset (visible, truth);
 }
 
 inline double
-jaccard (pcl::Indices a, pcl::Indices b)
+jaccard (const pcl::Indices& a, const pcl::Indices& b)
 {
-  std::sort (a.begin (), a.end ());
-  std::sort (b.begin (), b.end ());
-  pcl::Indices i, u;
-  std::set_intersection (a.begin (), a.end (), b.begin (), b.end (), std::back_inserter (i));
-  std::set_union (a.begin (), a.end (), b.begin (), b.end (), std::back_inserter (u));
-  return u.empty () ? 1.0 : double (i.size ()) / double (u.size ());
+  return pclx::testing::jaccard (a, b);
 }
 
 }  // namespace hprtest
