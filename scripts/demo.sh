@@ -17,7 +17,7 @@ echo "== generated scene: a sampled cloud and three Kinect-like depth frames"
   --dir "$OUT/frames" --frames 3 --width 640 --height 480
 
 echo "== hpr_viewer (off-screen) on the cloud and on the frames through pcl::PCDGrabber"
-xvfb-run -a ./build/apps/hpr_viewer/hpr_viewer --input "$OUT/scene.ply" --mesh \
+xvfb-run -a ./build/apps/hpr_viewer/hpr_viewer --input "$OUT/scene.ply" --mesh --view-dir 1 -0.7 0.45 --up 0 0 1 \
   --screenshot "$OUT/hpr_scene.png" --output "$OUT/hpr_scene_visible.pcd"
 xvfb-run -a ./build/apps/hpr_viewer/hpr_viewer --pcd-dir "$OUT/frames" --frames 3 \
   --screenshot "$OUT/hpr_frames.png"

@@ -49,7 +49,7 @@ struct Options
   double gamma = 0, radius = 0, occlusion = 0.05;
   std::size_t k = 0;
   int steps = 0;
-  std::vector<float> viewpoint, view_dir;
+  std::vector<float> viewpoint, view_dir, up;
 };
 
 Filter::Method
@@ -257,6 +257,8 @@ private:
     diag_ = (mx - mn).head<3> ().norm ();
     // Sensor frames (organized, camera looking along +z) are seen from the sensor's side.
     up_ = cloud.isOrganized () ? Eigen::Vector3f (0, -1, 0) : Eigen::Vector3f (0, 1, 0);
+    if (opt_.up.size () == 3)
+      up_ = Eigen::Vector3f (opt_.up[0], opt_.up[1], opt_.up[2]).normalized ();
     if (user_moved_)
       return;
     if (opt_.viewpoint.size () == 3)
@@ -418,6 +420,7 @@ main (int argc, char** argv)
   app.add_option ("--steps", o.steps, "adaptive propagation steps (0: calibrated)")->capture_default_str ();
   app.add_option ("--viewpoint", o.viewpoint, "x y z (default: 2 diagonals from the centre)")->expected (3);
   app.add_option ("--view-dir", o.view_dir, "x y z: direction from the centre to the default viewpoint")->expected (3);
+  app.add_option ("--up", o.up, "x y z: the cameras' up direction (default: +y, -y for sensor frames)")->expected (3);
   app.add_flag ("--mesh", o.mesh, "also show the partial view-dependent triangulation");
   app.add_option ("--screenshot", o.screenshot, "render off-screen, save this PNG and exit");
   app.add_option ("--width", o.width)->capture_default_str ();

@@ -29,13 +29,16 @@ main (int argc, char** argv)
   app.add_option ("--height", height)->capture_default_str ();
   CLI11_PARSE (app, argc, argv);
 
-  TriangleMesh scene = makeTorus (0.3f, 0.1f, 128, 48);
-  scene.append (makeSphere (0.12f, 4, Eigen::Vector3f (0, 0, 0.05f)));
-  TriangleMesh wall = makeBox (Eigen::Vector3f (3.f, 3.f, 0.05f), 4);
-  wall.transform (Eigen::Affine3f (Eigen::Translation3f (0, 0, -0.4f)));
-  scene.append (wall);
+  // A torus around a sphere: self-occlusion and occlusion of one object by another.
+  TriangleMesh object = makeTorus (0.3f, 0.1f, 128, 48);
+  object.append (makeSphere (0.12f, 4, Eigen::Vector3f (0, 0, 0.05f)));
   if (!cloud_file.empty ())
   {
+    // The cloud: the object on a small base plate.
+    TriangleMesh scene = object;
+    TriangleMesh base = makeBox (Eigen::Vector3f (1.f, 1.f, 0.04f), 8);
+    base.transform (Eigen::Affine3f (Eigen::Translation3f (0, 0, -0.2f)));
+    scene.append (base);
     const SampledCloud s = sampleUniform (scene, points, 1);
     pcl::PointCloud<pcl::PointXYZ> xyz;
     for (const auto& p : s.cloud)
@@ -46,6 +49,11 @@ main (int argc, char** argv)
   }
   if (dir.empty ())
     return 0;
+  // The frames: the object in front of a wide wall, as a depth camera sees a room.
+  TriangleMesh scene = object;
+  TriangleMesh wall = makeBox (Eigen::Vector3f (3.f, 3.f, 0.05f), 4);
+  wall.transform (Eigen::Affine3f (Eigen::Translation3f (0, 0, -0.4f)));
+  scene.append (wall);
   const RayCaster caster (scene);
   PinholeIntrinsics K;
   K.width = width;
