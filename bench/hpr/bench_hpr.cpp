@@ -58,15 +58,6 @@ accuracy (const std::vector<int>& visible, const std::vector<bool>& truth)
   return {{"visible", double (s.predicted)}, {"precision", s.precision}, {"recall", s.recall}, {"f1", s.f1}};
 }
 
-pcl::PointCloud<pcl::PointXYZ>::Ptr
-toXYZ (const SampledCloud& s)
-{
-  pcl::PointCloud<pcl::PointXYZ>::Ptr c (new pcl::PointCloud<pcl::PointXYZ>);
-  c->reserve (s.cloud.size ());
-  for (const auto& p : s.cloud)
-    c->push_back (pcl::PointXYZ (p.x, p.y, p.z));
-  return c;
-}
 
 // Viewpoints at `distance` × diagonal from the centre, from several sides.
 std::vector<Eigen::Vector3f>
@@ -191,7 +182,7 @@ main (int argc, char** argv)
       const SampledCloud s = sampleUniform (in.mesh, n, 7);
       for (int v = 0; v < int (vps.size ()); ++v)
       {
-        const Case c{in.name, toXYZ (s), caster.visibleFrom (s.cloud, vps[v]), vps[v], diameter, v};
+        const Case c{in.name, positions (s.cloud), caster.visibleFrom (s.cloud, vps[v]), vps[v], diameter, v};
         // Main sweep: time against F1 for every method.
         for (double r : radii)
         {
@@ -299,12 +290,12 @@ main (int argc, char** argv)
       SampledCloud s = sampleUniform (in.mesh, n, 7);
       const std::vector<bool> truth = caster.visibleFrom (s.cloud, vp);
       addGaussianNoise (s, float (sigma), 3);
-      stability (Case{in.name, toXYZ (s), truth, vp, diameter, 0}, "noise", ";noise=" + fmt (sigma));
+      stability (Case{in.name, positions (s.cloud), truth, vp, diameter, 0}, "noise", ";noise=" + fmt (sigma));
     }
     for (double ratio : {1.0, 0.3, 0.1, 0.03})
     {
       const SampledCloud s = sampleDensityGradient (in.mesh, n, 0, float (ratio), 5);
-      stability (Case{in.name, toXYZ (s), caster.visibleFrom (s.cloud, vp), vp, diameter, 0}, "density",
+      stability (Case{in.name, positions (s.cloud), caster.visibleFrom (s.cloud, vp), vp, diameter, 0}, "density",
                  ";min_ratio=" + fmt (ratio));
     }
   }

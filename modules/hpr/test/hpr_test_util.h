@@ -12,10 +12,7 @@ namespace hprtest {
 inline pcl::PointCloud<pcl::PointXYZ>::Ptr
 xyz (const pclx::testing::SampledCloud& s)
 {
-  pcl::PointCloud<pcl::PointXYZ>::Ptr c (new pcl::PointCloud<pcl::PointXYZ>);
-  for (const auto& p : s.cloud)
-    c->push_back (pcl::PointXYZ (p.x, p.y, p.z));
-  return c;
+  return pclx::testing::positions (s.cloud);
 }
 
 using Score = pclx::testing::SubsetScore;

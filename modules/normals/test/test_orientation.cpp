@@ -12,16 +12,10 @@
 
 using pclx::normals::compareNormals;
 using namespace normals_test;
+using pclx::testing::positions;
 
 namespace {
 
-pcl::PointCloud<pcl::PointXYZ>::Ptr
-positions (const pcl::PointCloud<pcl::PointNormal>& c)
-{
-  pcl::PointCloud<pcl::PointXYZ>::Ptr out (new pcl::PointCloud<pcl::PointXYZ>);
-  pcl::copyPointCloud (c, *out);
-  return out;
-}
 
 // Randomly flips half of the normals so that orientation has something to fix.
 void

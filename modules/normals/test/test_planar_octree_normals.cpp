@@ -19,16 +19,10 @@ using Estimator = pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal>;
 using Method = Estimator::Method;
 using pclx::normals::compareNormals;
 using namespace normals_test;
+using pclx::testing::positions;
 
 namespace {
 
-pcl::PointCloud<pcl::PointXYZ>::Ptr
-positions (const pcl::PointCloud<pcl::PointNormal>& c)
-{
-  pcl::PointCloud<pcl::PointXYZ>::Ptr out (new pcl::PointCloud<pcl::PointXYZ>);
-  pcl::copyPointCloud (c, *out);
-  return out;
-}
 
 pcl::PointCloud<pcl::Normal>
 estimate (const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& cloud, Method m, Estimator* keep = nullptr)

@@ -1,5 +1,7 @@
 #include <pclx/testing/mesh_sampling.h>
 
+#include <pcl/common/io.h>
+
 #include <algorithm>
 #include <numeric>
 #include <random>
@@ -73,6 +75,14 @@ sampleDensityGradient (const TriangleMesh& mesh, std::size_t n, int axis, float 
     s.face.push_back (static_cast<int> (f));
   }
   return s;
+}
+
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+positions (const pcl::PointCloud<pcl::PointNormal>& cloud)
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr out (new pcl::PointCloud<pcl::PointXYZ>);
+  pcl::copyPointCloud (cloud, *out);
+  return out;
 }
 
 SampledCloud

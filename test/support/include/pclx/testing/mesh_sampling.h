@@ -24,6 +24,9 @@ SampledCloud sampleUniform (const TriangleMesh& mesh, std::size_t n, std::uint32
 SampledCloud sampleDensityGradient (const TriangleMesh& mesh, std::size_t n, int axis,
                                     float min_ratio, std::uint32_t seed = 1);
 
+// The positions of a cloud with normals, as the PointXYZ cloud most filters take.
+pcl::PointCloud<pcl::PointXYZ>::Ptr positions (const pcl::PointCloud<pcl::PointNormal>& cloud);
+
 // Vertices of the mesh as a cloud with area-weighted vertex normals.
 SampledCloud meshVertices (const TriangleMesh& mesh);
 
