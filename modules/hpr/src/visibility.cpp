@@ -291,13 +291,14 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
   HPRCalibration cal;
   if (need_cal)
     cal = calibrateHPR (pts, opt);
-  // CANDIDATE_HULL culls with triangles of neighbouring candidates, whose angular size is a
-  // cell diagonal of its grid (k = n/32), not the spacing of visible points: R is set so
-  // that such a triangle hides a point one occlusion depth behind it.
-  // k = 2·n^0.7 was the best culling grid on the bench (bunny and torus scene, 100k–3M
-  // points): finer grids make smaller triangles that cover fewer points, coarser ones sag.
+  // The culling grid of CANDIDATE_HULL and of the exact pre-filter: k = 2·n^0.7 was the best
+  // on the bench (bunny and torus scene, 100k–3M points): finer grids make smaller triangles
+  // that cover fewer points, coarser ones sag. Its triangles span a cell diagonal, not the
+  // spacing of visible points, so CANDIDATE_HULL's own R makes such a triangle hide a point
+  // one occlusion depth behind it.
   const std::size_t k_cull_default = std::size_t (std::max (64.0, 2.0 * std::pow (double (pts.size ()), 0.7)));
-  const std::size_t k_cull = opt.sectors > 0 ? std::min (opt.sectors, kMaxSectors) : k_cull_default;
+  const std::size_t k_cull =
+      opt.sectors > 0 ? std::min ({opt.sectors, kMaxSectors, 64 * pts.size ()}) : k_cull_default;
   double R = opt.radius > 0 ? opt.radius : cal.radius;
   if (opt.radius <= 0 && opt.method == VisibilityMethod::CANDIDATE_HULL)
     R = radiusForSeparation (cal, std::sqrt (2.0 * cal.grid_area / double (k_cull)), opt.occlusion_depth);
@@ -364,7 +365,10 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
     else if (opt.method == VisibilityMethod::ANGULAR_GRID)
     {
       if (opt.fixed_propagation)
+      {
         grid.propagateFixed (steps);
+        res.steps = steps;
+      }
       else
         res.steps = grid.propagateAdaptive (steps);
     }
@@ -435,17 +439,14 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
     break;
   }
   }
-  res.steps = opt.method == VisibilityMethod::ANGULAR_GRID && opt.fixed_propagation ? steps : res.steps;
-  if (opt.method == VisibilityMethod::EXACT)
-    res.sectors = 0;
   res.warning += sub.warning;
 
-  // (Exact duplicates pass the candidate-hull test together, so only the other methods,
-  // which pick one point per hull vertex or sector, need this.)
   if (opt.triangles)
     filterLongEdges (pts, opt.max_edge, sub.triangles);
   if (opt.normals && sub.normals.empty ())
     meshNormals (pts, sub.triangles, sub);
+  // Exact duplicates pass the candidate-hull test together; the other methods pick one
+  // point per hull vertex or sector.
   if (opt.method != VisibilityMethod::CANDIDATE_HULL)
     shareWithDuplicates (pts, sub);
   for (std::size_t i = 0; i < pts.size (); ++i)
