@@ -155,13 +155,20 @@ shareWithDuplicates (const std::vector<Eigen::Vector3f>& pts, VisibilityResult& 
 // Points that are not provably interior to the hull of the flipped cloud: the angular
 // grid's candidates after `steps` of propagation span local tetrahedra (C, a, b, c);
 // points strictly inside one are hidden. The rest holds every hull vertex.
-std::vector<int>
-cullInterior (AngularGrid& grid, const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& centre, double R,
+std::vector<std::uint8_t>
+interiorMask (AngularGrid& grid, const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& centre, double R,
               std::size_t sectors, int steps)
 {
   grid.build (pts, centre, R, sectors);
   grid.propagateAdaptive (steps);
-  const std::vector<std::uint8_t> interior = grid.interiorPoints (pts);
+  return grid.interiorPoints (pts);
+}
+
+std::vector<int>
+cullInterior (AngularGrid& grid, const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& centre, double R,
+              std::size_t sectors, int steps)
+{
+  const std::vector<std::uint8_t> interior = interiorMask (grid, pts, centre, R, sectors, steps);
   std::vector<int> keep;
   keep.reserve (pts.size () / 2);
   for (std::size_t i = 0; i < pts.size (); ++i)
@@ -329,9 +336,7 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
   {
   case VisibilityMethod::CANDIDATE_HULL:
   {
-    grid.build (pts, centre, R, k_cull);
-    grid.propagateAdaptive (opt.steps > 0 ? steps : 4);
-    sub.visible = grid.interiorPoints (pts);
+    sub.visible = interiorMask (grid, pts, centre, R, k_cull, opt.steps > 0 ? steps : 4);
     for (auto& v : sub.visible)
       v = !v;
     res.sectors = grid.sectorCount ();

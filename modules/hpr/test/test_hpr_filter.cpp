@@ -311,7 +311,12 @@ TEST (HPRBadInput, BadRadiusViewpointAndPropagationAreRejected)
   f.setMethod (Filter::Method::ANGULAR_GRID);
   f.setPropagation (Filter::Propagation::FIXED, 4);  // m must be odd
   EXPECT_TRUE (run (f).empty ());
+  f.setPropagation (Filter::Propagation::ADAPTIVE, -2);
+  EXPECT_TRUE (run (f).empty ());
   f.setPropagation (Filter::Propagation::ADAPTIVE, 0);
+  f.setGridOversampling (0.0);
+  EXPECT_TRUE (run (f).empty ());
+  f.setGridOversampling (4.0);
   f.setAutoRadius (-1.0);
   EXPECT_TRUE (run (f).empty ());
   f.setAutoRadius ();
