@@ -119,6 +119,7 @@ main (int argc, char** argv)
   CLI::App app ("Normals with PlanarOctreeNormalEstimation (seed 002) or PCA; PCD/PLY/XYZ in, PCD out");
   std::string input, output, truth_path, demo, method = "merged", orient = "none", color = "error", screenshot;
   int k = 18, max_depth = 10, min_points = 10, orient_k = 10, points = 50000, threads = 0;
+  double across_penalty = 0.5;
   double s_alpha = 0, s_beta = 1.5, border = 0.25, merge_angle = 15, noise = 0, shadow = 0, scale = 0;
   double validation = 0.5;
   int adaptive_max = 144;
@@ -151,6 +152,9 @@ main (int argc, char** argv)
       ->check (CLI::IsMember ({"none", "mst", "viewpoint"}))
       ->capture_default_str ();
   app.add_option ("--orient-k", orient_k, "mst: neighbours in the Riemannian graph")->capture_default_str ();
+  app.add_option ("--across-penalty", across_penalty,
+                  "mst: extra cost of edges along the normals (through thin parts); 0 = Hoppe")
+      ->capture_default_str ();
   app.add_option ("--viewpoint", viewpoint, "viewpoint x y z")->expected (3);
   app.add_option ("--truth", truth_path,
                   "ground-truth normals: a .normals text file (PCPNet) or a PCD/PLY with normal_x.. fields");
@@ -276,6 +280,7 @@ main (int argc, char** argv)
     mst.setInputCloud (cloud);
     mst.setKSearch (orient_k);
     mst.setNumberOfThreads (static_cast<unsigned> (threads));
+    mst.setAcrossSurfacePenalty (across_penalty);
     if (!mst.orient (normals))
       return 1;
     std::printf ("orientation (MST, k=%d): %.3f s, %zu components, %zu flipped\n", orient_k,

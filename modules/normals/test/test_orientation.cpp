@@ -72,6 +72,29 @@ TEST (MSTOrientation, OurMergedNormalsOnATorusPointOutward)
   EXPECT_LT (flippedShare (n, s.cloud), 0.01);
 }
 
+TEST (MSTOrientation, ThinPlateSheetsGetOppositeNormals)
+{
+  // A plate about two sample spacings thick: both sheets get one plane's normals, so
+  // Hoppe's cost 1 − |ni·nj| is 0 across the plate and the tree may cross it, giving both
+  // sheets the same sign. The across-surface penalty (default) sends the tree around.
+  const auto s = pclx::testing::sampleUniform (pclx::testing::makeThinPlate (1.f, 0.02f, 32), 30000, 6);
+  const auto cloud = positions (s.cloud);
+  pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
+  ne.setInputCloud (cloud);
+  pcl::PointCloud<pcl::Normal> estimated;
+  ne.compute (estimated);
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+  mst.setInputCloud (cloud);
+  EXPECT_GT (mst.getAcrossSurfacePenalty (), 0.0);
+  pcl::PointCloud<pcl::Normal> n = estimated;
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_LT (flippedShare (n, s.cloud), 0.01);
+  mst.setAcrossSurfacePenalty (0.0);  // Hoppe's cost alone
+  n = estimated;
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_GT (flippedShare (n, s.cloud), 0.3);
+}
+
 TEST (MSTOrientation, EveryComponentIsRootedAtItsHighestPoint)
 {
   auto a = analyticSphere (3000, 1.f, Eigen::Vector3f (0, 0, 0), 1);

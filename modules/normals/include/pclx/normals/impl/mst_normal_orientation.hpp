@@ -119,6 +119,15 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
         }
         const auto nj = normals[(*vertices)[w]].getNormalVector3fMap ().normalized ();
         float cost = std::max (0.f, 1.f - std::abs (ni.dot (nj)));
+        if (across_penalty_ > 0)
+        {
+          // An edge along the normals (e.g. through a thin plate, from one sheet to the
+          // other) says nothing about the relative sign of two parallel normals: make it
+          // expensive, so the tree goes around along the surface instead.
+          const Eigen::Vector3f e = ((*input_)[(*vertices)[w]].getVector3fMap () -
+                                     (*input_)[(*vertices)[v]].getVector3fMap ()).normalized ();
+          cost += static_cast<float> (across_penalty_) * std::max (std::abs (ni.dot (e)), std::abs (nj.dot (e)));
+        }
         if (tie_break_ > 0 && mean_len > 0)
           cost += static_cast<float> (tie_break_ * len[slot] / mean_len);
         std::uint32_t bits;
