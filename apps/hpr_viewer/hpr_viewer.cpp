@@ -27,7 +27,6 @@
 
 #include <CLI/CLI.hpp>
 
-#include <atomic>
 #include <chrono>
 #include <deque>
 #include <filesystem>
@@ -89,7 +88,6 @@ public:
   {
     std::lock_guard<std::mutex> lock (mutex_);
     pending_.push_back (cloud);
-    ++received_;
   }
 
   int
@@ -385,7 +383,6 @@ private:
   std::mutex mutex_;
   std::deque<Cloud::ConstPtr> pending_;
   Cloud::ConstPtr current_;
-  std::atomic<int> received_{0};
   pcl::visualization::PCLVisualizer::Ptr viewer_;
   int left_ = 0, right_ = 0;
   Eigen::Vector3f viewpoint_ = Eigen::Vector3f::Zero (), centre_ = Eigen::Vector3f::Zero (), up_ = Eigen::Vector3f::UnitY ();
