@@ -1,9 +1,11 @@
 #include <pclx/normals/planar_octree.h>
 
 #include <Eigen/Dense>
+#include <pcl/common/eigen.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <omp.h>
 
@@ -35,13 +37,17 @@ struct Pca
 Pca
 pca (const Eigen::Matrix3d& cov)
 {
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es (cov);
+  // PCL's closed-form 3x3 solver: several times faster than the iterative one, and it
+  // runs once per cell, region and patch.
+  Eigen::Matrix3d vectors;
+  Eigen::Vector3d values;
+  pcl::eigen33 (cov, vectors, values);  // ascending
   Pca r;
-  const Eigen::Vector3d ev = es.eigenvalues ().cwiseMax (0.0);  // ascending
+  const Eigen::Vector3d ev = values.cwiseMax (0.0);
   r.lambda = Eigen::Vector3d (ev (2), ev (1), ev (0));
-  r.v.col (0) = es.eigenvectors ().col (2);
-  r.v.col (1) = es.eigenvectors ().col (1);
-  r.v.col (2) = es.eigenvectors ().col (0);
+  r.v.col (0) = vectors.col (2);
+  r.v.col (1) = vectors.col (1);
+  r.v.col (2) = vectors.col (0);
   return r;
 }
 
@@ -63,6 +69,201 @@ struct UnionFind
     return a;
   }
 };
+
+// Least-squares surface of points given relative to the octree origin: the PCA frame,
+// then (quadric, >= 12 points) the height field h(x, y) over the PCA plane. False when
+// the points span no plane.
+bool
+fitSurface (const std::vector<Eigen::Vector3d>& pts, bool quadric, PlanarRegion& R)
+{
+  const int n = static_cast<int> (pts.size ());
+  if (n < 3)
+    return false;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero ();
+  for (const auto& q : pts)
+    mean += q;
+  mean /= n;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero ();
+  for (const auto& q : pts)
+    cov.noalias () += (q - mean) * (q - mean).transpose ();
+  const Pca p = pca (cov / n);
+  if (spansNoPlane (p.lambda))
+    return false;
+  R.points = n;
+  R.o = mean;
+  R.frame = p.v;
+  if (R.frame.determinant () < 0)
+    R.frame.col (1) = -R.frame.col (1);
+  R.scale = std::max (std::sqrt (p.lambda (0)), 1e-30);
+  const double trace = p.lambda.sum ();
+  R.curvature = trace > 0 ? static_cast<float> (p.lambda (2) / trace) : 0.f;
+  R.c.fill (0.0);
+  R.rms = std::sqrt (p.lambda (2));
+  if (!quadric || n < 12)
+    return true;
+  Eigen::Matrix<double, 6, 6> ata = Eigen::Matrix<double, 6, 6>::Zero ();
+  Eigen::Matrix<double, 6, 1> ath = Eigen::Matrix<double, 6, 1>::Zero ();
+  double hh = 0;
+  for (const auto& q : pts)
+  {
+    const Eigen::Vector3d d = q - R.o;
+    const double x = d.dot (R.frame.col (0)) / R.scale, y = d.dot (R.frame.col (1)) / R.scale,
+                 h = d.dot (R.frame.col (2));
+    Eigen::Matrix<double, 6, 1> a;
+    a << x * x, x * y, y * y, x, y, 1.0;
+    ata.noalias () += a * a.transpose ();
+    ath += a * h;
+    hh += h * h;
+  }
+  // A small ridge on the curvature terms keeps strip-like supports from over-bending.
+  Eigen::Matrix<double, 6, 6> reg = ata;
+  for (int k = 0; k < 3; ++k)
+    reg (k, k) += 1e-3 * n;
+  const Eigen::Matrix<double, 6, 1> c = reg.ldlt ().solve (ath);
+  if (!c.allFinite ())
+    return true;  // keep the plane
+  for (int k = 0; k < 6; ++k)
+    R.c[k] = c (k);
+  const double ss = hh - 2 * c.dot (ath) + c.dot (ata * c);
+  R.rms = std::sqrt (std::max (0.0, ss / n));
+  return true;
+}
+
+// The leaf-plane frame of a patch: its axes are derived from the normal alone (the
+// quadric family is closed under in-plane rotation, so any axes do).
+Eigen::Matrix3d
+frameOfNormal (const Eigen::Vector3f& normal)
+{
+  Eigen::Matrix3d frame;
+  frame.col (2) = normal.cast<double> ().normalized ();
+  frame.col (0) = frame.col (2).unitOrthogonal ();
+  frame.col (1) = frame.col (2).cross (frame.col (0));
+  return frame;
+}
+
+// Patch surface: the support's PCA plane (normal signed like `reference`), then the
+// height field over it with in-plane coordinates relative to the cell centre c over
+// `scale`. The slope's standard error is σ / (√N · smallest in-plane spread), σ from the
+// residual corrected for the fitted parameters.
+bool
+fitPatchSurface (std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c, double scale,
+                 const Eigen::Vector3f& reference, bool quadric, PatchFit& R, bool trim = true)
+{
+  const int n = static_cast<int> (pts.size ());
+  if (n < 3)
+    return false;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero ();
+  for (const auto& q : pts)
+    mean += (q - c).cast<double> ();
+  mean /= n;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero ();
+  for (const auto& q : pts)
+  {
+    const Eigen::Vector3d d = (q - c).cast<double> () - mean;
+    cov.noalias () += d * d.transpose ();
+  }
+  const Pca p = pca (cov / n);
+  if (spansNoPlane (p.lambda))
+    return false;
+  if (trim)
+  {
+    // A few points of another surface (across an edge, in a leaf that still passed the
+    // planarity test) would bend a quadric into a fold: drop points far off the support's
+    // plane compared with the median offset (noise or curvature stay within 4 robust
+    // sigmas) and fit again.
+    const Eigen::Vector3d nrm = p.v.col (2);
+    thread_local std::vector<float> off, sorted;  // one fit per patch: no allocation each time
+    off.resize (n);
+    for (int i = 0; i < n; ++i)
+      off[i] = static_cast<float> (std::abs (((pts[i] - c).cast<double> () - mean).dot (nrm)));
+    sorted = off;
+    std::nth_element (sorted.begin (), sorted.begin () + n / 2, sorted.end ());
+    const float limit = std::max (4.f * 1.4826f * sorted[n / 2], 1e-6f * static_cast<float> (scale));
+    int kept = 0;
+    for (int i = 0; i < n; ++i)
+      if (off[i] <= limit)
+        pts[kept++] = pts[i];
+    if (kept < n)
+    {
+      pts.resize (kept);
+      return fitPatchSurface (pts, c, scale, reference, quadric, R, false);
+    }
+  }
+  Eigen::Vector3f normal = p.v.col (2).cast<float> ();
+  if (normal.dot (reference) < 0)
+    normal = -normal;
+  const Eigen::Matrix3d frame = frameOfNormal (normal);
+  R.support = n;
+  R.o = c;
+  R.n = frame.col (2).cast<float> ();
+  R.scale = static_cast<float> (scale);
+  R.curvature = static_cast<float> (p.lambda (2) / p.lambda.sum ());
+  R.c.fill (0.f);
+  const bool use_quadric = quadric && n >= 12;
+  const int unknowns = use_quadric ? 6 : 3;
+  double ss = 0;
+  if (use_quadric)
+  {
+    // The normal equations hold only 15 distinct moments m[i][j] = Σ x^i y^j (i + j <= 4).
+    double m[5][5] = {};
+    Eigen::Matrix<double, 6, 1> ath = Eigen::Matrix<double, 6, 1>::Zero ();
+    double hh = 0;
+    const Eigen::Matrix3d ft = frame.transpose ();
+    for (const auto& q : pts)
+    {
+      const Eigen::Vector3d l = ft * (q - c).cast<double> ();
+      const double x = l.x () / scale, y = l.y () / scale, h = l.z ();
+      const double x2 = x * x, y2 = y * y, xy = x * y;
+      m[1][0] += x; m[0][1] += y;
+      m[2][0] += x2; m[1][1] += xy; m[0][2] += y2;
+      m[3][0] += x2 * x; m[2][1] += x2 * y; m[1][2] += x * y2; m[0][3] += y2 * y;
+      m[4][0] += x2 * x2; m[3][1] += x2 * xy; m[2][2] += x2 * y2; m[1][3] += xy * y2; m[0][4] += y2 * y2;
+      ath += Eigen::Matrix<double, 6, 1> (x2, xy, y2, x, y, 1.0) * h;
+      hh += h * h;
+    }
+    m[0][0] = n;
+    // Unknowns (x², xy, y², x, y, 1) have exponents (2,0) (1,1) (0,2) (1,0) (0,1) (0,0).
+    static constexpr int ex[6] = {2, 1, 0, 1, 0, 0}, ey[6] = {0, 1, 2, 0, 1, 0};
+    Eigen::Matrix<double, 6, 6> ata;
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < 6; ++j)
+        ata (i, j) = m[ex[i] + ex[j]][ey[i] + ey[j]];
+    Eigen::Matrix<double, 6, 6> reg = ata;
+    for (int i = 0; i < 3; ++i)
+      reg (i, i) += 1e-3 * n;  // a small ridge keeps strip-like supports from over-bending
+    const Eigen::Matrix<double, 6, 1> cv = reg.ldlt ().solve (ath);
+    if (!cv.allFinite ())
+      return false;
+    for (int i = 0; i < 6; ++i)
+      R.c[i] = static_cast<float> (cv (i));
+    ss = hh - 2 * cv.dot (ath) + cv.dot (ata * cv);
+  }
+  else
+  {
+    // The PCA plane itself: through the mean, residual λ3.
+    const Eigen::Vector3d m = frame.transpose () * mean;
+    R.c[5] = static_cast<float> (m.z ());
+    ss = n * p.lambda (2);
+  }
+  R.rms = static_cast<float> (std::sqrt (std::max (0.0, ss / n)));
+  const int dof = std::max (1, n - unknowns);
+  R.slope_sigma = static_cast<float> (R.rms * std::sqrt (static_cast<double> (n) / dof) /
+                                      std::sqrt (n * std::max (p.lambda (1), 1e-300)));
+  return true;
+}
+
+// Normal of a patch's height field at (the projection of) p.
+Eigen::Vector3f
+normalAtFit (const PatchFit& P, const Eigen::Vector3f& p)
+{
+  const Eigen::Vector3f e1 = P.n.unitOrthogonal (), e2 = P.n.cross (e1);
+  const Eigen::Vector3f d = p - P.o;
+  const float x = d.dot (e1) / P.scale, y = d.dot (e2) / P.scale;
+  const auto& c = P.c;
+  const float dx = (2 * c[0] * x + c[1] * y + c[3]) / P.scale;
+  const float dy = (c[1] * x + 2 * c[2] * y + c[4]) / P.scale;
+  return (P.n - dx * e1 - dy * e2).normalized ();
+}
 
 }  // namespace
 
@@ -110,6 +311,25 @@ PlanarOctree::analyseNode (OctreeNode& node, const PlanarOctreeParams& params) c
   }
 }
 
+void
+PlanarOctree::partitionOctants (int begin, int end, const Eigen::Vector3f& c, std::array<int, 8>& cnt,
+                                std::vector<int>& buffer, std::vector<unsigned char>& code)
+{
+  const auto& points = *points_;
+  const int len = end - begin;
+  code.resize (len);
+  buffer.resize (len);
+  cnt.fill (0);
+  for (int i = 0; i < len; ++i)
+    ++cnt[code[i] = static_cast<unsigned char> (octant (points[order_[begin + i]], c))];
+  std::array<int, 8> offset{};
+  for (int o = 1; o < 8; ++o)
+    offset[o] = offset[o - 1] + cnt[o - 1];
+  for (int i = 0; i < len; ++i)
+    buffer[offset[code[i]]++] = order_[begin + i];
+  std::copy (buffer.begin (), buffer.begin () + len, order_.begin () + begin);
+}
+
 bool
 PlanarOctree::build (const std::vector<Eigen::Vector3f>& points, const PlanarOctreeParams& params)
 {
@@ -117,6 +337,10 @@ PlanarOctree::build (const std::vector<Eigen::Vector3f>& points, const PlanarOct
   threads_ = params.threads;
   nodes_.clear ();
   regions_.clear ();
+  patch_cells_.clear ();
+  patches_.clear ();
+  patch_of_point_.clear ();
+  leaf_patch_root_.clear ();
   const int n = static_cast<int> (points.size ());
   order_.resize (n);
   std::iota (order_.begin (), order_.end (), 0);
@@ -163,18 +387,7 @@ PlanarOctree::build (const std::vector<Eigen::Vector3f>& points, const PlanarOct
             (coincident && node.size () >= 3))
           continue;
         split[f] = 1;
-        const int len = node.size ();
-        code.resize (len);
-        buffer.resize (len);
-        auto& cnt = counts[f];
-        for (int i = 0; i < len; ++i)
-          ++cnt[code[i] = static_cast<unsigned char> (octant (points[order_[node.begin + i]], node.center))];
-        std::array<int, 8> offset{};
-        for (int o = 1; o < 8; ++o)
-          offset[o] = offset[o - 1] + cnt[o - 1];
-        for (int i = 0; i < len; ++i)
-          buffer[offset[code[i]]++] = order_[node.begin + i];
-        std::copy (buffer.begin (), buffer.begin () + len, order_.begin () + node.begin);
+        partitionOctants (node.begin, node.end, node.center, counts[f], buffer, code);
       }
     }
     std::vector<int> next;
@@ -363,67 +576,333 @@ PlanarOctree::fitRegions (bool quadric)
     if (nodes_[id].isLeaf () && nodes_[id].region >= 0)
       leaves[nodes_[id].region].push_back (id);
   const auto& pts = *points_;
-#pragma omp parallel for schedule(dynamic, 4) num_threads(threadCount (threads_))
-  for (int r = 0; r < nr; ++r)
+#pragma omp parallel num_threads(threadCount (threads_))
   {
-    PlanarRegion& R = regions_[r];
-    R.o = R.sum / R.points;
-    const Pca p = pca (R.sum_sq / R.points - R.o * R.o.transpose ());
-    R.frame = p.v;
-    if (R.frame.determinant () < 0)
-      R.frame.col (1) = -R.frame.col (1);
-    R.scale = std::max (std::sqrt (p.lambda (0)), 1e-30);
-    const double trace = p.lambda.sum ();
-    R.curvature = trace > 0 ? static_cast<float> (p.lambda (2) / trace) : 0.f;
-    R.c.fill (0.0);
-    R.rms = std::sqrt (p.lambda (2));
-    if (!quadric || R.points < 12)
-      continue;
-    // Least-squares height field over the region's plane (seed ch. 7: polynomial fit).
-    Eigen::Matrix<double, 6, 6> ata = Eigen::Matrix<double, 6, 6>::Zero ();
-    Eigen::Matrix<double, 6, 1> ath = Eigen::Matrix<double, 6, 1>::Zero ();
-    double hh = 0;
-    for (int leaf : leaves[r])
-      for (int i = nodes_[leaf].begin; i < nodes_[leaf].end; ++i)
-      {
-        const Eigen::Vector3d d = pts[order_[i]].cast<double> () - origin_ - R.o;
-        const double x = d.dot (R.frame.col (0)) / R.scale, y = d.dot (R.frame.col (1)) / R.scale,
-                     h = d.dot (R.frame.col (2));
-        Eigen::Matrix<double, 6, 1> a;
-        a << x * x, x * y, y * y, x, y, 1.0;
-        ata.noalias () += a * a.transpose ();
-        ath += a * h;
-        hh += h * h;
-      }
-    // A small ridge on the curvature terms keeps strip-like regions from over-bending.
-    Eigen::Matrix<double, 6, 6> reg = ata;
-    for (int k = 0; k < 3; ++k)
-      reg (k, k) += 1e-3 * R.points;
-    const Eigen::Matrix<double, 6, 1> c = reg.ldlt ().solve (ath);
-    if (!c.allFinite ())
-      continue;
-    for (int k = 0; k < 6; ++k)
-      R.c[k] = c (k);
-    const double ss = hh - 2 * c.dot (ath) + c.dot (ata * c);
-    R.rms = std::sqrt (std::max (0.0, ss / R.points));
+    std::vector<Eigen::Vector3d> support;
+#pragma omp for schedule(dynamic, 4)
+    for (int r = 0; r < nr; ++r)
+    {
+      support.clear ();
+      for (int leaf : leaves[r])
+        for (int i = nodes_[leaf].begin; i < nodes_[leaf].end; ++i)
+          support.push_back (pts[order_[i]].cast<double> () - origin_);
+      fitSurface (support, quadric, regions_[r]);  // a region's leaves always span a plane
+    }
   }
 }
 
-Eigen::Vector2d
-PlanarOctree::local (int r, const Eigen::Vector3f& p, double* h) const
+void
+PlanarOctree::leavesInBox (const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, std::vector<int>& out) const
 {
-  const PlanarRegion& R = regions_[r];
+  out.clear ();
+  int stack[8 * 22];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0)
+  {
+    const OctreeNode& node = nodes_[stack[--top]];
+    const Eigen::Vector3f h = Eigen::Vector3f::Constant (node.half);
+    if (((node.center - h).array () > hi.array ()).any () || ((node.center + h).array () < lo.array ()).any ())
+      continue;
+    if (node.isLeaf ())
+      out.push_back (static_cast<int> (&node - nodes_.data ()));
+    else
+      for (int o = 0; o < 8; ++o)
+        stack[top++] = node.first_child + o;
+  }
+}
+
+void
+PlanarOctree::patchPointsInBox (int cell, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
+                                std::vector<Eigen::Vector3f>& out) const
+{
+  const auto& pts = *points_;
+  int stack[8 * 22];
+  int top = 0;
+  stack[top++] = cell;
+  while (top > 0)
+  {
+    const PatchCell& C = patch_cells_[stack[--top]];
+    const Eigen::Vector3f h = Eigen::Vector3f::Constant (C.half);
+    if (((C.center - h).array () > hi.array ()).any () || ((C.center + h).array () < lo.array ()).any ())
+      continue;
+    if (C.first_child >= 0)
+    {
+      for (int o = 0; o < 8; ++o)
+        stack[top++] = C.first_child + o;
+      continue;
+    }
+    for (int i = C.begin; i < C.end; ++i)
+    {
+      const Eigen::Vector3f& q = pts[order_[i]];
+      if ((q.array () >= lo.array ()).all () && (q.array () <= hi.array ()).all ())
+        out.push_back (q);
+    }
+  }
+}
+
+void
+PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, int scales, int support_points)
+{
+  patch_cells_.clear ();
+  patches_.clear ();
+  const int n = static_cast<int> (order_.size ());
+  patch_of_point_.assign (n, -1);
+  leaf_patch_root_.assign (nodes_.size (), -1);
+  std::vector<int> leaves;
+  for (int id = 0; id < static_cast<int> (nodes_.size ()); ++id)
+    if (nodes_[id].isLeaf () && nodes_[id].planar)
+      leaves.push_back (id);
+  const int nl = static_cast<int> (leaves.size ());
+  const int threads = threadCount (threads_);
+  max_points = std::max (max_points, 1);
+
+  // Cut every planar leaf into a tree of cells of <= max_points (octants again; the
+  // leaves' ranges are disjoint). Children ids are local to the leaf's tree until merged.
+  std::vector<std::vector<PatchCell>> trees (nl);
+#pragma omp parallel num_threads(threads)
+  {
+    std::vector<int> buffer;
+    std::vector<unsigned char> code;
+#pragma omp for schedule(dynamic, 8)
+    for (int l = 0; l < nl; ++l)
+    {
+      const OctreeNode& L = nodes_[leaves[l]];
+      auto& tree = trees[l];
+      tree.reserve (1 + 16 * static_cast<std::size_t> (L.size ()) / max_points);
+      tree.assign (1, PatchCell{L.center, L.half, L.begin, L.end, leaves[l], -1, -1});
+      for (std::size_t t = 0; t < tree.size (); ++t)  // breadth first: the vector grows
+      {
+        const PatchCell c = tree[t];
+        if (c.end - c.begin <= max_points || c.half < 1e-6f * nodes_[0].half)
+          continue;
+        std::array<int, 8> cnt;
+        partitionOctants (c.begin, c.end, c.center, cnt, buffer, code);
+        tree[t].first_child = static_cast<int> (tree.size ());
+        int begin = c.begin;
+        const float q = c.half / 2;
+        for (int o = 0; o < 8; ++o)
+        {
+          const Eigen::Vector3f centre = c.center + Eigen::Vector3f ((o & 1) ? q : -q, (o & 2) ? q : -q, (o & 4) ? q : -q);
+          tree.push_back (PatchCell{centre, q, begin, begin + cnt[o], c.leaf, -1, -1});
+          begin += cnt[o];
+        }
+      }
+    }
+  }
+  std::size_t total = 0;
+  for (const auto& tree : trees)
+    total += tree.size ();
+  patch_cells_.reserve (total);
+  for (int l = 0; l < nl; ++l)
+  {
+    const int offset = static_cast<int> (patch_cells_.size ());
+    leaf_patch_root_[leaves[l]] = offset;
+    for (PatchCell c : trees[l])
+    {
+      if (c.first_child >= 0)
+        c.first_child += offset;
+      patch_cells_.push_back (c);
+    }
+    std::vector<PatchCell> ().swap (trees[l]);
+  }
+  const int nc = static_cast<int> (patch_cells_.size ());
+  patches_.reserve (std::count_if (patch_cells_.begin (), patch_cells_.end (),
+                                   [] (const PatchCell& C) { return C.first_child < 0 && C.end > C.begin; }));
+  for (int c = 0; c < nc; ++c)
+  {
+    PatchCell& C = patch_cells_[c];
+    if (C.first_child >= 0 || C.end == C.begin)
+      continue;
+    C.fit = static_cast<int> (patches_.size ());
+    patches_.emplace_back ();
+    patches_.back ().leaf = C.leaf;
+    for (int i = C.begin; i < C.end; ++i)
+      patch_of_point_[order_[i]] = C.fit;
+  }
+
+  // Fit each patch over a box around its points' centroid that holds about support_points
+  // points at the leaf's density (doubling while the slope is uncertain), taking the
+  // points of the same leaf or of leaves merged into the same region. The box is sized by
+  // density, not by the cell: a cell that only grazes the surface can be large. Work goes
+  // leaf by leaf: the candidate points of the first box size are gathered once per leaf
+  // and bucketed on a grid over the leaf's plane (a leaf is flat), so each patch reads
+  // only the buckets under its box; larger boxes walk the cell trees.
+  scales = std::max (scales, 1);
+  support_points = std::max (support_points, 3);
+#pragma omp parallel num_threads(threads)
+  {
+    std::vector<int> near, candidates, cells, bucket_start, bucket_points, bucket_of;
+    std::vector<Eigen::Vector3f> support, local;
+#pragma omp for schedule(dynamic, 4)
+    for (int l = 0; l < nl; ++l)
+    {
+      const int leaf = leaves[l];
+      const OctreeNode& L = nodes_[leaf];
+      cells.clear ();
+      const int root = leaf_patch_root_[leaf];
+      const int last = l + 1 < nl ? leaf_patch_root_[leaves[l + 1]] : nc;
+      for (int c = root; c < last; ++c)
+        if (patch_cells_[c].fit >= 0)
+          cells.push_back (c);
+      // Area per point from the leaf's spread (a uniform rectangle has variance w² / 12).
+      const double area = 12.0 * std::sqrt (L.eigenvalues (0) * L.eigenvalues (1));
+      // Radius of the disc that holds support_points points (a kNN-like ball; the box
+      // queries below only bound it).
+      const float half0 = std::max (static_cast<float> (std::sqrt (support_points * area / (M_PI * L.size ()))),
+                                    1e-6f * nodes_[0].half);
+      const float reach = half0 * static_cast<float> (1 << (scales - 1));
+      const Eigen::Vector3f margin = Eigen::Vector3f::Constant (reach + L.half);
+      leavesInBox (L.center - margin, L.center + margin, near);
+      candidates.clear ();
+      for (int other : near)
+        if (leaf_patch_root_[other] >= 0 && (other == leaf || (L.region >= 0 && nodes_[other].region == L.region)))
+          candidates.push_back (other);
+      // The leaf's plane (it passed Algorithm 1) carries the bucket grid.
+      const Eigen::Matrix3d frame = frameOfNormal (L.normal);
+      const Eigen::Vector3f e1 = frame.col (0).cast<float> (), e2 = frame.col (1).cast<float> ();
+
+      // Scale-0 candidates on a D × D grid of bucket edge ≈ half0 over the plane.
+      const Eigen::Vector3f box0 = Eigen::Vector3f::Constant (L.half + half0);
+      local.clear ();
+      for (int other : candidates)
+        patchPointsInBox (leaf_patch_root_[other], L.center - box0, L.center + box0, local);
+      const float span = 2.f * (L.half + half0) * std::sqrt (2.f);  // in-plane extent of the box, any tilt
+      const int D = std::max (1, std::min (256, static_cast<int> (std::ceil (span / half0))));
+      const float g = span / D;
+      auto bucket = [&] (float t) { return std::min (D - 1, std::max (0, static_cast<int> ((t + 0.5f * span) / g))); };
+      bucket_start.assign (D * D + 1, 0);
+      bucket_of.resize (local.size ());
+      for (std::size_t i = 0; i < local.size (); ++i)
+      {
+        const Eigen::Vector3f d = local[i] - L.center;
+        bucket_of[i] = bucket (d.dot (e1)) * D + bucket (d.dot (e2));
+        ++bucket_start[bucket_of[i] + 1];
+      }
+      std::partial_sum (bucket_start.begin (), bucket_start.end (), bucket_start.begin ());
+      bucket_points.resize (local.size ());
+      near.assign (bucket_start.begin (), bucket_start.end () - 1);  // fill positions
+      for (std::size_t i = 0; i < local.size (); ++i)
+        bucket_points[near[bucket_of[i]]++] = static_cast<int> (i);
+      // In-plane half extent of an axis-aligned box of half edge 1.
+      const float s1 = e1.cwiseAbs ().sum (), s2 = e2.cwiseAbs ().sum ();
+
+      for (int c : cells)
+      {
+        const PatchCell& C = patch_cells_[c];
+        PatchFit& P = patches_[C.fit];
+        Eigen::Vector3f centre = Eigen::Vector3f::Zero ();
+        for (int i = C.begin; i < C.end; ++i)
+          centre += (*points_)[order_[i]];
+        centre /= static_cast<float> (C.end - C.begin);
+        Eigen::Vector3f previous = Eigen::Vector3f::Zero ();
+        float previous_sigma = 0;
+        for (int s = 0; s < scales && !P.valid; ++s)
+        {
+          const float half = half0 * static_cast<float> (1 << s);
+          const Eigen::Vector3f lo = centre - Eigen::Vector3f::Constant (half),
+                                hi = centre + Eigen::Vector3f::Constant (half);
+          support.clear ();
+          if (s == 0)
+          {
+            const Eigen::Vector3f d = centre - L.center;
+            const float u = d.dot (e1), v = d.dot (e2);
+            const int u0 = bucket (u - half * s1), u1 = bucket (u + half * s1);
+            const int v0 = bucket (v - half * s2), v1 = bucket (v + half * s2);
+            for (int bu = u0; bu <= u1; ++bu)
+              for (int b = bu * D + v0; b <= bu * D + v1; ++b)
+                for (int k = bucket_start[b]; k < bucket_start[b + 1]; ++k)
+                {
+                  const Eigen::Vector3f& q = local[bucket_points[k]];
+                  if ((q - centre).squaredNorm () <= half * half)
+                    support.push_back (q);
+                }
+          }
+          else
+            for (int other : candidates)
+            {
+              const OctreeNode& O = nodes_[other];
+              if (((O.center.array () - O.half) > hi.array ()).any () || ((O.center.array () + O.half) < lo.array ()).any ())
+                continue;
+              patchPointsInBox (leaf_patch_root_[other], lo, hi, support);
+            }
+          if (s > 0)  // the ball inside the box
+            support.erase (std::remove_if (support.begin (), support.end (),
+                                           [&] (const Eigen::Vector3f& q) { return (q - centre).squaredNorm () > half * half; }),
+                           support.end ());
+          PatchFit trial = P;
+          if (!fitPatchSurface (support, centre, half, L.normal, quadric, trial))
+            continue;
+          // Lepski's rule: a larger support is only taken while its normal agrees with the
+          // smaller one's within their uncertainties; otherwise the larger box sees other
+          // shape (an edge, a fold), not less noise, and the patch stays unfitted.
+          const Eigen::Vector3f normal = normalAtFit (trial, centre);
+          if (s > 0 && previous.squaredNorm () > 0 &&
+              std::acos (std::min (1.f, std::abs (normal.dot (previous)))) > 2.f * (previous_sigma + trial.slope_sigma))
+            break;
+          P = trial;
+          P.valid = P.slope_sigma <= max_slope_sigma;
+          previous = normal;
+          previous_sigma = P.slope_sigma;
+        }
+      }
+    }
+  }
+}
+
+int
+PlanarOctree::locatePatch (const Eigen::Vector3f& p) const
+{
+  const int leaf = locate (p);
+  if (leaf < 0 || leaf_patch_root_.empty () || leaf_patch_root_[leaf] < 0)
+    return -1;
+  int c = leaf_patch_root_[leaf], parent = -1;
+  while (patch_cells_[c].first_child >= 0)
+  {
+    parent = c;
+    c = patch_cells_[c].first_child + octant (p, patch_cells_[c].center);
+  }
+  auto validFit = [&] (int cell) {
+    const int f = patch_cells_[cell].fit;
+    return f >= 0 && patches_[f].valid ? f : -1;
+  };
+  if (validFit (c) >= 0 || parent < 0)
+    return validFit (c);
+  // p fell into an empty (or unfitted) cell: the nearest fitted sibling.
+  int best = -1;
+  float best_d = std::numeric_limits<float>::max ();
+  for (int s = patch_cells_[parent].first_child; s < patch_cells_[parent].first_child + 8; ++s)
+    if (validFit (s) >= 0)
+    {
+      const float d = (p - patch_cells_[s].center).squaredNorm ();
+      if (d < best_d)
+      {
+        best_d = d;
+        best = validFit (s);
+      }
+    }
+  return best;
+}
+
+Eigen::Vector3f
+PlanarOctree::patchNormalAt (int fit, const Eigen::Vector3f& p) const
+{
+  return normalAtFit (patches_[fit], p);
+}
+
+Eigen::Vector2d
+PlanarOctree::local (const PlanarRegion& R, const Eigen::Vector3f& p, double* h) const
+{
   const Eigen::Vector3d d = p.cast<double> () - origin_ - R.o;
   *h = d.dot (R.frame.col (2));
   return Eigen::Vector2d (d.dot (R.frame.col (0)) / R.scale, d.dot (R.frame.col (1)) / R.scale);
 }
 
 Eigen::Vector3f
-PlanarOctree::regionNormalAt (int r, const Eigen::Vector3f& p) const
+PlanarOctree::normalAt (const PlanarRegion& R, const Eigen::Vector3f& p) const
 {
-  const PlanarRegion& R = regions_[r];
   double h;
-  const Eigen::Vector2d xy = local (r, p, &h);
+  const Eigen::Vector2d xy = local (R, p, &h);
   const auto& c = R.c;
   const double dx = (2 * c[0] * xy.x () + c[1] * xy.y () + c[3]) / R.scale;
   const double dy = (c[1] * xy.x () + 2 * c[2] * xy.y () + c[4]) / R.scale;
@@ -431,11 +910,11 @@ PlanarOctree::regionNormalAt (int r, const Eigen::Vector3f& p) const
 }
 
 double
-PlanarOctree::regionResidual (int r, const Eigen::Vector3f& p) const
+PlanarOctree::residual (const PlanarRegion& R, const Eigen::Vector3f& p) const
 {
-  const auto& c = regions_[r].c;
+  const auto& c = R.c;
   double h;
-  const Eigen::Vector2d v = local (r, p, &h);
+  const Eigen::Vector2d v = local (R, p, &h);
   const double x = v.x (), y = v.y ();
   return std::abs (h - (c[0] * x * x + c[1] * x * y + c[2] * y * y + c[3] * x + c[4] * y + c[5]));
 }

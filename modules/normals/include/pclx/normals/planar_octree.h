@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace pclx {
@@ -45,8 +46,9 @@ struct OctreeNode
   bool isLeaf () const { return first_child < 0; }
 };
 
-// A set of merged coplanar leaves with its surface fit in a local frame
-// (origin o, in-plane axes e1 e2, normal n): h = c0 x² + c1 xy + c2 y² + c3 x + c4 y + c5.
+// A set of merged coplanar leaves (or a patch, see PlanarOctree::fitPatches) with its
+// surface fit in a local frame (origin o, in-plane axes e1 e2, normal n):
+// h = c0 x² + c1 xy + c2 y² + c3 x + c4 y + c5.
 struct PlanarRegion
 {
   int points = 0;
@@ -60,6 +62,36 @@ struct PlanarRegion
   std::array<double, 6> c{}; // quadric coefficients (zero: plane)
   double rms = 0;            // RMS residual of the fit
   float curvature = 0;
+};
+
+// The fit of one patch cell (PlanarOctree::fitPatches), kept small: there are about
+// n / max_points of them. Height field h = c0 x² + c1 xy + c2 y² + c3 x + c4 y + c5 over
+// the plane through o with normal n (in-plane axes n.unitOrthogonal () and n × that),
+// x and y divided by scale.
+struct PatchFit
+{
+  Eigen::Vector3f o = Eigen::Vector3f::Zero ();  // absolute position
+  Eigen::Vector3f n = Eigen::Vector3f::UnitZ ();
+  float scale = 1;
+  std::array<float, 6> c{};
+  float rms = 0;
+  float curvature = 0;
+  // Standard error of the fitted slope (radians): σ / (√N · smallest in-plane spread).
+  float slope_sigma = 0;
+  int support = 0;   // points in the support
+  int leaf = -1;
+  bool valid = false;  // slope_sigma within the limit
+};
+
+// A cell of at most PlanarOctree::fitPatches' max_points points inside a planar leaf.
+struct PatchCell
+{
+  Eigen::Vector3f center = Eigen::Vector3f::Zero ();
+  float half = 0;
+  int begin = 0, end = 0;  // range in PlanarOctree::order ()
+  int leaf = -1;
+  int first_child = -1;    // 8 consecutive sub-cells; -1: a patch
+  int fit = -1;            // its PatchFit (patches with points)
 };
 
 class PlanarOctree
@@ -83,8 +115,25 @@ public:
   // Surface fit of every region (call after mergeCoplanarLeaves).
   void fitRegions (bool quadric);
   // Normal of region r's fitted surface at (the projection of) p, and p's distance to it.
-  Eigen::Vector3f regionNormalAt (int r, const Eigen::Vector3f& p) const;
-  double regionResidual (int r, const Eigen::Vector3f& p) const;
+  Eigen::Vector3f regionNormalAt (int r, const Eigen::Vector3f& p) const { return normalAt (regions_[r], p); }
+  double regionResidual (int r, const Eigen::Vector3f& p) const { return residual (regions_[r], p); }
+
+  // Patches (not in the seed): every planar leaf is cut into cells of at most max_points
+  // points; each cell gets a quadric fitted over a box around its points that holds about
+  // support_points points at the leaf's density, restricted to the same leaf or merged
+  // region (the same sheet of surface). When the fit's slope is more uncertain than
+  // max_slope_sigma (radians: noise), the box doubles, up to `scales` sizes, so a patch
+  // spends no more support than the noise needs; a cell that never gets there is marked
+  // invalid. A point's normal is the gradient of its cell's fit: a kNN-sized support
+  // without a kNN search, and no leaf border inside it (the error the seed found in
+  // Algorithm 2). Call after mergeCoplanarLeaves.
+  void fitPatches (int max_points, bool quadric, double max_slope_sigma, int scales, int support_points);
+  const std::vector<PatchCell>& patchCells () const { return patch_cells_; }
+  const std::vector<PatchFit>& patches () const { return patches_; }
+  const std::vector<int>& patchOfPoint () const { return patch_of_point_; }  // PatchFit id, -1: none
+  // Valid PatchFit of the patch containing p (or of its nearest sibling), -1 if none.
+  int locatePatch (const Eigen::Vector3f& p) const;
+  Eigen::Vector3f patchNormalAt (int fit, const Eigen::Vector3f& p) const;
 
   const std::vector<OctreeNode>& nodes () const { return nodes_; }
   const std::vector<PlanarRegion>& regions () const { return regions_; }
@@ -96,7 +145,17 @@ public:
 
 private:
   void analyseNode (OctreeNode& node, const PlanarOctreeParams& params) const;
-  Eigen::Vector2d local (int r, const Eigen::Vector3f& p, double* h) const;
+  // Stable split of order_[begin, end) into the 8 octants around c; counts per octant.
+  void partitionOctants (int begin, int end, const Eigen::Vector3f& c, std::array<int, 8>& counts,
+                         std::vector<int>& buffer, std::vector<unsigned char>& code);
+  Eigen::Vector2d local (const PlanarRegion& R, const Eigen::Vector3f& p, double* h) const;
+  Eigen::Vector3f normalAt (const PlanarRegion& R, const Eigen::Vector3f& p) const;
+  double residual (const PlanarRegion& R, const Eigen::Vector3f& p) const;
+  // Leaves whose cube overlaps the box [lo, hi].
+  void leavesInBox (const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, std::vector<int>& out) const;
+  // Appends the points (relative to origin_) of the patch tree under `cell` that lie in [lo, hi].
+  void patchPointsInBox (int cell, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
+                         std::vector<Eigen::Vector3f>& out) const;
 
   const std::vector<Eigen::Vector3f>* points_ = nullptr;
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero ();
@@ -104,6 +163,10 @@ private:
   std::vector<PlanarRegion> regions_;
   std::vector<int> order_;
   std::vector<int> leaf_of_point_;
+  std::vector<PatchCell> patch_cells_;
+  std::vector<PatchFit> patches_;
+  std::vector<int> patch_of_point_;
+  std::vector<int> leaf_patch_root_;  // per node: root cell of its patch tree, -1 if none
   int threads_ = 0;
 };
 

@@ -2,19 +2,82 @@
 #include <pclx/normals/mst_normal_orientation.h>
 
 #include <pcl/common/point_tests.h>
-#include <pcl/search/kdtree.h>
 
 #include <boost/pending/disjoint_sets.hpp>
+#include <boost/sort/sort.hpp>
+#include <flann/algorithms/dist.h>
+#include <flann/algorithms/kdtree_single_index.h>
+#include <flann/util/result_set.h>
 
 #include <algorithm>
-#include <cstring>
-#include <parallel/algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <new>
 #include <numeric>
 #include <omp.h>
+#include <thread>
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
 
 namespace pcl {
+namespace mst_detail {
+
+// Large buffers go on transparent huge pages: first-touch page faults, not the
+// algorithm, took half of the time at 1M points (4 KiB faults cost ~3 ms per MB on our
+// VMs, ~30x more than with 2 MiB pages).
+template <typename T>
+struct HugePageAllocator
+{
+  using value_type = T;
+  HugePageAllocator () = default;
+  template <typename U>
+  HugePageAllocator (const HugePageAllocator<U>&) {}
+  T*
+  allocate (std::size_t n)
+  {
+    constexpr std::size_t kHuge = std::size_t (2) << 20;
+    std::size_t bytes = n * sizeof (T);
+    void* p = nullptr;
+    if (bytes >= 2 * kHuge)
+    {
+      bytes = (bytes + kHuge - 1) / kHuge * kHuge;
+      p = std::aligned_alloc (kHuge, bytes);
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+      if (p)
+        madvise (p, bytes, MADV_HUGEPAGE);
+#endif
+    }
+    else
+      p = std::malloc (bytes > 0 ? bytes : 1);
+    if (!p)
+      throw std::bad_alloc ();
+    return static_cast<T*> (p);
+  }
+  void deallocate (T* p, std::size_t) { std::free (p); }
+  template <typename U>
+  bool operator== (const HugePageAllocator<U>&) const { return true; }
+  template <typename U>
+  bool operator!= (const HugePageAllocator<U>&) const { return false; }
+};
+template <typename T>
+using Buffer = std::vector<T, HugePageAllocator<T>>;
+
+// 10 bits of x spread to every third bit (Morton / Z-order interleaving).
+inline std::uint32_t
+spreadBits (std::uint32_t x)
+{
+  x &= 0x3ff;
+  x = (x | x << 16) & 0x30000ff;
+  x = (x | x << 8) & 0x300f00f;
+  x = (x | x << 4) & 0x30c30c3;
+  x = (x | x << 2) & 0x9249249;
+  return x;
+}
+
+}  // namespace mst_detail
 
 template <typename PointT, typename NormalT> bool
 MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
@@ -42,136 +105,238 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
     const auto n = normals[i].getNormalVector3fMap ();
     return isFinite ((*input_)[i]) && n.allFinite () && n.squaredNorm () > 0;
   };
-  pcl::IndicesPtr vertices (new pcl::Indices);
-  std::vector<std::uint32_t> vertex_of (input_->size (), UINT32_MAX);
+  mst_detail::Buffer<std::uint32_t> input_ids;
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant (std::numeric_limits<float>::max ()), hi = -lo;
   for (std::size_t i = 0; i < input_->size (); ++i)
     if (valid (i))
     {
-      vertex_of[i] = static_cast<std::uint32_t> (vertices->size ());
-      vertices->push_back (static_cast<pcl::index_t> (i));
+      input_ids.push_back (static_cast<std::uint32_t> (i));
+      lo = lo.cwiseMin ((*input_)[i].getVector3fMap ());
+      hi = hi.cwiseMax ((*input_)[i].getVector3fMap ());
     }
-  const std::size_t nv = vertices->size ();
+  const std::size_t nv = input_ids.size ();
   if (nv == 0)
     return true;
-
-  if (nv * static_cast<std::size_t> (k_) >= UINT32_MAX)
+  // Row width: the query returns the point itself too.
+  const std::size_t k = static_cast<std::size_t> (k_);
+  const std::size_t row = std::min (k + 1, nv);
+  if (nv * row >= UINT32_MAX)
   {
     PCL_ERROR ("[pcl::MSTNormalOrientation::orient] %zu points x k = %d exceed the 32-bit edge ids\n", nv, k_);
     return false;
   }
-  SearchPtr search = search_;
-  if (!search)
-    search.reset (new search::KdTree<PointT> (false));
-  search->setInputCloud (input_, vertices);
-
-  // Riemannian graph: each vertex to its k nearest valid neighbours, cost 1 − |ni·nj|.
-  using Edge = std::pair<std::uint32_t, std::uint32_t>;
   const int threads = threads_ > 0 ? static_cast<int> (threads_) : omp_get_max_threads ();
-  const std::size_t k = static_cast<std::size_t> (k_);
-  std::vector<std::uint32_t> nbr (nv * k, UINT32_MAX);  // row v: v's neighbours (vertex ids)
-  std::vector<float> len (nv * k, 0.f);
-  double len_sum = 0;
-  std::size_t len_count = 0;
-#pragma omp parallel num_threads(threads) reduction(+ : len_sum, len_count)
+
+  // Vertices in Morton (Z) order, so that kNN queries, edge costs, union-find and the
+  // traversal touch nearby memory (random-order input made every stage cache-bound).
   {
-    pcl::Indices nn;
-    std::vector<float> dist;
-#pragma omp for schedule(dynamic, 1024)
-    for (std::ptrdiff_t v = 0; v < static_cast<std::ptrdiff_t> (nv); ++v)
+    const float extent = (hi - lo).maxCoeff ();
+    const float scale = extent > 0 ? 1023.f / extent : 0.f;
+    mst_detail::Buffer<std::uint64_t> keys (nv);
+#pragma omp parallel for num_threads(threads)
+    for (std::ptrdiff_t j = 0; j < static_cast<std::ptrdiff_t> (nv); ++j)
     {
-      search->nearestKSearch ((*input_)[(*vertices)[v]], k_ + 1, nn, dist);
-      std::size_t slot = v * k;
-      for (std::size_t q = 0; q < nn.size () && slot < (v + 1) * k; ++q)
+      const Eigen::Vector3f q = ((*input_)[input_ids[j]].getVector3fMap () - lo) * scale;
+      const std::uint32_t code = mst_detail::spreadBits (static_cast<std::uint32_t> (q.x ())) |
+                                 mst_detail::spreadBits (static_cast<std::uint32_t> (q.y ())) << 1 |
+                                 mst_detail::spreadBits (static_cast<std::uint32_t> (q.z ())) << 2;
+      keys[j] = static_cast<std::uint64_t> (code) << 32 | input_ids[j];
+    }
+    boost::sort::block_indirect_sort (keys.begin (), keys.end (), static_cast<std::uint32_t> (threads));
+    for (std::size_t v = 0; v < nv; ++v)
+      input_ids[v] = static_cast<std::uint32_t> (keys[v]);
+  }
+  // Vertex v (Morton rank) is input point input_ids[v].
+  mst_detail::Buffer<float> pos (3 * nv);
+  mst_detail::Buffer<Eigen::Vector3f> nrm (nv);
+#pragma omp parallel for num_threads(threads)
+  for (std::ptrdiff_t v = 0; v < static_cast<std::ptrdiff_t> (nv); ++v)
+  {
+    Eigen::Map<Eigen::Vector3f> p (&pos[3 * v]);
+    p = (*input_)[input_ids[v]].getVector3fMap ();
+    nrm[v] = normals[input_ids[v]].getNormalVector3fMap ().normalized ();
+  }
+
+  // Riemannian graph: row v holds v's k nearest other vertices (UINT32_MAX pads).
+  mst_detail::Buffer<std::uint32_t> nbr (nv * row);
+  // Keeps the first k neighbours other than v itself (absent when k + 1 points coincide).
+  auto keep = [&] (std::size_t v, std::size_t found, auto&& id_of, const float* sqr_dist, double& sum,
+                   std::size_t& cnt) {
+    std::size_t slot = v * row;
+    for (std::size_t q = 0; q < found && slot < v * row + k; ++q)
+    {
+      const std::uint32_t w = id_of (q);
+      if (w == UINT32_MAX || w == v)
+        continue;
+      nbr[slot++] = w;
+      sum += std::sqrt (sqr_dist[q]);
+      ++cnt;
+    }
+    for (; slot < (v + 1) * row; ++slot)
+      nbr[slot] = UINT32_MAX;
+  };
+  std::vector<double> len_sum (threads, 0.0);
+  std::vector<std::size_t> len_count (threads, 0);
+  if (search_)
+  {
+    // The search holds a Morton-ordered copy of the vertices, so its indices are vertex ids.
+    typename PointCloud<PointT>::Ptr sorted (new PointCloud<PointT>);
+    sorted->resize (nv);
+    for (std::size_t v = 0; v < nv; ++v)
+      (*sorted)[v] = (*input_)[input_ids[v]];
+    search_->setInputCloud (sorted);
+    // Plain threads, not OpenMP: PCL's FLANN query opens an OpenMP region per call, which
+    // nested in our own region ran 2x slower than from one thread.
+    auto query = [&] (int t) {
+      pcl::Indices nn;
+      std::vector<float> dist;
+      double sum = 0;
+      std::size_t count = 0;
+      for (std::size_t v = nv * t / threads; v < nv * (t + 1) / threads; ++v)
       {
-        const std::uint32_t w = vertex_of[nn[q]];
-        if (w == UINT32_MAX || w == static_cast<std::uint32_t> (v))
-          continue;
-        nbr[slot] = w;
-        len[slot] = std::sqrt (dist[q]);
-        len_sum += len[slot];
-        ++len_count;
-        ++slot;
+        search_->nearestKSearch ((*sorted)[v], static_cast<int> (row), nn, dist);
+        keep (v, std::min (nn.size (), row), [&] (std::size_t q) { return static_cast<std::uint32_t> (nn[q]); },
+              dist.data (), sum, count);
       }
+      len_sum[t] = sum;
+      len_count[t] = count;
+    };
+    std::vector<std::thread> workers;
+    for (int t = 0; t < threads; ++t)
+      workers.emplace_back (query, t);
+    for (auto& w : workers)
+      w.join ();
+  }
+  else
+  {
+    // FLANN's kd-tree (the one pcl::search::KdTree builds), queried directly: FLANN's
+    // knnSearch opens an OpenMP region per call; through PCL a query took 3.7 us, the
+    // search itself 0.8 us.
+    flann::Matrix<float> data (pos.data (), nv, 3);
+    flann::KDTreeSingleIndex<flann::L2_Simple<float>> index (data, flann::KDTreeSingleIndexParams (15));
+    index.buildIndex ();
+#pragma omp parallel num_threads(threads)
+    {
+      const int t = omp_get_thread_num ();
+      flann::KNNSimpleResultSet<float> result (row);
+      std::vector<std::size_t> ids (row);
+      std::vector<float> dist (row);
+      const flann::SearchParams params (-1, 0.f, true);
+      double sum = 0;
+      std::size_t count = 0;
+#pragma omp for schedule(static)
+      for (std::ptrdiff_t v = 0; v < static_cast<std::ptrdiff_t> (nv); ++v)
+      {
+        result.clear ();
+        index.findNeighbors (result, &pos[3 * v], params);
+        const std::size_t found = std::min (result.size (), row);
+        result.copy (ids.data (), dist.data (), found);
+        keep (v, found, [&] (std::size_t q) { return static_cast<std::uint32_t> (ids[q]); }, dist.data (), sum,
+              count);
+      }
+      len_sum[t] = sum;
+      len_count[t] = count;
     }
   }
-  const double mean_len = len_count ? len_sum / len_count : 0.0;
+  const double sum = std::accumulate (len_sum.begin (), len_sum.end (), 0.0);
+  const std::size_t count = std::accumulate (len_count.begin (), len_count.end (), std::size_t (0));
+  const double mean_len = count ? sum / count : 0.0;
 
   // One key per undirected edge (a mutual pair is kept once): the cost's float bits
   // (costs are >= 0, so they order like the floats) above the slot of the edge.
   // Ties (exactly parallel normals, e.g. both sides of a thin plate fitted by one plane)
   // go to the shorter edge, so propagation stays on a sheet instead of jumping across.
-  std::vector<std::vector<std::uint64_t>> thread_keys (threads);
+  // Every thread takes one contiguous range of vertices and writes its keys after those of
+  // the threads before it (count, then fill: no per-thread vectors to merge).
+  auto listed_from_w = [&] (std::size_t v, std::uint32_t w) {
+    const auto r = nbr.begin () + w * row;
+    return w < v && std::find (r, r + row, static_cast<std::uint32_t> (v)) != r + row;
+  };
+  mst_detail::Buffer<std::uint64_t> keys;
+  std::vector<std::size_t> first (threads + 1, 0);
 #pragma omp parallel num_threads(threads)
   {
-    auto& keys = thread_keys[omp_get_thread_num ()];
-#pragma omp for schedule(dynamic, 1024)
-    for (std::ptrdiff_t v = 0; v < static_cast<std::ptrdiff_t> (nv); ++v)
+    const std::size_t nt = omp_get_num_threads (), t = omp_get_thread_num ();
+    const std::size_t v_lo = nv * t / nt, v_hi = nv * (t + 1) / nt;
+    std::size_t count = 0;
+    for (std::size_t slot = v_lo * row; slot < v_hi * row; ++slot)
+      count += nbr[slot] != UINT32_MAX && !listed_from_w (slot / row, nbr[slot]);
+    first[t + 1] = count;
+#pragma omp barrier
+#pragma omp single
     {
-      const auto ni = normals[(*vertices)[v]].getNormalVector3fMap ().normalized ();
-      for (std::size_t slot = v * k; slot < (v + 1) * k && nbr[slot] != UINT32_MAX; ++slot)
+      std::partial_sum (first.begin (), first.begin () + nt + 1, first.begin ());
+      keys.resize (first[nt]);
+    }
+    std::size_t at = first[t];
+    const float penalty = static_cast<float> (across_penalty_);
+    const float length_weight = tie_break_ > 0 && mean_len > 0 ? static_cast<float> (tie_break_ / mean_len) : 0.f;
+    for (std::size_t v = v_lo; v < v_hi; ++v)
+    {
+      const Eigen::Vector3f& ni = nrm[v];
+      const Eigen::Map<const Eigen::Vector3f> pi (&pos[3 * v]);
+      for (std::size_t slot = v * row; slot < (v + 1) * row && nbr[slot] != UINT32_MAX; ++slot)
       {
         const std::uint32_t w = nbr[slot];
-        if (w < static_cast<std::uint32_t> (v))
-        {
-          const auto row = nbr.begin () + w * k;
-          if (std::find (row, row + k, static_cast<std::uint32_t> (v)) != row + k)
-            continue;  // already listed from w's side
-        }
-        const auto nj = normals[(*vertices)[w]].getNormalVector3fMap ().normalized ();
+        if (listed_from_w (v, w))
+          continue;
+        const Eigen::Vector3f& nj = nrm[w];
+        const Eigen::Vector3f d = Eigen::Map<const Eigen::Vector3f> (&pos[3 * w]) - pi;
+        const float length = d.norm ();
         float cost = std::max (0.f, 1.f - std::abs (ni.dot (nj)));
-        if (across_penalty_ > 0)
+        if (penalty > 0 && length > 0)
         {
           // An edge along the normals (e.g. through a thin plate, from one sheet to the
           // other) says nothing about the relative sign of two parallel normals: make it
           // expensive, so the tree goes around along the surface instead.
-          const Eigen::Vector3f e = ((*input_)[(*vertices)[w]].getVector3fMap () -
-                                     (*input_)[(*vertices)[v]].getVector3fMap ()).normalized ();
-          cost += static_cast<float> (across_penalty_) * std::max (std::abs (ni.dot (e)), std::abs (nj.dot (e)));
+          cost += penalty * std::max (std::abs (ni.dot (d)), std::abs (nj.dot (d))) / length;
         }
-        if (tie_break_ > 0 && mean_len > 0)
-          cost += static_cast<float> (tie_break_ * len[slot] / mean_len);
+        cost += length_weight * length;
         std::uint32_t bits;
         std::memcpy (&bits, &cost, sizeof bits);
-        keys.push_back ((static_cast<std::uint64_t> (bits) << 32) | static_cast<std::uint32_t> (slot));
+        keys[at++] = (static_cast<std::uint64_t> (bits) << 32) | static_cast<std::uint32_t> (slot);
       }
     }
   }
-  std::vector<float> ().swap (len);
-  std::vector<std::uint64_t> keys;
-  for (auto& t : thread_keys)
-  {
-    keys.insert (keys.end (), t.begin (), t.end ());
-    std::vector<std::uint64_t> ().swap (t);
-  }
   edges_ = keys.size ();
-  __gnu_parallel::sort (keys.begin (), keys.end ());
+  // Keys are unique (the slot is in the low bits), so a full sort orders by cost, then slot.
+  boost::sort::block_indirect_sort (keys.begin (), keys.end (), static_cast<std::uint32_t> (threads));
 
   // Minimum spanning forest: Kruskal, i.e. edges by increasing cost into Boost's
   // disjoint sets (boost::kruskal_minimum_spanning_tree's priority queue was 3x slower).
-  std::vector<Edge> tree;
-  tree.reserve (nv);
+  mst_detail::Buffer<std::uint32_t> parent (nv), rank (nv, 0);
+  std::iota (parent.begin (), parent.end (), 0u);
+  boost::disjoint_sets<std::uint32_t*, std::uint32_t*> sets (rank.data (), parent.data ());
+  mst_detail::Buffer<std::pair<std::uint32_t, std::uint32_t>> tree;
+  tree.reserve (nv - 1);
+  for (const std::uint64_t key : keys)
   {
-    boost::disjoint_sets_with_storage<> sets (nv);
-    for (std::size_t v = 0; v < nv; ++v)
-      sets.make_set (v);
-    for (const std::uint64_t key : keys)
-    {
-      const std::uint32_t slot = static_cast<std::uint32_t> (key & 0xffffffffu);
-      const std::uint32_t v = static_cast<std::uint32_t> (slot / k), w = nbr[slot];
-      const auto a = sets.find_set (v), b = sets.find_set (w);
-      if (a == b)
-        continue;
-      sets.link (a, b);
-      tree.emplace_back (v, w);
-      if (tree.size () + 1 == nv)
-        break;
-    }
+    const std::uint32_t slot = static_cast<std::uint32_t> (key);
+    const std::uint32_t v = static_cast<std::uint32_t> (slot / row), w = nbr[slot];
+    const std::uint32_t a = sets.find_set (v), b = sets.find_set (w);
+    if (a == b)
+      continue;
+    sets.link (a, b);
+    tree.emplace_back (v, w);
+    if (tree.size () + 1 == nv)
+      break;
   }
-  std::vector<std::uint64_t> ().swap (keys);
-  std::vector<std::uint32_t> ().swap (nbr);
+  mst_detail::Buffer<std::uint64_t> ().swap (keys);
+  mst_detail::Buffer<std::uint32_t> ().swap (nbr);
+
+  // Root of every component: its highest point (lowest input index among equal z).
+  mst_detail::Buffer<std::uint32_t>& root = rank;  // by representative; reuses the ranks' storage
+  std::fill (root.begin (), root.end (), UINT32_MAX);
+  for (std::uint32_t v = 0; v < nv; ++v)
+  {
+    std::uint32_t& r = root[sets.find_set (v)];
+    if (r == UINT32_MAX || pos[3 * v + 2] > pos[3 * r + 2] ||
+        (pos[3 * v + 2] == pos[3 * r + 2] && input_ids[v] < input_ids[r]))
+      r = v;
+  }
 
   // Forest adjacency (CSR arrays).
-  std::vector<std::uint32_t> offset (nv + 1, 0), adj (2 * tree.size ());
+  mst_detail::Buffer<std::uint32_t> offset (nv + 1, 0), adj (2 * tree.size ());
   for (const auto& e : tree)
   {
     ++offset[e.first + 1];
@@ -179,37 +344,32 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
   }
   std::partial_sum (offset.begin (), offset.end (), offset.begin ());
   {
-    std::vector<std::uint32_t> fill (offset.begin (), offset.end () - 1);
+    mst_detail::Buffer<std::uint32_t>& fill = parent;  // no longer needed
+    std::copy (offset.begin (), offset.end () - 1, fill.begin ());
     for (const auto& e : tree)
     {
-      const auto a = e.first, b = e.second;
-      adj[fill[a]++] = b;
-      adj[fill[b]++] = a;
+      adj[fill[e.first]++] = e.second;
+      adj[fill[e.second]++] = e.first;
     }
   }
+  mst_detail::Buffer<std::pair<std::uint32_t, std::uint32_t>> ().swap (tree);
 
-  // Roots by decreasing z: the first unvisited vertex is the highest of its component.
-  std::vector<std::uint32_t> by_z (nv);
-  std::iota (by_z.begin (), by_z.end (), 0);
-  std::sort (by_z.begin (), by_z.end (), [&] (std::uint32_t a, std::uint32_t b) {
-    return (*input_)[(*vertices)[a]].z > (*input_)[(*vertices)[b]].z;
-  });
-  std::vector<char> seen (nv, 0);
+  // Depth-first from every root, as in the seed; the root's normal points to +z.
+  std::vector<char> seen (nv, 0), flip (nv, 0);
   std::vector<std::uint32_t> stack;
-  auto normal = [&] (std::uint32_t v) { return normals[(*vertices)[v]].getNormalVector3fMap (); };
-  for (const std::uint32_t root : by_z)
+  for (const std::uint32_t r : root)
   {
-    if (seen[root])
+    if (r == UINT32_MAX)
       continue;
     ++components_;
-    seen[root] = 1;
-    if (normal (root).z () < 0)
+    seen[r] = 1;
+    if (nrm[r].z () < 0)
     {
-      normal (root) = -normal (root);
-      ++flipped_;
+      nrm[r] = -nrm[r];
+      flip[r] = 1;
     }
-    stack.push_back (root);
-    while (!stack.empty ())  // depth-first, as in the seed
+    stack.push_back (r);
+    while (!stack.empty ())
     {
       const std::uint32_t u = stack.back ();
       stack.pop_back ();
@@ -219,15 +379,21 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
         if (seen[w])
           continue;
         seen[w] = 1;
-        if (normal (w).dot (normal (u)) < 0)
+        if (nrm[w].dot (nrm[u]) < 0)
         {
-          normal (w) = -normal (w);
-          ++flipped_;
+          nrm[w] = -nrm[w];
+          flip[w] = 1;
         }
         stack.push_back (w);
       }
     }
   }
+  for (std::size_t v = 0; v < nv; ++v)
+    if (flip[v])
+    {
+      normals[input_ids[v]].getNormalVector3fMap () *= -1.f;
+      ++flipped_;
+    }
   return true;
 }
 

@@ -133,6 +133,14 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::initCompute ()
                adoption_tolerance_);
     return false;
   }
+  if (patch_size_ < 0 || (patch_size_ > 0 && (patch_support_ < 3 || patch_scales_ < 1 ||
+                                                !(max_patch_slope_deg_ > 0 && max_patch_slope_deg_ < 90))))
+  {
+    PCL_ERROR ("[pcl::%s] patches need size >= 0, support >= 3, scales >= 1 and a slope error in (0, 90) "
+               "degrees (got %d, %d, %d, %g)\n", name, patch_size_, patch_support_, patch_scales_,
+               max_patch_slope_deg_);
+    return false;
+  }
   if (!Feature<PointInT, PointOutT>::initCompute ())
     return false;
 
@@ -169,7 +177,15 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   {
     octree_.mergeCoplanarLeaves (merge_angle_deg_, merge_thickness_factor_);
     octree_.fitRegions (quadric_);
+    if (patch_size_ > 0)
+      octree_.fitPatches (patch_size_, quadric_, std::tan (max_patch_slope_deg_ * M_PI / 180.0), patch_scales_, patch_support_);
   }
+  const bool patches = method_ == Method::MERGED && patch_size_ > 0;
+  // The valid patch of an octree point, -1 if none.
+  auto patchOf = [&] (int octree_point) {
+    const int f = octree_.patchOfPoint ()[octree_point];
+    return f >= 0 && octree_.patches ()[f].valid ? f : -1;
+  };
   const auto& regions = octree_.regions ();
   const auto& leaf_of_point = octree_.leafOfPoint ();
   const double abs_eps = 1e-6 * nodes[0].half;
@@ -179,7 +195,29 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   // their neighbourhoods (median over up to 16 sampled points): otherwise the region is
   // shape, not noise, and its points are better served by local planes.
   region_ok_.assign (regions.size (), 1);
-  if (method_ == Method::MERGED && region_validation_ratio_ > 0)
+  if (patches && region_validation_ratio_ > 0)
+  {
+    // A region is used when its one surface explains its points about as well as the
+    // small patch fits do (median patch residual): then the rest is noise, and the big
+    // support averages it; otherwise the region hides shape and the patches keep it.
+    std::vector<std::vector<double>> patch_rms (regions.size ());
+    for (const auto& P : octree_.patches ())
+    {
+      const int r = nodes[P.leaf].region;
+      if (r >= 0 && P.valid)
+        patch_rms[r].push_back (P.rms);
+    }
+#pragma omp parallel for schedule(dynamic, 16) num_threads(threads)
+    for (int r = 0; r < static_cast<int> (regions.size ()); ++r)
+    {
+      auto& v = patch_rms[r];
+      if (v.empty ())
+        continue;
+      std::nth_element (v.begin (), v.begin () + v.size () / 2, v.end ());
+      region_ok_[r] = regions[r].rms <= region_validation_ratio_ * v[v.size () / 2] + abs_eps;
+    }
+  }
+  else if (method_ == Method::MERGED && region_validation_ratio_ > 0)
   {
     std::vector<std::vector<int>> samples (regions.size ());
     const auto& order = octree_.order ();
@@ -278,6 +316,8 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
     return ok;
   };
 
+  // When the input is its own search surface, orphans' results are reused as they are.
+  const bool same_cloud = surface_ == input_;
   // Orphans: search-surface points in non-planar cells (or rejected regions).
   std::vector<int> orphans, orphan_slot;
   std::vector<Eigen::Vector3f> orphan_normal;
@@ -287,7 +327,8 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   {
     orphan_slot.assign (surface_->size (), -1);
     for (std::size_t j = 0; j < surface_->size (); ++j)
-      if (surface_to_octree_[j] >= 0 && surface_region[j] < 0)
+      if (surface_to_octree_[j] >= 0 && surface_region[j] < 0 &&
+          !(patches && patchOf (surface_to_octree_[j]) >= 0))
       {
         orphan_slot[j] = static_cast<int> (orphans.size ());
         orphans.push_back (static_cast<int> (j));
@@ -333,8 +374,6 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         break;
     }
   }
-  // When the input is its own search surface, orphans' results are reused as they are.
-  const bool same_cloud = surface_ == input_;
   const int n = static_cast<int> (indices_->size ());
   status_.assign (n, INVALID_POINT);
   region_ids_.assign (n, -1);
@@ -378,6 +417,16 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
           region = L.region;
           normal = octree_.regionNormalAt (region, x);
           curvature = regions[region].curvature;
+        }
+        else if (patches && L.planar)
+        {
+          const int c = same_cloud ? patchOf (surface_to_octree_[index]) : octree_.locatePatch (x);
+          if (c >= 0)
+          {
+            status = PATCH_FIT;
+            normal = octree_.patchNormalAt (c, x);
+            curvature = octree_.patches ()[c].curvature;
+          }
         }
         if (status == LEAF_PLANE)
         {
