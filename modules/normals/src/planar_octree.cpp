@@ -337,10 +337,10 @@ PlanarOctree::build (const std::vector<Eigen::Vector3f>& points, const PlanarOct
   threads_ = params.threads;
   nodes_.clear ();
   regions_.clear ();
-  patch_cells_.clear ();
+  leaf_cells_.clear ();
   patches_.clear ();
   patch_of_point_.clear ();
-  leaf_patch_root_.clear ();
+  leaf_slot_.clear ();
   const int n = static_cast<int> (points.size ());
   order_.resize (n);
   std::iota (order_.begin (), order_.end (), 0);
@@ -613,16 +613,17 @@ PlanarOctree::leavesInBox (const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
 }
 
 void
-PlanarOctree::patchPointsInBox (int cell, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
+PlanarOctree::patchPointsInBox (int leaf, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
                                 std::vector<Eigen::Vector3f>& out) const
 {
   const auto& pts = *points_;
+  const auto& cells = leaf_cells_[leaf_slot_[leaf]];
   int stack[8 * 22];
   int top = 0;
-  stack[top++] = cell;
+  stack[top++] = 0;
   while (top > 0)
   {
-    const PatchCell& C = patch_cells_[stack[--top]];
+    const PatchCell& C = cells[stack[--top]];
     const Eigen::Vector3f h = Eigen::Vector3f::Constant (C.half);
     if (((C.center - h).array () > hi.array ()).any () || ((C.center + h).array () < lo.array ()).any ())
       continue;
@@ -644,11 +645,10 @@ PlanarOctree::patchPointsInBox (int cell, const Eigen::Vector3f& lo, const Eigen
 void
 PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, int scales, int support_points)
 {
-  patch_cells_.clear ();
   patches_.clear ();
   const int n = static_cast<int> (order_.size ());
   patch_of_point_.assign (n, -1);
-  leaf_patch_root_.assign (nodes_.size (), -1);
+  leaf_slot_.assign (nodes_.size (), -1);
   std::vector<int> leaves;
   for (int id = 0; id < static_cast<int> (nodes_.size ()); ++id)
     if (nodes_[id].isLeaf () && nodes_[id].planar)
@@ -659,7 +659,9 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
 
   // Cut every planar leaf into a tree of cells of <= max_points (octants again; the
   // leaves' ranges are disjoint). Children ids are local to the leaf's tree until merged.
-  std::vector<std::vector<PatchCell>> trees (nl);
+  leaf_cells_.assign (nl, {});
+  for (int l = 0; l < nl; ++l)
+    leaf_slot_[leaves[l]] = l;
 #pragma omp parallel num_threads(threads)
   {
     std::vector<int> buffer;
@@ -668,7 +670,7 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
     for (int l = 0; l < nl; ++l)
     {
       const OctreeNode& L = nodes_[leaves[l]];
-      auto& tree = trees[l];
+      auto& tree = leaf_cells_[l];
       tree.reserve (1 + 16 * static_cast<std::size_t> (L.size ()) / max_points);
       tree.assign (1, PatchCell{L.center, L.half, L.begin, L.end, leaves[l], -1, -1});
       for (std::size_t t = 0; t < tree.size (); ++t)  // breadth first: the vector grows
@@ -690,36 +692,21 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
       }
     }
   }
-  std::size_t total = 0;
-  for (const auto& tree : trees)
-    total += tree.size ();
-  patch_cells_.reserve (total);
+  std::size_t fits = 0;
+  for (const auto& tree : leaf_cells_)
+    fits += std::count_if (tree.begin (), tree.end (), [] (const PatchCell& C) { return C.first_child < 0 && C.end > C.begin; });
+  patches_.reserve (fits);
   for (int l = 0; l < nl; ++l)
-  {
-    const int offset = static_cast<int> (patch_cells_.size ());
-    leaf_patch_root_[leaves[l]] = offset;
-    for (PatchCell c : trees[l])
+    for (PatchCell& C : leaf_cells_[l])
     {
-      if (c.first_child >= 0)
-        c.first_child += offset;
-      patch_cells_.push_back (c);
+      if (C.first_child >= 0 || C.end == C.begin)
+        continue;
+      C.fit = static_cast<int> (patches_.size ());
+      patches_.emplace_back ();
+      patches_.back ().leaf = C.leaf;
+      for (int i = C.begin; i < C.end; ++i)
+        patch_of_point_[order_[i]] = C.fit;
     }
-    std::vector<PatchCell> ().swap (trees[l]);
-  }
-  const int nc = static_cast<int> (patch_cells_.size ());
-  patches_.reserve (std::count_if (patch_cells_.begin (), patch_cells_.end (),
-                                   [] (const PatchCell& C) { return C.first_child < 0 && C.end > C.begin; }));
-  for (int c = 0; c < nc; ++c)
-  {
-    PatchCell& C = patch_cells_[c];
-    if (C.first_child >= 0 || C.end == C.begin)
-      continue;
-    C.fit = static_cast<int> (patches_.size ());
-    patches_.emplace_back ();
-    patches_.back ().leaf = C.leaf;
-    for (int i = C.begin; i < C.end; ++i)
-      patch_of_point_[order_[i]] = C.fit;
-  }
 
   // Fit each patch over a box around its points' centroid that holds about support_points
   // points at the leaf's density (doubling while the slope is uncertain), taking the
@@ -732,19 +719,14 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
   support_points = std::max (support_points, 3);
 #pragma omp parallel num_threads(threads)
   {
-    std::vector<int> near, candidates, cells, bucket_start, bucket_points, bucket_of;
+    std::vector<int> near, candidates, bucket_start, bucket_points, bucket_of;
     std::vector<Eigen::Vector3f> support, local;
 #pragma omp for schedule(dynamic, 4)
     for (int l = 0; l < nl; ++l)
     {
       const int leaf = leaves[l];
       const OctreeNode& L = nodes_[leaf];
-      cells.clear ();
-      const int root = leaf_patch_root_[leaf];
-      const int last = l + 1 < nl ? leaf_patch_root_[leaves[l + 1]] : nc;
-      for (int c = root; c < last; ++c)
-        if (patch_cells_[c].fit >= 0)
-          cells.push_back (c);
+      const auto& tree = leaf_cells_[l];
       // Area per point from the leaf's spread (a uniform rectangle has variance w² / 12).
       const double area = 12.0 * std::sqrt (L.eigenvalues (0) * L.eigenvalues (1));
       // Radius of the disc that holds support_points points (a kNN-like ball; the box
@@ -756,7 +738,7 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
       leavesInBox (L.center - margin, L.center + margin, near);
       candidates.clear ();
       for (int other : near)
-        if (leaf_patch_root_[other] >= 0 && (other == leaf || (L.region >= 0 && nodes_[other].region == L.region)))
+        if (leaf_slot_[other] >= 0 && (other == leaf || (L.region >= 0 && nodes_[other].region == L.region)))
           candidates.push_back (other);
       // The leaf's plane (it passed Algorithm 1) carries the bucket grid.
       const Eigen::Matrix3d frame = frameOfNormal (L.normal);
@@ -766,7 +748,7 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
       const Eigen::Vector3f box0 = Eigen::Vector3f::Constant (L.half + half0);
       local.clear ();
       for (int other : candidates)
-        patchPointsInBox (leaf_patch_root_[other], L.center - box0, L.center + box0, local);
+        patchPointsInBox (other, L.center - box0, L.center + box0, local);
       const float span = 2.f * (L.half + half0) * std::sqrt (2.f);  // in-plane extent of the box, any tilt
       const int D = std::max (1, std::min (256, static_cast<int> (std::ceil (span / half0))));
       const float g = span / D;
@@ -787,9 +769,10 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
       // In-plane half extent of an axis-aligned box of half edge 1.
       const float s1 = e1.cwiseAbs ().sum (), s2 = e2.cwiseAbs ().sum ();
 
-      for (int c : cells)
+      for (const PatchCell& C : tree)
       {
-        const PatchCell& C = patch_cells_[c];
+        if (C.fit < 0)
+          continue;
         PatchFit& P = patches_[C.fit];
         Eigen::Vector3f centre = Eigen::Vector3f::Zero ();
         for (int i = C.begin; i < C.end; ++i)
@@ -824,7 +807,7 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
               const OctreeNode& O = nodes_[other];
               if (((O.center.array () - O.half) > hi.array ()).any () || ((O.center.array () + O.half) < lo.array ()).any ())
                 continue;
-              patchPointsInBox (leaf_patch_root_[other], lo, hi, support);
+              patchPointsInBox (other, lo, hi, support);
             }
           if (s > 0)  // the ball inside the box
             support.erase (std::remove_if (support.begin (), support.end (),
@@ -854,16 +837,17 @@ int
 PlanarOctree::locatePatch (const Eigen::Vector3f& p) const
 {
   const int leaf = locate (p);
-  if (leaf < 0 || leaf_patch_root_.empty () || leaf_patch_root_[leaf] < 0)
+  if (leaf < 0 || leaf_slot_.empty () || leaf_slot_[leaf] < 0)
     return -1;
-  int c = leaf_patch_root_[leaf], parent = -1;
-  while (patch_cells_[c].first_child >= 0)
+  const auto& cells = leaf_cells_[leaf_slot_[leaf]];
+  int c = 0, parent = -1;
+  while (cells[c].first_child >= 0)
   {
     parent = c;
-    c = patch_cells_[c].first_child + octant (p, patch_cells_[c].center);
+    c = cells[c].first_child + octant (p, cells[c].center);
   }
   auto validFit = [&] (int cell) {
-    const int f = patch_cells_[cell].fit;
+    const int f = cells[cell].fit;
     return f >= 0 && patches_[f].valid ? f : -1;
   };
   if (validFit (c) >= 0 || parent < 0)
@@ -871,10 +855,10 @@ PlanarOctree::locatePatch (const Eigen::Vector3f& p) const
   // p fell into an empty (or unfitted) cell: the nearest fitted sibling.
   int best = -1;
   float best_d = std::numeric_limits<float>::max ();
-  for (int s = patch_cells_[parent].first_child; s < patch_cells_[parent].first_child + 8; ++s)
+  for (int s = cells[parent].first_child; s < cells[parent].first_child + 8; ++s)
     if (validFit (s) >= 0)
     {
-      const float d = (p - patch_cells_[s].center).squaredNorm ();
+      const float d = (p - cells[s].center).squaredNorm ();
       if (d < best_d)
       {
         best_d = d;

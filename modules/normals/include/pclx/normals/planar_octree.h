@@ -90,7 +90,7 @@ struct PatchCell
   float half = 0;
   int begin = 0, end = 0;  // range in PlanarOctree::order ()
   int leaf = -1;
-  int first_child = -1;    // 8 consecutive sub-cells; -1: a patch
+  int first_child = -1;    // 8 consecutive sub-cells (in the leaf's tree); -1: a patch
   int fit = -1;            // its PatchFit (patches with points)
 };
 
@@ -128,7 +128,13 @@ public:
   // without a kNN search, and no leaf border inside it (the error the seed found in
   // Algorithm 2). Call after mergeCoplanarLeaves.
   void fitPatches (int max_points, bool quadric, double max_slope_sigma, int scales, int support_points);
-  const std::vector<PatchCell>& patchCells () const { return patch_cells_; }
+  // The patch cells of a planar leaf (node id), as a tree: cell 0 is the leaf itself.
+  const std::vector<PatchCell>& patchCellsOfLeaf (int node) const
+  {
+    static const std::vector<PatchCell> none;
+    return node >= 0 && node < static_cast<int> (leaf_slot_.size ()) && leaf_slot_[node] >= 0
+               ? leaf_cells_[leaf_slot_[node]] : none;
+  }
   const std::vector<PatchFit>& patches () const { return patches_; }
   const std::vector<int>& patchOfPoint () const { return patch_of_point_; }  // PatchFit id, -1: none
   // Valid PatchFit of the patch containing p (or of its nearest sibling), -1 if none.
@@ -153,8 +159,8 @@ private:
   double residual (const PlanarRegion& R, const Eigen::Vector3f& p) const;
   // Leaves whose cube overlaps the box [lo, hi].
   void leavesInBox (const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, std::vector<int>& out) const;
-  // Appends the points (relative to origin_) of the patch tree under `cell` that lie in [lo, hi].
-  void patchPointsInBox (int cell, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
+  // Appends the points of planar leaf `leaf` (node id) that lie in [lo, hi].
+  void patchPointsInBox (int leaf, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
                          std::vector<Eigen::Vector3f>& out) const;
 
   const std::vector<Eigen::Vector3f>* points_ = nullptr;
@@ -163,10 +169,10 @@ private:
   std::vector<PlanarRegion> regions_;
   std::vector<int> order_;
   std::vector<int> leaf_of_point_;
-  std::vector<PatchCell> patch_cells_;
+  std::vector<std::vector<PatchCell>> leaf_cells_;  // per planar leaf: its tree of patch cells
   std::vector<PatchFit> patches_;
   std::vector<int> patch_of_point_;
-  std::vector<int> leaf_patch_root_;  // per node: root cell of its patch tree, -1 if none
+  std::vector<int> leaf_slot_;  // per node: its index in leaf_cells_, -1 if none
   int threads_ = 0;
 };
 

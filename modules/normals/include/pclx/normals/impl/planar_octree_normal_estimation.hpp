@@ -397,7 +397,8 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         continue;
       }
       const Eigen::Vector3f x = p.getVector3fMap ();
-      const int leaf = octree_.locate (x);
+      // The input's own points know their leaf; other points descend the octree.
+      const int leaf = same_cloud ? leaf_of_point[surface_to_octree_[index]] : octree_.locate (x);
       Eigen::Vector3f normal;
       float curvature = 0.f;
       std::uint8_t status = INVALID_POINT;
