@@ -121,8 +121,8 @@ main (int argc, char** argv)
   int k = 18, max_depth = 10, min_points = 10, orient_k = 10, points = 50000, threads = 0;
   double across_penalty = 0.5;
   double s_alpha = 0, s_beta = 1.5, border = 0.25, merge_angle = 15, noise = 0, shadow = 0, scale = 0;
-  double validation = 0.5;
-  int adaptive_max = 144;
+  double validation = 1.0, patch_slope = 2.0;
+  int adaptive_max = 144, patch_size = 4, patch_support = 18;
   std::vector<float> viewpoint{0, 0, 0};
   bool view = false;
   auto* in_opt = app.add_option ("input,-i,--input", input, "PCD, PLY or XYZ (text) file");
@@ -144,7 +144,13 @@ main (int argc, char** argv)
   app.add_option ("--border", border, "hybrid: border band, share of the half edge")->capture_default_str ();
   app.add_option ("--merge-angle", merge_angle, "merged: max angle between merged leaves (deg)")->capture_default_str ();
   app.add_option ("--region-validation", validation,
-                  "merged: use a region if its fit RMS <= this x local kNN thickness (0: always)")
+                  "merged: use a region if its fit RMS <= this x its patches' median RMS (0: always; with "
+                  "--patch-size 0: x local kNN thickness, use 0.5)")
+      ->capture_default_str ();
+  app.add_option ("--patch-size", patch_size, "merged: max points per patch cell (0: no patches, kNN instead)")
+      ->capture_default_str ();
+  app.add_option ("--patch-support", patch_support, "merged: points in a patch's fitting disc")->capture_default_str ();
+  app.add_option ("--patch-slope", patch_slope, "merged: max standard error of a patch's slope (deg)")
       ->capture_default_str ();
   app.add_option ("--adaptive-max", adaptive_max, "merged: largest grown kNN set (<= k: plain PCA)")
       ->capture_default_str ();
@@ -254,6 +260,9 @@ main (int argc, char** argv)
     ne.setMergeAngle (merge_angle);
     ne.setRegionValidationRatio (validation);
     ne.setMaxAdaptiveNeighbours (adaptive_max);
+    ne.setPatchSize (patch_size);
+    ne.setPatchSupport (patch_support);
+    ne.setMaxPatchSlopeError (patch_slope);
     ne.setNumberOfThreads (static_cast<unsigned> (threads));
     ne.compute (normals);
     if (normals.empty ())
@@ -262,13 +271,15 @@ main (int argc, char** argv)
       return 1;
     }
     region_ids = ne.getRegionIds ();
-    std::size_t count[6] = {};
+    std::size_t count[Estimator::PATCH_FIT + 1] = {};
     for (auto s : ne.getPointStatus ())
       ++count[s];
-    std::printf ("octree: %d leaves, %d planar, %zu regions; points: %zu leaf plane, %zu region fit, %zu adopted, "
-                 "%zu kNN PCA, %zu fallback, %zu invalid\n",
+    std::printf ("octree: %d leaves, %d planar, %zu regions, %zu patches; points: %zu leaf plane, %zu region fit, "
+                 "%zu patch fit, %zu adopted, %zu kNN PCA, %zu fallback, %zu invalid\n",
                  ne.getOctree ().numLeaves (), ne.getOctree ().numPlanarLeaves (), ne.getOctree ().regions ().size (),
-                 count[0], count[1], count[2], count[3], count[4], count[5]);
+                 ne.getOctree ().patches ().size (), count[Estimator::LEAF_PLANE], count[Estimator::REGION_FIT],
+                 count[Estimator::PATCH_FIT], count[Estimator::ADOPTED_REGION], count[Estimator::KNN_PCA],
+                 count[Estimator::NEIGHBOUR_FALLBACK], count[Estimator::INVALID_POINT]);
   }
   const double t_est = std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count ();
   std::printf ("estimation (%s): %.3f s\n", method.c_str (), t_est);

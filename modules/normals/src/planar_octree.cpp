@@ -70,65 +70,6 @@ struct UnionFind
   }
 };
 
-// Least-squares surface of points given relative to the octree origin: the PCA frame,
-// then (quadric, >= 12 points) the height field h(x, y) over the PCA plane. False when
-// the points span no plane.
-bool
-fitSurface (const std::vector<Eigen::Vector3d>& pts, bool quadric, PlanarRegion& R)
-{
-  const int n = static_cast<int> (pts.size ());
-  if (n < 3)
-    return false;
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero ();
-  for (const auto& q : pts)
-    mean += q;
-  mean /= n;
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero ();
-  for (const auto& q : pts)
-    cov.noalias () += (q - mean) * (q - mean).transpose ();
-  const Pca p = pca (cov / n);
-  if (spansNoPlane (p.lambda))
-    return false;
-  R.points = n;
-  R.o = mean;
-  R.frame = p.v;
-  if (R.frame.determinant () < 0)
-    R.frame.col (1) = -R.frame.col (1);
-  R.scale = std::max (std::sqrt (p.lambda (0)), 1e-30);
-  const double trace = p.lambda.sum ();
-  R.curvature = trace > 0 ? static_cast<float> (p.lambda (2) / trace) : 0.f;
-  R.c.fill (0.0);
-  R.rms = std::sqrt (p.lambda (2));
-  if (!quadric || n < 12)
-    return true;
-  Eigen::Matrix<double, 6, 6> ata = Eigen::Matrix<double, 6, 6>::Zero ();
-  Eigen::Matrix<double, 6, 1> ath = Eigen::Matrix<double, 6, 1>::Zero ();
-  double hh = 0;
-  for (const auto& q : pts)
-  {
-    const Eigen::Vector3d d = q - R.o;
-    const double x = d.dot (R.frame.col (0)) / R.scale, y = d.dot (R.frame.col (1)) / R.scale,
-                 h = d.dot (R.frame.col (2));
-    Eigen::Matrix<double, 6, 1> a;
-    a << x * x, x * y, y * y, x, y, 1.0;
-    ata.noalias () += a * a.transpose ();
-    ath += a * h;
-    hh += h * h;
-  }
-  // A small ridge on the curvature terms keeps strip-like supports from over-bending.
-  Eigen::Matrix<double, 6, 6> reg = ata;
-  for (int k = 0; k < 3; ++k)
-    reg (k, k) += 1e-3 * n;
-  const Eigen::Matrix<double, 6, 1> c = reg.ldlt ().solve (ath);
-  if (!c.allFinite ())
-    return true;  // keep the plane
-  for (int k = 0; k < 6; ++k)
-    R.c[k] = c (k);
-  const double ss = hh - 2 * c.dot (ath) + c.dot (ata * c);
-  R.rms = std::sqrt (std::max (0.0, ss / n));
-  return true;
-}
-
 // The leaf-plane frame of a patch: its axes are derived from the normal alone (the
 // quadric family is closed under in-plane rotation, so any axes do).
 Eigen::Matrix3d
@@ -578,15 +519,29 @@ PlanarOctree::fitRegions (bool quadric)
   const auto& pts = *points_;
 #pragma omp parallel num_threads(threadCount (threads_))
   {
-    std::vector<Eigen::Vector3d> support;
+    std::vector<Eigen::Vector3f> support;
 #pragma omp for schedule(dynamic, 4)
     for (int r = 0; r < nr; ++r)
     {
+      PlanarRegion& R = regions_[r];
       support.clear ();
       for (int leaf : leaves[r])
         for (int i = nodes_[leaf].begin; i < nodes_[leaf].end; ++i)
-          support.push_back (pts[order_[i]].cast<double> () - origin_);
-      fitSurface (support, quadric, regions_[r]);  // a region's leaves always span a plane
+          support.push_back (pts[order_[i]]);
+      // The same height-field fit as a patch, centred on the region (its moments are known).
+      const Eigen::Vector3d mean = R.sum / R.points;
+      const double spread = std::sqrt (std::max ((R.sum_sq / R.points - mean * mean.transpose ()).trace (), 1e-60));
+      PatchFit fit;
+      if (!fitPatchSurface (support, (mean + origin_).cast<float> (), spread, nodes_[leaves[r][0]].normal, quadric,
+                            fit, false))
+        continue;  // cannot happen: a region's leaves span a plane
+      R.o = fit.o.cast<double> () - origin_;
+      R.frame = frameOfNormal (fit.n);
+      R.scale = fit.scale;
+      for (int k = 0; k < 6; ++k)
+        R.c[k] = fit.c[k];
+      R.rms = fit.rms;
+      R.curvature = fit.curvature;
     }
   }
 }

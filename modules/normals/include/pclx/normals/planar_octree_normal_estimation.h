@@ -148,7 +148,8 @@ public:
   // Per output point (same order as the output cloud), filled by compute ():
   const std::vector<std::uint8_t>& getPointStatus () const { return status_; }
   // Planar region of each output point: the leaf id for OCTREE/HYBRID planar leaves,
-  // the merged region for MERGED, -1 where the normal did not come from a planar cell.
+  // the merged region for MERGED (also for patch points: the region their leaf belongs
+  // to), -1 where the normal did not come from a planar cell.
   const std::vector<int>& getRegionIds () const { return region_ids_; }
   // The octree of the last compute () (over the search surface).
   const pclx::normals::PlanarOctree& getOctree () const { return octree_; }

@@ -427,6 +427,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
             status = PATCH_FIT;
             normal = octree_.patchNormalAt (c, x);
             curvature = octree_.patches ()[c].curvature;
+            region = L.region;  // the merged region the patch lies in, used or not
           }
         }
         if (status == LEAF_PLANE)
