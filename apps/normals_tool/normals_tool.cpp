@@ -137,7 +137,7 @@ main (int argc, char** argv)
       ->check (CLI::IsMember ({"octree", "hybrid", "merged", "pca"}))
       ->capture_default_str ();
   app.add_option ("-k,--k", k, "kNN size for PCA, borders and fallbacks")->capture_default_str ();
-  app.add_option ("--s-alpha", s_alpha, "planarity: lambda2 > s_alpha * lambda3 (0: method default, 6.25 or 25)");
+  app.add_option ("--s-alpha", s_alpha, "planarity: lambda2 > s_alpha * lambda3 (0: method default, 6.25 or 20)");
   app.add_option ("--s-beta", s_beta, "planarity: s_beta * lambda2 > lambda1")->capture_default_str ();
   app.add_option ("--max-depth", max_depth, "octree depth limit")->capture_default_str ();
   app.add_option ("--min-points", min_points, "minimum points of a planar cell")->capture_default_str ();
