@@ -3,6 +3,8 @@ EST = "rms"  # unoriented RMS angle error, degrees
 SPECS = [
     dict(name="normals_error_vs_time", title="Normals: RMS angle error against time (clean inputs)",
          x="seconds", y=EST, series="method", logx=True, where=dict(sweep="main"), split="input", scatter=True),
+    dict(name="normals_error_vs_time_1m", title="Normals: RMS angle error against time at 1M points (--full)",
+         x="seconds", y=EST, series="method", logx=True, where=dict(sweep="speed"), split="input", scatter=True),
     dict(name="normals_error_vs_noise", title="Normals: RMS angle error against noise (sigma / diagonal)",
          x="p_noise", y=EST, series="method", where=dict(sweep="noise"), split="input"),
     dict(name="normals_below10_vs_noise", title="Normals: share of errors < 10 deg against noise",

@@ -206,6 +206,29 @@ normalAtFit (const PatchFit& P, const Eigen::Vector3f& p)
   return (P.n - dx * e1 - dy * e2).normalized ();
 }
 
+// Visits the leaves (first_child < 0) of a cell tree rooted at cells[0] whose cube
+// (center ± half) overlaps the box [lo, hi]: octree nodes and patch cells alike.
+template <typename Cell, typename Visit>
+void
+forLeavesInBox (const std::vector<Cell>& cells, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, Visit visit)
+{
+  int stack[8 * 22];  // depth <= 21, 7 siblings left per level
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0)
+  {
+    const int id = stack[--top];
+    const Cell& C = cells[id];
+    if (((C.center.array () - C.half) > hi.array ()).any () || ((C.center.array () + C.half) < lo.array ()).any ())
+      continue;
+    if (C.first_child < 0)
+      visit (id);
+    else
+      for (int o = 0; o < 8; ++o)
+        stack[top++] = C.first_child + o;
+  }
+}
+
 }  // namespace
 
 void
@@ -550,21 +573,7 @@ void
 PlanarOctree::leavesInBox (const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, std::vector<int>& out) const
 {
   out.clear ();
-  int stack[8 * 22];
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0)
-  {
-    const OctreeNode& node = nodes_[stack[--top]];
-    const Eigen::Vector3f h = Eigen::Vector3f::Constant (node.half);
-    if (((node.center - h).array () > hi.array ()).any () || ((node.center + h).array () < lo.array ()).any ())
-      continue;
-    if (node.isLeaf ())
-      out.push_back (static_cast<int> (&node - nodes_.data ()));
-    else
-      for (int o = 0; o < 8; ++o)
-        stack[top++] = node.first_child + o;
-  }
+  forLeavesInBox (nodes_, lo, hi, [&] (int id) { out.push_back (id); });
 }
 
 void
@@ -573,28 +582,14 @@ PlanarOctree::patchPointsInBox (int leaf, const Eigen::Vector3f& lo, const Eigen
 {
   const auto& pts = *points_;
   const auto& cells = leaf_cells_[leaf_slot_[leaf]];
-  int stack[8 * 22];
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0)
-  {
-    const PatchCell& C = cells[stack[--top]];
-    const Eigen::Vector3f h = Eigen::Vector3f::Constant (C.half);
-    if (((C.center - h).array () > hi.array ()).any () || ((C.center + h).array () < lo.array ()).any ())
-      continue;
-    if (C.first_child >= 0)
-    {
-      for (int o = 0; o < 8; ++o)
-        stack[top++] = C.first_child + o;
-      continue;
-    }
-    for (int i = C.begin; i < C.end; ++i)
+  forLeavesInBox (cells, lo, hi, [&] (int c) {
+    for (int i = cells[c].begin; i < cells[c].end; ++i)
     {
       const Eigen::Vector3f& q = pts[order_[i]];
       if ((q.array () >= lo.array ()).all () && (q.array () <= hi.array ()).all ())
         out.push_back (q);
     }
-  }
+  });
 }
 
 void
