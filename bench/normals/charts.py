@@ -3,7 +3,7 @@ EST = "rms"  # unoriented RMS angle error, degrees
 SPECS = [
     dict(name="normals_error_vs_time", title="Normals: RMS angle error against time (clean inputs)",
          x="seconds", y=EST, series="method", logx=True, where=dict(sweep="main"), split="input", scatter=True),
-    dict(name="normals_error_vs_time_1m", title="Normals: RMS angle error against time at 1M points (--full)",
+    dict(name="normals_error_vs_time_1m", title="Normals: RMS angle error against time, speed sweep (1M points with --full, 200k without)",
          x="seconds", y=EST, series="method", logx=True, where=dict(sweep="speed"), split="input", scatter=True),
     dict(name="normals_error_vs_noise", title="Normals: RMS angle error against noise (sigma / diagonal)",
          x="p_noise", y=EST, series="method", where=dict(sweep="noise"), split="input"),
