@@ -82,13 +82,13 @@ frameOfNormal (const Eigen::Vector3f& normal)
   return frame;
 }
 
-// Patch surface: the support's PCA plane (normal signed like `reference`), then the
+// A surface fit (patch or region): the support's PCA plane (normal signed like `reference`), then the
 // height field over it with in-plane coordinates relative to the cell centre c over
 // `scale`. The slope's standard error is σ / (√N · smallest in-plane spread), σ from the
 // residual corrected for the fitted parameters.
 bool
-fitPatchSurface (std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c, double scale,
-                 const Eigen::Vector3f& reference, bool quadric, PatchFit& R, bool trim = true)
+fitSurface (std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c, double scale,
+                 const Eigen::Vector3f& reference, bool quadric, SurfaceFit& R, bool trim = true)
 {
   const int n = static_cast<int> (pts.size ());
   if (n < 3)
@@ -127,7 +127,7 @@ fitPatchSurface (std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c, do
     if (kept < n)
     {
       pts.resize (kept);
-      return fitPatchSurface (pts, c, scale, reference, quadric, R, false);
+      return fitSurface (pts, c, scale, reference, quadric, R, false);
     }
   }
   Eigen::Vector3f normal = p.v.col (2).cast<float> ();
@@ -193,17 +193,35 @@ fitPatchSurface (std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c, do
   return true;
 }
 
-// Normal of a patch's height field at (the projection of) p.
+// In-plane coordinates (over scale) and height of p in a fit's frame.
 Eigen::Vector3f
-normalAtFit (const PatchFit& P, const Eigen::Vector3f& p)
+localOfFit (const SurfaceFit& P, const Eigen::Vector3f& p)
 {
   const Eigen::Vector3f e1 = P.n.unitOrthogonal (), e2 = P.n.cross (e1);
   const Eigen::Vector3f d = p - P.o;
-  const float x = d.dot (e1) / P.scale, y = d.dot (e2) / P.scale;
+  return Eigen::Vector3f (d.dot (e1) / P.scale, d.dot (e2) / P.scale, d.dot (P.n));
+}
+
+// Normal of a fit's height field at (the projection of) p.
+Eigen::Vector3f
+normalAtFit (const SurfaceFit& P, const Eigen::Vector3f& p)
+{
+  const Eigen::Vector3f l = localOfFit (P, p);
   const auto& c = P.c;
-  const float dx = (2 * c[0] * x + c[1] * y + c[3]) / P.scale;
-  const float dy = (c[1] * x + 2 * c[2] * y + c[4]) / P.scale;
+  const float dx = (2 * c[0] * l.x () + c[1] * l.y () + c[3]) / P.scale;
+  const float dy = (c[1] * l.x () + 2 * c[2] * l.y () + c[4]) / P.scale;
+  const Eigen::Vector3f e1 = P.n.unitOrthogonal (), e2 = P.n.cross (e1);
   return (P.n - dx * e1 - dy * e2).normalized ();
+}
+
+// Distance of p from a fit's height field, along the fit's normal.
+double
+residualOfFit (const SurfaceFit& P, const Eigen::Vector3f& p)
+{
+  const Eigen::Vector3f l = localOfFit (P, p);
+  const auto& c = P.c;
+  const float x = l.x (), y = l.y ();
+  return std::abs (l.z () - (c[0] * x * x + c[1] * x * y + c[2] * y * y + c[3] * x + c[4] * y + c[5]));
 }
 
 // Visits the leaves (first_child < 0) of a cell tree rooted at cells[0] whose cube
@@ -554,17 +572,9 @@ PlanarOctree::fitRegions (bool quadric)
       // The same height-field fit as a patch, centred on the region (its moments are known).
       const Eigen::Vector3d mean = R.sum / R.points;
       const double spread = std::sqrt (std::max ((R.sum_sq / R.points - mean * mean.transpose ()).trace (), 1e-60));
-      PatchFit fit;
-      if (!fitPatchSurface (support, (mean + origin_).cast<float> (), spread, nodes_[leaves[r][0]].normal, quadric,
-                            fit, false))
+      if (!fitSurface (support, (mean + origin_).cast<float> (), spread, nodes_[leaves[r][0]].normal, quadric,
+                            R.surface, false))
         continue;  // cannot happen: a region's leaves span a plane
-      R.o = fit.o.cast<double> () - origin_;
-      R.frame = frameOfNormal (fit.n);
-      R.scale = fit.scale;
-      for (int k = 0; k < 6; ++k)
-        R.c[k] = fit.c[k];
-      R.rms = fit.rms;
-      R.curvature = fit.curvature;
     }
   }
 }
@@ -723,7 +733,7 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
       {
         if (C.fit < 0)
           continue;
-        PatchFit& P = patches_[C.fit];
+        SurfaceFit& P = patches_[C.fit];
         Eigen::Vector3f centre = Eigen::Vector3f::Zero ();
         for (int i = C.begin; i < C.end; ++i)
           centre += (*points_)[order_[i]];
@@ -763,8 +773,8 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
             support.erase (std::remove_if (support.begin (), support.end (),
                                            [&] (const Eigen::Vector3f& q) { return (q - centre).squaredNorm () > half * half; }),
                            support.end ());
-          PatchFit trial = P;
-          if (!fitPatchSurface (support, centre, half, L.normal, quadric, trial))
+          SurfaceFit trial = P;
+          if (!fitSurface (support, centre, half, L.normal, quadric, trial))
             continue;
           // Lepski's rule: a larger support is only taken while its normal agrees with the
           // smaller one's within their uncertainties; otherwise the larger box sees other
@@ -824,33 +834,16 @@ PlanarOctree::patchNormalAt (int fit, const Eigen::Vector3f& p) const
   return normalAtFit (patches_[fit], p);
 }
 
-Eigen::Vector2d
-PlanarOctree::local (const PlanarRegion& R, const Eigen::Vector3f& p, double* h) const
-{
-  const Eigen::Vector3d d = p.cast<double> () - origin_ - R.o;
-  *h = d.dot (R.frame.col (2));
-  return Eigen::Vector2d (d.dot (R.frame.col (0)) / R.scale, d.dot (R.frame.col (1)) / R.scale);
-}
-
 Eigen::Vector3f
-PlanarOctree::normalAt (const PlanarRegion& R, const Eigen::Vector3f& p) const
+PlanarOctree::regionNormalAt (int r, const Eigen::Vector3f& p) const
 {
-  double h;
-  const Eigen::Vector2d xy = local (R, p, &h);
-  const auto& c = R.c;
-  const double dx = (2 * c[0] * xy.x () + c[1] * xy.y () + c[3]) / R.scale;
-  const double dy = (c[1] * xy.x () + 2 * c[2] * xy.y () + c[4]) / R.scale;
-  return (R.frame.col (2) - dx * R.frame.col (0) - dy * R.frame.col (1)).normalized ().cast<float> ();
+  return normalAtFit (regions_[r].surface, p);
 }
 
 double
-PlanarOctree::residual (const PlanarRegion& R, const Eigen::Vector3f& p) const
+PlanarOctree::regionResidual (int r, const Eigen::Vector3f& p) const
 {
-  const auto& c = R.c;
-  double h;
-  const Eigen::Vector2d v = local (R, p, &h);
-  const double x = v.x (), y = v.y ();
-  return std::abs (h - (c[0] * x * x + c[1] * x * y + c[2] * y * y + c[3] * x + c[4] * y + c[5]));
+  return residualOfFit (regions_[r].surface, p);
 }
 
 }  // namespace normals

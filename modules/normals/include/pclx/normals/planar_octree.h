@@ -46,29 +46,11 @@ struct OctreeNode
   bool isLeaf () const { return first_child < 0; }
 };
 
-// A set of merged coplanar leaves (or a patch, see PlanarOctree::fitPatches) with its
-// surface fit in a local frame (origin o, in-plane axes e1 e2, normal n):
-// h = c0 x² + c1 xy + c2 y² + c3 x + c4 y + c5.
-struct PlanarRegion
-{
-  int points = 0;
-  int leaves = 0;
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero ();     // moments, relative to origin ()
-  Eigen::Matrix3d sum_sq = Eigen::Matrix3d::Zero ();
-  double base_thickness = 0;  // largest RMS thickness of its leaves (the noise scale)
-  Eigen::Vector3d o = Eigen::Vector3d::Zero ();
-  Eigen::Matrix3d frame = Eigen::Matrix3d::Identity ();  // columns e1, e2, n
-  double scale = 1;          // in-plane coordinates are divided by it for conditioning
-  std::array<double, 6> c{}; // quadric coefficients (zero: plane)
-  double rms = 0;            // RMS residual of the fit
-  float curvature = 0;
-};
-
-// The fit of one patch cell (PlanarOctree::fitPatches), kept small: there are about
-// n / max_points of them. Height field h = c0 x² + c1 xy + c2 y² + c3 x + c4 y + c5 over
-// the plane through o with normal n (in-plane axes n.unitOrthogonal () and n × that),
-// x and y divided by scale.
-struct PatchFit
+// A least-squares surface, the fit of a patch (PlanarOctree::fitPatches) or of a merged
+// region, kept small: there are about n / max_points patches. Height field
+// h = c0 x² + c1 xy + c2 y² + c3 x + c4 y + c5 over the plane through o with normal n
+// (in-plane axes n.unitOrthogonal () and n × that), x and y divided by scale.
+struct SurfaceFit
 {
   Eigen::Vector3f o = Eigen::Vector3f::Zero ();  // absolute position
   Eigen::Vector3f n = Eigen::Vector3f::UnitZ ();
@@ -79,8 +61,19 @@ struct PatchFit
   // Standard error of the fitted slope (radians): σ / (√N · smallest in-plane spread).
   float slope_sigma = 0;
   int support = 0;   // points in the support
-  int leaf = -1;
-  bool valid = false;  // slope_sigma within the limit
+  int leaf = -1;       // patches: the planar leaf of the cell
+  bool valid = false;  // patches: slope_sigma within the limit
+};
+
+// A set of merged coplanar leaves with its surface fit (seed ch. 7: one robust fit).
+struct PlanarRegion
+{
+  int points = 0;
+  int leaves = 0;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero ();     // moments, relative to origin ()
+  Eigen::Matrix3d sum_sq = Eigen::Matrix3d::Zero ();
+  double base_thickness = 0;  // largest RMS thickness of its leaves (the noise scale)
+  SurfaceFit surface;         // rms: RMS residual; curvature: λ3 / Σλ of the region
 };
 
 // A cell of at most PlanarOctree::fitPatches' max_points points inside a planar leaf.
@@ -91,7 +84,7 @@ struct PatchCell
   int begin = 0, end = 0;  // range in PlanarOctree::order ()
   int leaf = -1;
   int first_child = -1;    // 8 consecutive sub-cells (in the leaf's tree); -1: a patch
-  int fit = -1;            // its PatchFit (patches with points)
+  int fit = -1;            // its SurfaceFit (patches with points)
 };
 
 class PlanarOctree
@@ -115,8 +108,8 @@ public:
   // Surface fit of every region (call after mergeCoplanarLeaves).
   void fitRegions (bool quadric);
   // Normal of region r's fitted surface at (the projection of) p, and p's distance to it.
-  Eigen::Vector3f regionNormalAt (int r, const Eigen::Vector3f& p) const { return normalAt (regions_[r], p); }
-  double regionResidual (int r, const Eigen::Vector3f& p) const { return residual (regions_[r], p); }
+  Eigen::Vector3f regionNormalAt (int r, const Eigen::Vector3f& p) const;
+  double regionResidual (int r, const Eigen::Vector3f& p) const;
 
   // Patches (not in the seed): every planar leaf is cut into cells of at most max_points
   // points; each cell gets a quadric fitted over a box around its points that holds about
@@ -135,9 +128,9 @@ public:
     return node >= 0 && node < static_cast<int> (leaf_slot_.size ()) && leaf_slot_[node] >= 0
                ? leaf_cells_[leaf_slot_[node]] : none;
   }
-  const std::vector<PatchFit>& patches () const { return patches_; }
-  const std::vector<int>& patchOfPoint () const { return patch_of_point_; }  // PatchFit id, -1: none
-  // Valid PatchFit of the patch containing p (or of its nearest sibling), -1 if none.
+  const std::vector<SurfaceFit>& patches () const { return patches_; }
+  const std::vector<int>& patchOfPoint () const { return patch_of_point_; }  // SurfaceFit id, -1: none
+  // Valid SurfaceFit of the patch containing p (or of its nearest sibling), -1 if none.
   int locatePatch (const Eigen::Vector3f& p) const;
   Eigen::Vector3f patchNormalAt (int fit, const Eigen::Vector3f& p) const;
 
@@ -154,9 +147,6 @@ private:
   // Stable split of order_[begin, end) into the 8 octants around c; counts per octant.
   void partitionOctants (int begin, int end, const Eigen::Vector3f& c, std::array<int, 8>& counts,
                          std::vector<int>& buffer, std::vector<unsigned char>& code);
-  Eigen::Vector2d local (const PlanarRegion& R, const Eigen::Vector3f& p, double* h) const;
-  Eigen::Vector3f normalAt (const PlanarRegion& R, const Eigen::Vector3f& p) const;
-  double residual (const PlanarRegion& R, const Eigen::Vector3f& p) const;
   // Leaves whose cube overlaps the box [lo, hi].
   void leavesInBox (const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, std::vector<int>& out) const;
   // Appends the points of planar leaf `leaf` (node id) that lie in [lo, hi].
@@ -170,7 +160,7 @@ private:
   std::vector<int> order_;
   std::vector<int> leaf_of_point_;
   std::vector<std::vector<PatchCell>> leaf_cells_;  // per planar leaf: its tree of patch cells
-  std::vector<PatchFit> patches_;
+  std::vector<SurfaceFit> patches_;
   std::vector<int> patch_of_point_;
   std::vector<int> leaf_slot_;  // per node: its index in leaf_cells_, -1 if none
   int threads_ = 0;

@@ -191,9 +191,9 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   const double abs_eps = 1e-6 * nodes[0].half;
   const int threads = threads_ > 0 ? static_cast<int> (threads_) : omp_get_max_threads ();
 
-  // MERGED: keep a region only if its surface fits it as well as local kNN planes fit
-  // their neighbourhoods (median over up to 16 sampled points): otherwise the region is
-  // shape, not noise, and its points are better served by local planes.
+  // MERGED: keep a region only if its surface fits it as well as local fits do (its
+  // patches, or without patches kNN planes at up to 16 sampled points): otherwise the
+  // region is shape, not noise, and its points are better served locally.
   region_ok_.assign (regions.size (), 1);
   if (patches && region_validation_ratio_ > 0)
   {
@@ -214,11 +214,12 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       if (v.empty ())
         continue;
       std::nth_element (v.begin (), v.begin () + v.size () / 2, v.end ());
-      region_ok_[r] = regions[r].rms <= region_validation_ratio_ * v[v.size () / 2] + abs_eps;
+      region_ok_[r] = regions[r].surface.rms <= region_validation_ratio_ * v[v.size () / 2] + abs_eps;
     }
   }
   else if (method_ == Method::MERGED && region_validation_ratio_ > 0)
   {
+    // Without patches: the median thickness of kNN planes sampled inside the region.
     std::vector<std::vector<int>> samples (regions.size ());
     const auto& order = octree_.order ();
     for (int id = 0; id < static_cast<int> (nodes.size ()); ++id)
@@ -253,7 +254,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         if (thickness.empty ())
           continue;
         std::nth_element (thickness.begin (), thickness.begin () + thickness.size () / 2, thickness.end ());
-        region_ok_[r] = regions[r].rms <= region_validation_ratio_ * thickness[thickness.size () / 2] + abs_eps;
+        region_ok_[r] = regions[r].surface.rms <= region_validation_ratio_ * thickness[thickness.size () / 2] + abs_eps;
       }
     }
   }
@@ -280,7 +281,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       const int r = region_of[j];
       if (r < 0 || r == region)
         continue;
-      const double ratio = octree_.regionResidual (r, x) / (adoption_tolerance_ * regions[r].rms + abs_eps);
+      const double ratio = octree_.regionResidual (r, x) / (adoption_tolerance_ * regions[r].surface.rms + abs_eps);
       // On the surface within 2 RMS residuals, x belongs to r whatever its own (possibly
       // edge-blended) plane says; farther out, the two normals must agree.
       if (ratio < best && (!own || ratio * adoption_tolerance_ <= 2.0 ||
@@ -417,7 +418,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
           status = REGION_FIT;
           region = L.region;
           normal = octree_.regionNormalAt (region, x);
-          curvature = regions[region].curvature;
+          curvature = regions[region].surface.curvature;
         }
         else if (patches && L.planar)
         {
@@ -446,7 +447,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
           status = ADOPTED_REGION;
           region = surface_region[index];
           normal = octree_.regionNormalAt (region, x);
-          curvature = regions[region].curvature;
+          curvature = regions[region].surface.curvature;
         }
         else if (orphan_ok[slot])
         {
@@ -468,7 +469,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
           {
             status = ADOPTED_REGION;
             normal = octree_.regionNormalAt (region, x);
-            curvature = regions[region].curvature;
+            curvature = regions[region].surface.curvature;
           }
         }
       }
