@@ -82,13 +82,13 @@ frameOfNormal (const Eigen::Vector3f& normal)
   return frame;
 }
 
-// A surface fit (patch or region): the support's PCA plane (normal signed like `reference`), then the
-// height field over it with in-plane coordinates relative to the cell centre c over
-// `scale`. The slope's standard error is σ / (√N · smallest in-plane spread), σ from the
-// residual corrected for the fitted parameters.
+// A surface fit (patch or region): the support's PCA plane (normal signed like
+// `reference`), then the height field over it with in-plane coordinates relative to c
+// over `scale`. The slope's standard error is σ / (√N · smallest in-plane spread), σ from
+// the residual corrected for the fitted parameters.
 bool
 fitSurface (std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c, double scale,
-                 const Eigen::Vector3f& reference, bool quadric, SurfaceFit& R, bool trim = true)
+            const Eigen::Vector3f& reference, bool quadric, SurfaceFit& R, bool trim = true)
 {
   const int n = static_cast<int> (pts.size ());
   if (n < 3)

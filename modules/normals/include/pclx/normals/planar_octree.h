@@ -60,7 +60,7 @@ struct SurfaceFit
   float curvature = 0;
   // Standard error of the fitted slope (radians): σ / (√N · smallest in-plane spread).
   float slope_sigma = 0;
-  int support = 0;   // points in the support
+  int support = 0;     // points in the support
   int leaf = -1;       // patches: the planar leaf of the cell
   bool valid = false;  // patches: slope_sigma within the limit
 };
