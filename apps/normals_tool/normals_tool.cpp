@@ -122,7 +122,7 @@ main (int argc, char** argv)
   double across_penalty = 0.5;
   double s_alpha = 0, s_beta = 1.5, border = 0.25, merge_angle = 15, noise = 0, shadow = 0, scale = 0;
   double validation = 1.0, patch_slope = 2.0;
-  int adaptive_max = 144, patch_size = 4, patch_support = 18;
+  int adaptive_max = 200, patch_size = 4, patch_support = 18;
   std::vector<float> viewpoint{0, 0, 0};
   bool view = false;
   auto* in_opt = app.add_option ("input,-i,--input", input, "PCD, PLY or XYZ (text) file");

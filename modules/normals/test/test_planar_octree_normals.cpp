@@ -351,6 +351,26 @@ TEST (PlanarOctreeMerge, NoisySphereBeatsPca)
   EXPECT_LT (merged.rms_deg, pca.rms_deg);
 }
 
+TEST (PlanarOctreeMerge, AdaptiveKnnStopsAtTheRimOfAThinPlate)
+{
+  // Growing a rim point's neighbourhood brings in both sheets, which look more planar than
+  // the rim: without the one-sided stop, 400 neighbours left 15 % of the rim within 45°.
+  const auto s = pclx::testing::sampleUniform (pclx::testing::makeThinPlate (1.f, 0.02f, 32), 30000, 6);
+  const auto cloud = positions (s.cloud);
+  Estimator ne;
+  ne.setMaxAdaptiveNeighbours (400);
+  const auto out = estimate (cloud, Method::MERGED, &ne);
+  std::size_t rim = 0, kept = 0;
+  for (std::size_t i = 0; i < out.size (); ++i)
+    if (std::abs (s.cloud[i].normal_z) < 0.5f)
+    {
+      ++rim;
+      kept += std::abs (out[i].getNormalVector3fMap ().dot (s.cloud[i].getNormalVector3fMap ())) > 0.7f;
+    }
+  ASSERT_GT (rim, 500u);
+  EXPECT_GT (static_cast<double> (kept) / rim, 0.8);
+}
+
 // --- patches (MERGED) ------------------------------------------------------------
 
 namespace {

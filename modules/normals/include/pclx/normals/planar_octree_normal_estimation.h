@@ -117,9 +117,11 @@ public:
   double getRegionValidationRatio () const { return region_validation_ratio_; }
   // MERGED: where no region applies, the kNN neighbourhood grows (k, 2k, 4k, ... up to
   // this many points) until it passes the planarity test λ2 > sα·λ3 (the seed's criterion
-  // on kNN sets), else the most planar one is kept. <= k: plain Hoppe PCA. Default 144:
-  // 200 took bunny σ = 0.006 from 20.5° to 18.5°, but then the rim of a thin plate took
-  // its sheets' plane and MST orientation flipped one sheet (0.1 % -> 50 %).
+  // on kNN sets), else the most planar one is kept; growth stops where the set turns
+  // one-sided (centroid off the point by > 0.3 of its radius: a rim or a border). <= k:
+  // plain Hoppe PCA. Default 200 (was 144: bunny σ = 0.006 20.5° -> 19.1°; without the
+  // one-sided stop, 200 turned a thin plate's rim into its sheets' plane and MST flipped
+  // one sheet).
   void setMaxAdaptiveNeighbours (int n) { max_adaptive_neighbours_ = n; }
   int getMaxAdaptiveNeighbours () const { return max_adaptive_neighbours_; }
   // MERGED: ... and if the region's normal there is within this angle of the point's own
@@ -174,7 +176,7 @@ private:
   int growth_passes_ = 32;
   double adoption_angle_deg_ = 15.0;
   double region_validation_ratio_ = 1.0;
-  int max_adaptive_neighbours_ = 144;
+  int max_adaptive_neighbours_ = 200;
   int patch_size_ = 4;
   int patch_support_ = 18;
   double max_patch_slope_deg_ = 2.0;

@@ -34,7 +34,8 @@ planeOfNeighbours (const PointCloud<PointT>& cloud, const Indices& nn, Eigen::Ve
 }
 
 // Hoppe's plane over growing prefixes (k0, 2·k0, 4·k0, ..., all) of a neighbourhood sorted
-// by distance: the first that passes λ2 > sα·λ3, else the one with the largest λ2 / λ3.
+// by distance (the point itself first): the first that passes λ2 > sα·λ3, else the one with
+// the largest λ2 / λ3; growth stops at the first one-sided prefix.
 template <typename PointT> bool
 adaptivePlane (const PointCloud<PointT>& cloud, const Indices& sorted, std::size_t k0, double s_alpha,
                Eigen::Vector3f& normal, float& curvature, double* best_ratio = nullptr)
@@ -61,6 +62,16 @@ adaptivePlane (const PointCloud<PointT>& cloud, const Indices& sorted, std::size
     if (!(ev (2) > 0) || ev (1) <= 1e-12 * ev (2))
       continue;
     const double ratio = ev (1) / std::max (ev (0), 1e-300);
+    // A grown set whose centroid lies off the point by more than 0.3 of its radius (in the
+    // plane) is one-sided: it grew past a rim or a border, where more points bring another
+    // sheet, not less noise (a half disc's centroid sits at 0.42 r, a full disc's at 0).
+    // Without this, growing to 200 turned the rim of a thin plate into its sheets' plane.
+    if (n > k0)
+    {
+      const Eigen::Vector3d v = es.eigenvectors ().col (0);
+      if ((mean - mean.dot (v) * v).norm () > 0.3 * d.norm ())
+        break;
+    }
     if (ratio > best)
     {
       best = ratio;
