@@ -618,7 +618,7 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
   max_points = std::max (max_points, 1);
 
   // Cut every planar leaf into a tree of cells of <= max_points (octants again; the
-  // leaves' ranges are disjoint). Children ids are local to the leaf's tree until merged.
+  // leaves' ranges are disjoint). Each leaf keeps its own tree; child ids are local to it.
   leaf_cells_.assign (nl, {});
   for (int l = 0; l < nl; ++l)
     leaf_slot_[leaves[l]] = l;
@@ -668,13 +668,13 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
         patch_of_point_[order_[i]] = C.fit;
     }
 
-  // Fit each patch over a box around its points' centroid that holds about support_points
+  // Fit each patch over a ball around its points' centroid that holds about support_points
   // points at the leaf's density (doubling while the slope is uncertain), taking the
-  // points of the same leaf or of leaves merged into the same region. The box is sized by
+  // points of the same leaf or of leaves merged into the same region. The ball is sized by
   // density, not by the cell: a cell that only grazes the surface can be large. Work goes
-  // leaf by leaf: the candidate points of the first box size are gathered once per leaf
-  // and bucketed on a grid over the leaf's plane (a leaf is flat), so each patch reads
-  // only the buckets under its box; larger boxes walk the cell trees.
+  // leaf by leaf: the candidate points of the first size are gathered once per leaf and
+  // bucketed on a grid over the leaf's plane (a leaf is flat), so each patch reads only
+  // the buckets under its ball; larger balls walk the cell trees (bounded by a box).
   scales = std::max (scales, 1);
   support_points = std::max (support_points, 3);
 #pragma omp parallel num_threads(threads)
