@@ -5,7 +5,7 @@ set -euo pipefail
 PKGS=(
   build-essential cmake ninja-build ccache pkg-config git
   libpcl-dev pcl-tools libeigen3-dev libflann-dev liblz4-dev libqhull-dev libboost-all-dev
-  libvtk9-dev libopenni2-dev
+  libvtk9-dev libopenni2-dev libpng-dev
   libembree-dev libcgal-dev libtbb-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   libopen3d-dev
