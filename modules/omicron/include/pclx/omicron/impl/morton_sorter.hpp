@@ -1,0 +1,253 @@
+#pragma once
+#include <pclx/omicron/morton_sorter.h>
+
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+template <typename PointT> void
+pcl::MortonSorter<PointT>::setMaxDepth (int depth)
+{
+  if (depth < 1 || depth > MortonCode::kMaxDepth)
+    throw std::invalid_argument ("MortonSorter: max depth must be in [1, 21] (got " + std::to_string (depth) + ")");
+  max_depth_ = depth;
+}
+
+template <typename PointT> void
+pcl::MortonSorter<PointT>::setChunks (std::size_t chunks)
+{
+  if (chunks < 1)
+    throw std::invalid_argument ("MortonSorter: the chunk count must be >= 1");
+  chunks_ = chunks;
+}
+
+template <typename PointT> void
+pcl::MortonSorter<PointT>::setRootCube (const Eigen::Vector3d& origin, double edge)
+{
+  if (!origin.allFinite () || !(edge > 0) || !std::isfinite (edge))
+    throw std::invalid_argument ("MortonSorter: the root cube needs a finite origin and a finite edge > 0");
+  origin_ = origin;
+  edge_ = edge;
+  user_cube_ = true;
+}
+
+template <typename PointT> std::size_t
+pcl::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector& sorted)
+{
+  const std::size_t n = cloud.size ();
+  if (n >= std::numeric_limits<std::uint32_t>::max ())
+    throw std::length_error ("MortonSorter: more than 2^32 - 1 points (32-bit point counts per node)");
+  chunk_begin_.clear ();
+  dropped_invalid_ = dropped_outside_ = 0;
+  tbb::task_arena arena (threads_);
+  // Contiguous blocks in input order: per-block histograms make the scatter stable.
+  const std::size_t blocks = std::max<std::size_t> (1, std::min<std::size_t> (4 * threads_, n / 4096 + 1));
+  const auto blockRange = [&] (std::size_t b) {
+    return std::make_pair (n * b / blocks, n * (b + 1) / blocks);
+  };
+  const auto finite = [] (const PointT& p) {
+    return std::isfinite (p.x) && std::isfinite (p.y) && std::isfinite (p.z);
+  };
+
+  if (!user_cube_)
+  {
+    std::vector<Eigen::Array3f> lo (blocks, Eigen::Array3f::Constant (std::numeric_limits<float>::max ()));
+    std::vector<Eigen::Array3f> hi (blocks, Eigen::Array3f::Constant (-std::numeric_limits<float>::max ()));
+    arena.execute ([&] {
+      tbb::parallel_for (std::size_t (0), blocks, [&] (std::size_t b) {
+        const auto r = blockRange (b);
+        for (std::size_t i = r.first; i < r.second; ++i)
+          if (finite (cloud[i]))
+          {
+            lo[b] = lo[b].min (cloud[i].getArray3fMap ());
+            hi[b] = hi[b].max (cloud[i].getArray3fMap ());
+          }
+      });
+    });
+    Eigen::Array3f l = lo[0], h = hi[0];
+    for (std::size_t b = 1; b < blocks; ++b)
+    {
+      l = l.min (lo[b]);
+      h = h.max (hi[b]);
+    }
+    origin_ = l.cast<double> ().matrix ();
+    const double extent = (h.cast<double> () - l.cast<double> ()).maxCoeff ();
+    // All points identical (or none): any positive edge puts them in cell 0.
+    edge_ = extent > 0 && std::isfinite (extent) ? extent : 1.0;
+    if (!(l <= h).all ())
+      origin_.setZero ();
+  }
+
+  // Top bits per bucket: enough buckets to cut `chunks_` balanced chunks, but small enough
+  // that per-block histograms stay in cache.
+  const int total_bits = 3 * max_depth_;
+  int want = 12;
+  while (want < 16 && (std::size_t (1) << want) < 64 * chunks_)
+    ++want;
+  bucket_bits_ = std::min (total_bits, want);
+  const int shift = total_bits - bucket_bits_;
+  const std::size_t nb = std::size_t (1) << bucket_bits_;
+  const double scale = static_cast<double> (std::uint64_t (1) << max_depth_) / edge_;
+  const Eigen::Vector3d hi_corner = origin_ + Eigen::Vector3d::Constant (edge_);
+  // 0: keep, 1: NaN/Inf, 2: outside the user cube.
+  const auto classify = [&] (const PointT& p) -> int {
+    if (!finite (p))
+      return 1;
+    if (user_cube_ && (p.x < origin_.x () || p.y < origin_.y () || p.z < origin_.z () || p.x > hi_corner.x () ||
+                       p.y > hi_corner.y () || p.z > hi_corner.z ()))
+      return 2;
+    return 0;
+  };
+  const auto key = [&] (const PointT& p) {
+    return (MortonCode::spread (MortonCode::toCell (p.x, origin_.x (), scale, max_depth_)) << 2) |
+           (MortonCode::spread (MortonCode::toCell (p.y, origin_.y (), scale, max_depth_)) << 1) |
+           MortonCode::spread (MortonCode::toCell (p.z, origin_.z (), scale, max_depth_));
+  };
+
+  std::vector<std::size_t> hist (blocks * nb, 0);
+  std::vector<std::size_t> bad (blocks, 0), outside (blocks, 0);
+  arena.execute ([&] {
+    tbb::parallel_for (std::size_t (0), blocks, [&] (std::size_t b) {
+      std::size_t* h = hist.data () + b * nb;
+      const auto r = blockRange (b);
+      for (std::size_t i = r.first; i < r.second; ++i)
+      {
+        const int c = classify (cloud[i]);
+        if (c == 0)
+          ++h[key (cloud[i]) >> shift];
+        else
+          ++(c == 1 ? bad[b] : outside[b]);
+      }
+    });
+  });
+  // Exclusive offsets, bucket-major then block: the scatter keeps input order per bucket.
+  std::vector<std::size_t> bucket_start (nb + 1, 0);
+  std::size_t sum = 0;
+  for (std::size_t k = 0; k < nb; ++k)
+  {
+    bucket_start[k] = sum;
+    for (std::size_t b = 0; b < blocks; ++b)
+    {
+      const std::size_t c = hist[b * nb + k];
+      hist[b * nb + k] = sum;
+      sum += c;
+    }
+  }
+  bucket_start[nb] = sum;
+  for (std::size_t b = 0; b < blocks; ++b)
+  {
+    dropped_invalid_ += bad[b];
+    dropped_outside_ += outside[b];
+  }
+  sorted.clear ();
+  sorted.shrink_to_fit ();
+  sorted.resize (sum);
+  arena.execute ([&] {
+    tbb::parallel_for (std::size_t (0), blocks, [&] (std::size_t b) {
+      std::size_t* h = hist.data () + b * nb;
+      const auto r = blockRange (b);
+      for (std::size_t i = r.first; i < r.second; ++i)
+        if (classify (cloud[i]) == 0)
+          sorted[h[key (cloud[i]) >> shift]++] = cloud[i];
+    });
+  });
+
+  // Chunks: whole buckets, boundaries at the bucket edge nearest each quantile j·n/k.
+  chunk_begin_.push_back (0);
+  if (sum > 0)
+  {
+    for (std::size_t k = 1; k < chunks_; ++k)
+    {
+      const double target = static_cast<double> (sum) * static_cast<double> (k) / static_cast<double> (chunks_);
+      const auto it = std::lower_bound (bucket_start.begin (), bucket_start.end (), target,
+                                        [] (std::size_t v, double t) { return static_cast<double> (v) < t; });
+      std::size_t pos = *it;
+      if (it != bucket_start.begin () && target - static_cast<double> (*(it - 1)) < static_cast<double> (*it) - target)
+        pos = *(it - 1);
+      if (pos > chunk_begin_.back () && pos < sum)
+        chunk_begin_.push_back (pos);
+    }
+    chunk_begin_.push_back (sum);
+  }
+  return sum;
+}
+
+template <typename PointT> void
+pcl::MortonSorter<PointT>::radixSort (std::size_t n)
+{
+  // Stable LSD radix sort on the keys (hand-written because Boost's spreadsort is not stable,
+  // and equal codes must keep input order for a deterministic parent sampling). Digits where
+  // every key agrees are skipped, so a depth-7 chunk takes at most two passes.
+  constexpr int kDigit = 11;
+  constexpr std::size_t kBins = std::size_t (1) << kDigit;
+  const int total_bits = 3 * max_depth_;
+  const int digits = (total_bits + kDigit - 1) / kDigit;
+  std::vector<std::size_t> count (static_cast<std::size_t> (digits) * kBins, 0);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int d = 0; d < digits; ++d)
+      ++count[d * kBins + ((keys_[i].key >> (d * kDigit)) & (kBins - 1))];
+  for (int d = 0; d < digits; ++d)
+  {
+    std::size_t* c = count.data () + d * kBins;
+    if (std::any_of (c, c + kBins, [n] (std::size_t v) { return v == n; }))
+      continue;
+    std::size_t sum = 0;
+    for (std::size_t b = 0; b < kBins; ++b)
+    {
+      const std::size_t v = c[b];
+      c[b] = sum;
+      sum += v;
+    }
+    for (std::size_t i = 0; i < n; ++i)
+      keys_tmp_[c[(keys_[i].key >> (d * kDigit)) & (kBins - 1)]++] = keys_[i];
+    keys_.swap (keys_tmp_);
+  }
+}
+
+template <typename PointT> void
+pcl::MortonSorter<PointT>::sortChunk (std::size_t k, PointVector& sorted, std::vector<MortonCode>& codes)
+{
+  const std::size_t b = chunk_begin_[k], e = chunk_begin_[k + 1], n = e - b;
+  const double scale = static_cast<double> (std::uint64_t (1) << max_depth_) / edge_;
+  if (keys_.size () < n)
+  {
+    std::size_t largest = 0;
+    for (std::size_t j = 0; j + 1 < chunk_begin_.size (); ++j)
+      largest = std::max (largest, chunk_begin_[j + 1] - chunk_begin_[j]);
+    keys_.resize (largest);
+    keys_tmp_.resize (largest);
+    points_tmp_.resize (largest);
+  }
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const PointT& p = sorted[b + i];
+    keys_[i].key = (MortonCode::spread (MortonCode::toCell (p.x, origin_.x (), scale, max_depth_)) << 2) |
+                   (MortonCode::spread (MortonCode::toCell (p.y, origin_.y (), scale, max_depth_)) << 1) |
+                   MortonCode::spread (MortonCode::toCell (p.z, origin_.z (), scale, max_depth_));
+    keys_[i].index = static_cast<std::uint32_t> (i);
+  }
+  radixSort (n);
+  codes.resize (n);
+  const std::uint64_t prefix = std::uint64_t (1) << (3 * max_depth_);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    points_tmp_[i] = sorted[b + keys_[i].index];
+    codes[i] = MortonCode (prefix | keys_[i].key);
+  }
+  std::copy (points_tmp_.begin (), points_tmp_.begin () + n, sorted.begin () + b);
+}
+
+template <typename PointT> void
+pcl::MortonSorter<PointT>::release ()
+{
+  keys_ = {};
+  keys_tmp_ = {};
+  points_tmp_ = PointVector ();
+}
+
+#define PCL_INSTANTIATE_MortonSorter(T) template class PCL_EXPORTS pcl::MortonSorter<T>;

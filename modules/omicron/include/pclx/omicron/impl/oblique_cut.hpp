@@ -1,0 +1,450 @@
+#pragma once
+#include <pclx/omicron/oblique_cut.h>
+#include <pclx/omicron/oblique_cut_front.h>
+
+#include <pcl/console/print.h>
+
+#include <oneapi/tbb/parallel_for.h>
+
+#include <stdexcept>
+#include <string>
+
+template <typename PointT>
+pcl::ObliqueCut<PointT>::ObliqueCut (const Parameters& params) : params_ (params)
+{
+  if (params.max_depth < 1 || params.max_depth > MortonCode::kMaxDepth)
+    throw std::invalid_argument ("ObliqueCut: max depth must be in [1, 21] (got " + std::to_string (params.max_depth) + ")");
+  if (!(params.parent_ratio > 0.f && params.parent_ratio <= 1.f))
+    throw std::invalid_argument ("ObliqueCut: the parent point ratio must be in (0, 1]");
+  if (params.worklist_size < 1)
+    throw std::invalid_argument ("ObliqueCut: the worklist size must be >= 1");
+  if (params.threads < 1)
+    throw std::invalid_argument ("ObliqueCut: the thread count must be >= 1");
+  for (int i = 0; i < params.threads; ++i)
+    slots_.emplace_back (new Slot);
+  if (params.threads > 1)
+    arena_.reset (new tbb::task_arena (params.threads));
+}
+
+template <typename PointT>
+pcl::ObliqueCut<PointT>::~ObliqueCut () = default;
+
+template <typename PointT> pcl::MortonCode
+pcl::ObliqueCut<PointT>::getBoundary () const
+{
+  std::lock_guard<std::mutex> g (mutex_[params_.max_depth]);
+  return boundary_[params_.max_depth];
+}
+
+template <typename PointT> bool
+pcl::ObliqueCut<PointT>::concatenate (Worklist w)
+{
+  const int lmax = params_.max_depth;
+  if (w.empty ())
+    return true;
+  const auto reject = [] (const std::string& why) {
+    PCL_ERROR ("[pcl::ObliqueCut::concatenate] %s; the worklist is rejected and the cut is unchanged\n", why.c_str ());
+    return false;
+  };
+  // Leaves shallower than l_max enter as their placeholder P_{X,lmax} = span(X) (§3.1.3).
+  MortonCode prev_span;
+  for (std::size_t i = 0; i < w.size (); ++i)
+  {
+    CutNode& c = w[i];
+    if (!c.code.valid () || c.code.level () != c.level || c.leaf_level != c.level || c.num_children != 0 ||
+        c.level > lmax)
+      return reject ("node " + std::to_string (i) + " is not a leaf at a level <= max depth (code and level disagree, or it has children)");
+    const MortonCode first = c.code.first (lmax);
+    if (i > 0 && !(first > prev_span))
+      return reject ("the worklist is not in strictly increasing Morton order (node " + std::to_string (i) + ")");
+    prev_span = c.code.span (lmax);
+    if (c.level < lmax)
+    {
+      c.code = prev_span;
+      c.level = static_cast<std::uint8_t> (lmax);
+    }
+  }
+  {
+    std::lock_guard<std::mutex> g (mutex_[lmax]);
+    if (input_finished_)
+      return reject ("the input was declared finished");
+    const MortonCode m = boundary_[lmax];
+    const MortonCode first = w.front ().leaf_level < lmax
+                                 ? MortonCode (w.front ().code.bits () >> (3 * (lmax - w.front ().leaf_level))).first (lmax)
+                                 : w.front ().code;
+    if (!(first > m))
+      return reject ("its first node is not strictly after m_C in Morton order");
+    boundary_[lmax] = w.back ().code;
+    lists_[lmax].push_back (std::move (w));
+    dirty_[lmax] = true;
+  }
+  {
+    std::lock_guard<std::mutex> g (signal_mutex_);
+  }
+  signal_.notify_all ();
+  return true;
+}
+
+template <typename PointT> void
+pcl::ObliqueCut<PointT>::finishInput ()
+{
+  const int lmax = params_.max_depth;
+  {
+    std::lock_guard<std::mutex> g (mutex_[lmax]);
+    input_finished_ = true;
+    boundary_[lmax] = MortonCode::root ().span (lmax);
+    dirty_[lmax] = true;
+  }
+  {
+    std::lock_guard<std::mutex> g (signal_mutex_);
+  }
+  signal_.notify_all ();
+}
+
+template <typename PointT> void
+pcl::ObliqueCut<PointT>::createParent (const CutNode* group, std::size_t k, Slot& slot, Segment& out) const
+{
+  const int lmax = params_.max_depth;
+  const int l = group[0].level;
+  // A placeholder is a degenerate subtree: it climbs one level per fix and becomes the leaf
+  // X itself at X's level.
+  if (k == 1 && group[0].isPlaceholder ())
+  {
+    CutNode up = group[0];
+    up.level = static_cast<std::uint8_t> (l - 1);
+    up.code = up.code.parent ();
+    if (l == lmax)
+      out.placeholders.push_back (group[0].code);
+    out.parents.push_back (up);
+    return;
+  }
+  CutNode pa;
+  pa.code = group[0].code.parent ();
+  pa.level = pa.leaf_level = static_cast<std::uint8_t> (l - 1);
+  // Every node processed at l_max gets its place in the front (Algorithm 4).
+  if (l == lmax)
+    for (std::size_t i = 0; i < k; ++i)
+      out.placeholders.push_back (group[i].code);
+  if (params_.leaf_collapse && k == 1 && l == lmax)
+  {
+    // Leaf collapse: the only child is dropped and the parent becomes the leaf. It keeps all
+    // of the child's points (a range of the sorted array, so keeping them costs nothing).
+    pa.points = group[0].points;
+    pa.num_points = group[0].num_points;
+    pa.flags = omicron::kCollapsed;
+    out.parents.push_back (pa);
+    return;
+  }
+  Node* block = slot.nodes.allocate (k);
+  std::uint32_t total = 0;
+  for (std::size_t i = 0; i < k; ++i)
+    total += omicron::parentSampleCount (group[i].num_points, params_.parent_ratio);
+  PointT* dst = total > 0 ? slot.points.allocate (total) : nullptr;
+  pa.points = dst;
+  pa.num_points = total;
+  pa.children = block;
+  pa.num_children = static_cast<std::uint8_t> (k);
+  for (std::size_t i = 0; i < k; ++i)
+  {
+    const CutNode& c = group[i];
+    Node& n = block[i];
+    n.code = c.code;
+    n.points = c.points;
+    n.num_points = c.num_points;
+    n.level = c.level;
+    n.num_children = c.num_children;
+    n.flags = c.flags;
+    n.children = c.children;
+    const std::uint32_t m = omicron::parentSampleCount (c.num_points, params_.parent_ratio);
+    for (std::uint32_t t = 0; t < m; ++t)
+      *dst++ = c.points[omicron::parentSampleIndex (t, m, c.num_points)];
+    // The grandchildren now have a parent that is no root of L_C: link them, and the leaves
+    // among them may enter the front (invariant 2.2).
+    for (std::uint8_t j = 0; j < n.num_children; ++j)
+    {
+      n.children[j].parent.store (&n, std::memory_order_release);
+      if (n.children[j].isLeaf ())
+        out.leaves.push_back (&n.children[j]);
+    }
+  }
+  out.parents.push_back (pa);
+}
+
+template <typename PointT> bool
+pcl::ObliqueCut<PointT>::fixLevel (int l)
+{
+  const int lmax = params_.max_depth;
+  if (l < 1 || l > lmax)
+    return false;
+  std::deque<Worklist> in;
+  MortonCode bnd, up_bnd;
+  {
+    std::lock_guard<std::mutex> g (mutex_[l]);
+    in.swap (lists_[l]);
+    bnd = boundary_[l];
+    dirty_[l] = false;
+  }
+  {
+    std::lock_guard<std::mutex> g (mutex_[l - 1]);
+    up_bnd = boundary_[l - 1];
+  }
+  if (in.empty () && up_bnd == bnd)
+    return false;
+
+  std::vector<Worklist*> ws;
+  for (Worklist& w : in)
+    if (!w.empty ())
+      ws.push_back (&w);
+  // Master: sibling groups split across worklists belong to the worklist where they begin
+  // (start[i] skips the continuation). The paper merges the duplicate parents afterwards;
+  // resolving first creates each parent once, so no permanent node or parent link is ever
+  // rewritten while the front may read it.
+  std::vector<std::size_t> start (ws.size (), 0);
+  MortonCode prev;
+  for (std::size_t i = 0; i < ws.size (); ++i)
+  {
+    const Worklist& w = *ws[i];
+    std::size_t j = 0;
+    while (prev.valid () && j < w.size () && w[j].code.parent () == prev)
+      ++j;
+    start[i] = j;
+    prev = w.back ().code.parent ();
+  }
+  // The last group waits when its parent's subtree reaches past the boundary (S).
+  std::size_t ti = ws.size (), tj = 0;
+  Worklist tail;
+  if (!ws.empty () && prev.span (lmax) > bnd)
+  {
+    ti = ws.size () - 1;
+    tj = ws[ti]->size ();
+    while (true)
+    {
+      if (tj > 0 && (*ws[ti])[tj - 1].code.parent () == prev)
+        --tj;
+      else if (tj == 0 && ti > 0 && ws[ti - 1]->back ().code.parent () == prev)
+        tj = ws[--ti]->size ();
+      else
+        break;
+    }
+    for (std::size_t i = ti, j = tj; i < ws.size (); ++i, j = 0)
+      tail.insert (tail.end (), ws[i]->begin () + j, ws[i]->end ());
+  }
+
+  std::vector<Segment> segs (ws.size ());
+  const auto work = [&] (std::size_t i, Slot& s) {
+    const Worklist& w = *ws[i];
+    CutNode group[8];
+    std::size_t j = start[i];
+    while (j < w.size () && !(i == ti && j >= tj) && i <= ti)
+    {
+      const MortonCode pc = w[j].code.parent ();
+      std::size_t k = 0, wi = i, jj = j;
+      while (wi < ws.size ())
+      {
+        const Worklist& cw = *ws[wi];
+        while (jj < cw.size () && k < 8 && cw[jj].code.parent () == pc)
+          group[k++] = cw[jj++];
+        if (jj < cw.size () || k == 8)
+          break;
+        ++wi;
+        jj = 0;
+      }
+      createParent (group, k, s, segs[i]);
+      if (wi != i)
+        break;  // the group ran into the next worklists, which skip it
+      j = jj;
+    }
+  };
+  if (arena_ && ws.size () > 1)
+    arena_->execute ([&] {
+      tbb::parallel_for (std::size_t (0), ws.size (), [&] (std::size_t i) {
+        work (i, *slots_[tbb::this_task_arena::current_thread_index ()]);
+      });
+    });
+  else
+    for (std::size_t i = 0; i < ws.size (); ++i)
+      work (i, *slots_[0]);
+
+  // Master: merge the segments into worklists of the configured size for level l − 1.
+  std::vector<Worklist> up;
+  Worklist cur;
+  for (Segment& s : segs)
+    for (CutNode& c : s.parents)
+    {
+      cur.push_back (c);
+      if (cur.size () >= params_.worklist_size)
+      {
+        up.push_back (std::move (cur));
+        cur = Worklist ();
+      }
+    }
+  if (!cur.empty ())
+    up.push_back (std::move (cur));
+  {
+    std::lock_guard<std::mutex> g (mutex_[l - 1]);
+    for (Worklist& w : up)
+      lists_[l - 1].push_back (std::move (w));
+    boundary_[l - 1] = bnd;
+    if (l - 1 >= 1)
+      dirty_[l - 1] = true;
+  }
+  if (!tail.empty ())
+  {
+    std::lock_guard<std::mutex> g (mutex_[l]);
+    lists_[l].push_front (std::move (tail));
+  }
+  if (front_)
+  {
+    std::vector<MortonCode> ph;
+    std::vector<const Node*> leaves;
+    for (Segment& s : segs)
+    {
+      ph.insert (ph.end (), s.placeholders.begin (), s.placeholders.end ());
+      leaves.insert (leaves.end (), s.leaves.begin (), s.leaves.end ());
+    }
+    // Placeholders before leaves: the front takes a leaf list before the placeholders, so
+    // every leaf it sees already has its placeholder (Algorithm 3 sends them in this order).
+    if (!ph.empty ())
+      front_->insertPlaceholders (std::move (ph));
+    if (!leaves.empty ())
+      front_->insertLeaves (l + 1, std::move (leaves));
+  }
+  if (l == 1 && bnd == MortonCode::root ().span (lmax))
+    finalize ();
+  return true;
+}
+
+template <typename PointT> void
+pcl::ObliqueCut<PointT>::finalize ()
+{
+  Worklist roots;
+  {
+    std::lock_guard<std::mutex> g (mutex_[0]);
+    for (Worklist& w : lists_[0])
+      roots.insert (roots.end (), w.begin (), w.end ());
+    lists_[0].clear ();
+  }
+  std::vector<const Node*> leaves1;
+  if (!roots.empty ())
+  {
+    // Only the null node is left in S: one root (§3.1.4).
+    const CutNode& c = roots.front ();
+    Node* r = slots_[0]->nodes.allocate (1);
+    r->code = c.code;
+    r->points = c.points;
+    r->num_points = c.num_points;
+    r->level = c.level;
+    r->num_children = c.num_children;
+    r->flags = c.flags;
+    r->children = c.children;
+    for (std::uint8_t j = 0; j < r->num_children; ++j)
+    {
+      r->children[j].parent.store (r, std::memory_order_release);
+      if (r->children[j].isLeaf ())
+        leaves1.push_back (&r->children[j]);
+    }
+    root_ = r;
+  }
+  if (front_)
+  {
+    if (!leaves1.empty ())
+      front_->insertLeaves (1, std::move (leaves1));
+    if (root_ && root_->isLeaf ())
+      front_->insertLeaves (0, std::vector<const Node*>{root_});
+  }
+  complete_ = true;
+  {
+    std::lock_guard<std::mutex> g (signal_mutex_);
+  }
+  signal_.notify_all ();
+}
+
+template <typename PointT> void
+pcl::ObliqueCut<PointT>::fix ()
+{
+  for (int l = params_.max_depth; l >= 1; --l)
+    fixLevel (l);
+}
+
+template <typename PointT> bool
+pcl::ObliqueCut<PointT>::dirty (int level) const
+{
+  std::lock_guard<std::mutex> g (mutex_[level]);
+  return dirty_[level];
+}
+
+template <typename PointT> std::size_t
+pcl::ObliqueCut<PointT>::worklists (int level) const
+{
+  std::lock_guard<std::mutex> g (mutex_[level]);
+  return lists_[level].size ();
+}
+
+template <typename PointT> void
+pcl::ObliqueCut<PointT>::runMaster ()
+{
+  const int lmax = params_.max_depth;
+  int l = lmax;
+  while (!complete_)
+  {
+    if (dirty (l))
+    {
+      fixLevel (l);
+      // Algorithm 3: climb while the next level has more work than the leaf level.
+      l = (l > 1 && worklists (l - 1) > worklists (lmax)) ? l - 1 : lmax;
+      continue;
+    }
+    int d = 0;
+    for (int k = lmax; k >= 1 && d == 0; --k)
+      if (dirty (k))
+        d = k;
+    if (d > 0)
+    {
+      l = d;
+      continue;
+    }
+    std::unique_lock<std::mutex> lk (signal_mutex_);
+    signal_.wait (lk, [&] {
+      if (complete_)
+        return true;
+      for (int k = lmax; k >= 1; --k)
+        if (dirty (k))
+          return true;
+      return false;
+    });
+  }
+}
+
+template <typename PointT> bool
+pcl::ObliqueCut<PointT>::isComplete () const
+{
+  return complete_;
+}
+
+template <typename PointT> typename pcl::ObliqueCut<PointT>::Snapshot
+pcl::ObliqueCut<PointT>::snapshot () const
+{
+  Snapshot s;
+  std::vector<std::unique_lock<std::mutex>> locks;
+  for (int l = 0; l <= params_.max_depth; ++l)
+    locks.emplace_back (mutex_[l]);
+  s.boundary = boundary_[params_.max_depth];
+  s.lists.resize (params_.max_depth + 1);
+  for (int l = 0; l <= params_.max_depth; ++l)
+    for (const Worklist& w : lists_[l])
+      s.lists[l].insert (s.lists[l].end (), w.begin (), w.end ());
+  s.root = root_;
+  s.complete = complete_;
+  return s;
+}
+
+template <typename PointT> std::size_t
+pcl::ObliqueCut<PointT>::memoryBytes () const
+{
+  std::size_t b = 0;
+  for (const auto& s : slots_)
+    b += s->nodes.bytes () + s->points.bytes ();
+  return b;
+}
+
+#define PCL_INSTANTIATE_ObliqueCut(T) template class PCL_EXPORTS pcl::ObliqueCut<T>;

@@ -1,0 +1,266 @@
+#pragma once
+#include <pclx/omicron/impl/morton_sorter.hpp>
+#include <pclx/omicron/impl/oblique_cut.hpp>
+#include <pclx/omicron/impl/oblique_cut_front.hpp>
+#include <pclx/omicron/oblique_cut_octree.h>
+
+#include <pcl/console/print.h>
+
+#include <chrono>
+#include <stdexcept>
+#include <string>
+
+template <typename PointT>
+pcl::ObliqueCutOctree<PointT>::~ObliqueCutOctree ()
+{
+  if (thread_.joinable ())
+    thread_.join ();
+}
+
+template <typename PointT> void
+pcl::ObliqueCutOctree<PointT>::checkIdle () const
+{
+  if (running_)
+    throw std::logic_error ("ObliqueCutOctree: parameters cannot change while a build runs");
+}
+
+template <typename PointT> void
+pcl::ObliqueCutOctree<PointT>::setMaxDepth (int depth)
+{
+  checkIdle ();
+  if (depth < 1 || depth > MortonCode::kMaxDepth)
+    throw std::invalid_argument ("ObliqueCutOctree: max depth must be in [1, 21] (got " + std::to_string (depth) + ")");
+  params_.max_depth = depth;
+}
+
+template <typename PointT> void
+pcl::ObliqueCutOctree<PointT>::setParentPointRatio (float ratio)
+{
+  checkIdle ();
+  if (!(ratio > 0.f && ratio <= 1.f))
+    throw std::invalid_argument ("ObliqueCutOctree: the parent point ratio must be in (0, 1]");
+  params_.parent_ratio = ratio;
+}
+
+template <typename PointT> void
+pcl::ObliqueCutOctree<PointT>::setWorklistSize (std::size_t nodes)
+{
+  checkIdle ();
+  if (nodes < 1)
+    throw std::invalid_argument ("ObliqueCutOctree: the worklist size must be >= 1");
+  params_.worklist_size = nodes;
+}
+
+template <typename PointT> void
+pcl::ObliqueCutOctree<PointT>::setSortChunks (std::size_t chunks)
+{
+  checkIdle ();
+  if (chunks < 1)
+    throw std::invalid_argument ("ObliqueCutOctree: the sort chunk count must be >= 1");
+  chunks_ = chunks;
+}
+
+template <typename PointT> void
+pcl::ObliqueCutOctree<PointT>::setThreads (int threads)
+{
+  checkIdle ();
+  if (threads < 1)
+    throw std::invalid_argument ("ObliqueCutOctree: the thread count must be >= 1");
+  params_.threads = threads;
+}
+
+template <typename PointT> void
+pcl::ObliqueCutOctree<PointT>::setRootCube (const Eigen::Vector3d& origin, double edge)
+{
+  checkIdle ();
+  if (!origin.allFinite () || !(edge > 0) || !std::isfinite (edge))
+    throw std::invalid_argument ("ObliqueCutOctree: the root cube needs a finite origin and a finite edge > 0");
+  origin_ = origin;
+  edge_ = edge;
+  user_cube_ = true;
+}
+
+template <typename PointT> void
+pcl::ObliqueCutOctree<PointT>::clearRootCube ()
+{
+  checkIdle ();
+  user_cube_ = false;
+}
+
+template <typename PointT> void
+pcl::ObliqueCutOctree<PointT>::setSplatMultipliers (const std::vector<float>& m)
+{
+  checkIdle ();
+  if (m.empty ())
+    throw std::invalid_argument ("ObliqueCutOctree: at least one splat multiplier is needed");
+  for (float v : m)
+    if (!(v > 0.f) || !std::isfinite (v))
+      throw std::invalid_argument ("ObliqueCutOctree: splat multipliers must be finite and > 0");
+  multipliers_ = m;
+}
+
+template <typename PointT> bool
+pcl::ObliqueCutOctree<PointT>::build ()
+{
+  if (!startBuild ())
+    return false;
+  return wait ();
+}
+
+template <typename PointT> bool
+pcl::ObliqueCutOctree<PointT>::startBuild ()
+{
+  if (running_)
+  {
+    PCL_ERROR ("[pcl::ObliqueCutOctree::startBuild] a build is already running\n");
+    return false;
+  }
+  if (thread_.joinable ())
+    thread_.join ();
+  running_ = true;
+  finished_ = false;
+  cut_.reset ();
+  // The front is emptied here, so evaluate() right after startBuild () sees no stale nodes.
+  front_.reset (params_.max_depth, origin_, edge_, {});
+  thread_ = std::thread ([this] {
+    result_ = run ();
+    running_ = false;
+    finished_ = true;
+  });
+  return true;
+}
+
+template <typename PointT> bool
+pcl::ObliqueCutOctree<PointT>::wait ()
+{
+  if (thread_.joinable ())
+    thread_.join ();
+  return result_;
+}
+
+template <typename PointT> bool
+pcl::ObliqueCutOctree<PointT>::run ()
+{
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now ();
+  const auto since = [&] { return std::chrono::duration<double> (Clock::now () - t0).count (); };
+  stats_ = Statistics ();
+  if (!input_)
+  {
+    PCL_ERROR ("[pcl::ObliqueCutOctree::build] no input cloud\n");
+    return false;
+  }
+  const int lmax = params_.max_depth;
+  MortonSorter<PointT> sorter;
+  sorter.setMaxDepth (lmax);
+  sorter.setChunks (chunks_);
+  sorter.setThreads (params_.threads);
+  if (user_cube_)
+    sorter.setRootCube (origin_, edge_);
+  stats_.input_points = input_->size ();
+  const std::size_t kept = sorter.prepare (*input_, sorted_);
+  stats_.seconds_read = since ();
+  stats_.kept_points = kept;
+  stats_.dropped_invalid = sorter.getDroppedInvalid ();
+  stats_.dropped_outside = sorter.getDroppedOutside ();
+  stats_.chunks = sorter.numChunks ();
+  stats_.sorted_bytes = sorted_.capacity () * sizeof (PointT);
+  origin_ = sorter.getOrigin ();
+  edge_ = sorter.getEdge ();
+  if (kept == 0)
+  {
+    PCL_ERROR ("[pcl::ObliqueCutOctree::build] the cloud has no finite point%s (%zu points, %zu NaN/Inf, %zu outside "
+               "the root cube); the hierarchy is empty\n",
+               user_cube_ ? " inside the root cube" : "", stats_.input_points, stats_.dropped_invalid,
+               stats_.dropped_outside);
+    stats_.seconds_total = since ();
+    return false;
+  }
+
+  // The first chunk is sorted here: it fixes the automatic leaf splat radius.
+  std::vector<MortonCode> codes;
+  sorter.sortChunk (0, sorted_, codes);
+  stats_.seconds_to_first_chunk = since ();
+  float leaf_radius = leaf_radius_;
+  const double cell = edge_ / static_cast<double> (std::uint64_t (1) << lmax);
+  if (!(leaf_radius > 0.f))
+  {
+    std::size_t occupied = 0;
+    for (std::size_t i = 0; i < codes.size (); ++i)
+      occupied += (i == 0 || codes[i] != codes[i - 1]) ? 1 : 0;
+    leaf_radius = static_cast<float> (cell / std::sqrt (static_cast<double> (codes.size ()) / occupied));
+  }
+  radii_.assign (lmax + 1, leaf_radius);
+  for (int l = lmax - 1; l >= 0; --l)
+    radii_[l] = radii_[l + 1] * multipliers_[std::min<std::size_t> (lmax - 1 - l, multipliers_.size () - 1)];
+  front_.reset (lmax, origin_, edge_, radii_);
+  cut_.reset (new ObliqueCut<PointT> (params_));
+  cut_->setFront (&front_);
+
+  // Sorter thread (Algorithm 1): leaves of each sorted chunk, in worklists, concatenated.
+  std::thread sorter_thread ([&] {
+    using Worklist = typename ObliqueCut<PointT>::Worklist;
+    std::vector<MortonCode> chunk_codes = std::move (codes);
+    for (std::size_t k = 0; k < sorter.numChunks (); ++k)
+    {
+      if (k > 0)
+        sorter.sortChunk (k, sorted_, chunk_codes);
+      const std::size_t begin = sorter.chunkRange (k).first;
+      Worklist w;
+      w.reserve (params_.worklist_size);
+      for (std::size_t i = 0; i < chunk_codes.size ();)
+      {
+        std::size_t j = i + 1;
+        while (j < chunk_codes.size () && chunk_codes[j] == chunk_codes[i])
+          ++j;
+        w.push_back (omicron::CutNode<PointT>::leaf (chunk_codes[i], sorted_.data () + begin + i,
+                                                     static_cast<std::uint32_t> (j - i)));
+        if (w.size () >= params_.worklist_size)
+        {
+          cut_->concatenate (std::move (w));
+          w = Worklist ();
+          w.reserve (params_.worklist_size);
+        }
+        i = j;
+      }
+      if (!w.empty ())
+        cut_->concatenate (std::move (w));
+    }
+    sorter.release ();
+    cut_->finishInput ();
+  });
+  cut_->runMaster ();  // this thread is the fix master
+  sorter_thread.join ();
+
+  stats_.seconds_total = since ();
+  stats_.seconds_to_first_front = front_.secondsToFirstLeaf () < 0 ? stats_.seconds_total
+                                                                   : stats_.seconds_read + front_.secondsToFirstLeaf ();
+  stats_.hierarchy_bytes = cut_->memoryBytes ();
+  stats_.nodes_per_level.assign (lmax + 1, 0);
+  stats_.points_per_level.assign (lmax + 1, 0);
+  stats_.leaves_per_level.assign (lmax + 1, 0);
+  std::vector<const Node*> stack;
+  if (cut_->getRoot ())
+    stack.push_back (cut_->getRoot ());
+  while (!stack.empty ())
+  {
+    const Node* n = stack.back ();
+    stack.pop_back ();
+    ++stats_.nodes_per_level[n->level];
+    stats_.points_per_level[n->level] += n->num_points;
+    stats_.leaves_per_level[n->level] += n->isLeaf () ? 1 : 0;
+    for (std::uint8_t j = 0; j < n->num_children; ++j)
+      stack.push_back (n->children + j);
+  }
+  return true;
+}
+
+template <typename PointT> typename pcl::ObliqueCutOctree<PointT>::Statistics
+pcl::ObliqueCutOctree<PointT>::getStatistics () const
+{
+  if (running_)
+    throw std::logic_error ("ObliqueCutOctree: statistics are available after the build");
+  return stats_;
+}
+
+#define PCL_INSTANTIATE_ObliqueCutOctree(T) template class PCL_EXPORTS pcl::ObliqueCutOctree<T>;

@@ -1,0 +1,96 @@
+#pragma once
+// pcl::MortonSorter: partial Morton sort of an unsorted cloud in chunks (OMiCroN §4.1,
+// Algorithm 1's partial_sort), so that hierarchy creation starts after the first chunk.
+//
+//   prepare ()    bounds → root cube; one counting pass on the top Morton bits and one stable
+//                 scatter of the finite points into buckets (MSD radix) of ONE output array;
+//                 NaN/Inf points (and points outside a user root cube) are dropped and counted.
+//   sortChunk (k) consecutive buckets form chunk k; it is sorted in place with a stable LSD
+//                 radix sort on its codes and handed on; chunk k never moves again.
+//
+// Equal codes keep input order (both passes are stable), so what is built from the sorted
+// array does not depend on the thread or chunk count.
+#include <pclx/omicron/morton_code.h>
+
+#include <pcl/point_cloud.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+namespace pcl {
+
+template <typename PointT>
+class MortonSorter
+{
+public:
+  using PointVector = typename PointCloud<PointT>::VectorType;
+
+  // Leaf depth of the codes (1..21; throws std::invalid_argument otherwise).
+  void setMaxDepth (int depth);
+  int getMaxDepth () const { return max_depth_; }
+  // At most this many chunks (>= 1). Chunks are made of whole buckets, so a cloud whose points
+  // share few top-bit buckets (heavy duplicates) gets fewer.
+  void setChunks (std::size_t chunks);
+  std::size_t getChunks () const { return chunks_; }
+  // Root cube [origin, origin + edge)^3; without it the cube is the cloud's bounds made cubic
+  // (min corner, longest side). Points outside a given cube are dropped and counted.
+  void setRootCube (const Eigen::Vector3d& origin, double edge);
+  void clearRootCube () { user_cube_ = false; }
+  void setThreads (int threads) { threads_ = threads < 1 ? 1 : threads; }
+
+  // Reads `cloud` into `sorted` (resized to the kept points, bucketed). Returns the kept count.
+  std::size_t prepare (const PointCloud<PointT>& cloud, PointVector& sorted);
+
+  std::size_t numChunks () const { return chunk_begin_.empty () ? 0 : chunk_begin_.size () - 1; }
+  std::pair<std::size_t, std::size_t> chunkRange (std::size_t k) const { return {chunk_begin_[k], chunk_begin_[k + 1]}; }
+  // Sorts chunk k of `sorted` (the array given to prepare) in place; `codes` receives the
+  // depth-max_depth code of each of its points, in order.
+  void sortChunk (std::size_t k, PointVector& sorted, std::vector<MortonCode>& codes);
+  // Frees the chunk buffers (call after the last chunk).
+  void release ();
+
+  // prepare() + every chunk in order; on_chunk (begin, end, codes) is called as each is sorted.
+  template <typename F> std::size_t
+  sort (const PointCloud<PointT>& cloud, PointVector& sorted, F&& on_chunk)
+  {
+    const std::size_t n = prepare (cloud, sorted);
+    std::vector<MortonCode> codes;
+    for (std::size_t k = 0; k < numChunks (); ++k)
+    {
+      sortChunk (k, sorted, codes);
+      on_chunk (chunk_begin_[k], chunk_begin_[k + 1], codes);
+    }
+    release ();
+    return n;
+  }
+
+  const Eigen::Vector3d& getOrigin () const { return origin_; }
+  double getEdge () const { return edge_; }
+  std::size_t getDroppedInvalid () const { return dropped_invalid_; }
+  std::size_t getDroppedOutside () const { return dropped_outside_; }
+  int getBucketBits () const { return bucket_bits_; }
+
+private:
+  struct KeyIndex
+  {
+    std::uint64_t key;  // interleaved bits without the prefix
+    std::uint32_t index;
+  };
+  void radixSort (std::size_t n);
+
+  int max_depth_ = 7;
+  std::size_t chunks_ = 16;
+  int threads_ = 1;
+  bool user_cube_ = false;
+  Eigen::Vector3d origin_ = Eigen::Vector3d::Zero ();
+  double edge_ = 1.0;
+  int bucket_bits_ = 0;
+  std::size_t dropped_invalid_ = 0, dropped_outside_ = 0;
+  std::vector<std::size_t> chunk_begin_;  // numChunks () + 1 offsets into the sorted array
+  std::vector<KeyIndex> keys_, keys_tmp_;
+  PointVector points_tmp_;
+};
+
+}  // namespace pcl

@@ -1,0 +1,127 @@
+#pragma once
+// pcl::ObliqueCutOctree: OMiCroN (Oblique Multipass Hierarchy Creation while Navigating,
+// seed 001): an LOD octree built bottom-up from a Morton-sorted stream while a rendering
+// front can be evaluated on the part already built.
+//
+//   pcl::ObliqueCutOctree<pcl::PointXYZ> octree;
+//   octree.setInputCloud (cloud);
+//   octree.setMaxDepth (7);
+//   octree.startBuild ();                       // or build () to block
+//   while (!octree.isFinished ())
+//     octree.evaluate (camera, items);          // draw items[i].points with items[i].splat_radius
+//   octree.wait ();
+//
+// Threads as in Fig. 3.6: a sorter thread (partial Morton sort in chunks, Algorithm 1, then
+// concatenate), the fix master (Algorithm 3) with worker threads, and whichever thread calls
+// evaluate() as the front tracker (Algorithm 5).
+//
+// Data: the kept points are reordered once into a sorted array; leaves are ranges of it and
+// parents hold their own sampled points (arena blocks). NaN/Inf points are dropped and counted.
+#include <pclx/omicron/morton_sorter.h>
+#include <pclx/omicron/oblique_cut.h>
+#include <pclx/omicron/oblique_cut_front.h>
+
+#include <pcl/point_cloud.h>
+
+#include <atomic>
+#include <memory>
+#include <thread>
+#include <vector>
+
+namespace pcl {
+
+template <typename PointT>
+class ObliqueCutOctree
+{
+public:
+  using PointCloud = pcl::PointCloud<PointT>;
+  using PointCloudConstPtr = typename PointCloud::ConstPtr;
+  using Node = omicron::Node<PointT>;
+  using Front = ObliqueCutFront<PointT>;
+  using Camera = typename Front::Camera;
+  using Item = typename Front::Item;
+
+  struct Statistics
+  {
+    std::size_t input_points = 0, kept_points = 0;
+    std::size_t dropped_invalid = 0;   // NaN / Inf coordinates
+    std::size_t dropped_outside = 0;   // outside a user root cube
+    std::size_t chunks = 0;
+    std::vector<std::size_t> nodes_per_level, points_per_level, leaves_per_level;
+    double seconds_read = 0;            // bounds + bucket passes (the whole input is read)
+    double seconds_to_first_chunk = 0;  // … and the first chunk sorted
+    double seconds_to_first_front = 0;  // first leaf handed to the front
+    double seconds_total = 0;
+    std::size_t sorted_bytes = 0, hierarchy_bytes = 0;  // sorted array; node + parent-point arenas
+  };
+
+  ObliqueCutOctree () = default;
+  ~ObliqueCutOctree ();
+  ObliqueCutOctree (const ObliqueCutOctree&) = delete;
+  ObliqueCutOctree& operator= (const ObliqueCutOctree&) = delete;
+
+  void setInputCloud (const PointCloudConstPtr& cloud) { checkIdle (); input_ = cloud; }
+  // Setters throw std::invalid_argument on values out of range (and std::logic_error while
+  // a build runs).
+  void setMaxDepth (int depth);                  // 1..21, default 7 (the paper's)
+  int getMaxDepth () const { return params_.max_depth; }
+  void setParentPointRatio (float ratio);        // (0, 1], default 0.2
+  void setLeafCollapse (bool on) { checkIdle (); params_.leaf_collapse = on; }
+  void setWorklistSize (std::size_t nodes);      // >= 1, default 32
+  void setSortChunks (std::size_t chunks);       // >= 1, default 16
+  void setThreads (int threads);                 // fix workers and read passes, >= 1
+  void setRootCube (const Eigen::Vector3d& origin, double edge);
+  void clearRootCube ();
+  // Leaf splat radius (world units); <= 0: the leaf cell edge / sqrt (mean points per
+  // occupied leaf of the first chunk), about the point spacing on a surface.
+  void setLeafSplatRadius (float radius) { checkIdle (); leaf_radius_ = radius; }
+  // Radius multipliers applied going up: m[0] from l_max to l_max − 1, m[1] to l_max − 2, …,
+  // the last one for every shallower level. Default from Table 4.5 (range midpoints).
+  void setSplatMultipliers (const std::vector<float>& m);
+  void setProjectionThreshold (float ndc) { front_.setProjectionThreshold (ndc); }
+
+  // Blocking build. Returns false (PCL_ERROR) on no input or no finite point.
+  bool build ();
+  // Background build; evaluate() may be called meanwhile from another thread.
+  bool startBuild ();
+  bool isFinished () const { return finished_; }
+  bool wait ();
+
+  // One front evaluation (Algorithm 5); usable during and after the build.
+  void evaluate (const Camera& camera, std::vector<Item>& items) { front_.evaluate (camera, items); }
+  Front& getFront () { return front_; }
+
+  // After the build:
+  const Node* getRoot () const { return finished_ && cut_ ? cut_->getRoot () : nullptr; }
+  const typename PointCloud::VectorType& getSortedPoints () const { return sorted_; }
+  const Eigen::Vector3d& getRootOrigin () const { return origin_; }
+  double getRootEdge () const { return edge_; }
+  std::vector<float> getSplatRadii () const { return radii_; }
+  Statistics getStatistics () const;
+  // The cut, for inspection (nullptr before a build).
+  const ObliqueCut<PointT>* getCut () const { return cut_.get (); }
+
+private:
+  bool run ();
+  void checkIdle () const;
+
+  PointCloudConstPtr input_;
+  typename ObliqueCut<PointT>::Parameters params_;
+  std::size_t chunks_ = 16;
+  bool user_cube_ = false;
+  Eigen::Vector3d origin_ = Eigen::Vector3d::Zero ();
+  double edge_ = 1.0;
+  float leaf_radius_ = 0.f;
+  std::vector<float> multipliers_{4.2f, 2.4f, 2.2f, 2.2f, 2.0f};
+  std::vector<float> radii_;
+
+  typename PointCloud::VectorType sorted_;
+  std::unique_ptr<ObliqueCut<PointT>> cut_;
+  Front front_;
+  Statistics stats_;
+  std::thread thread_;
+  std::atomic<bool> running_{false}, finished_{false};
+  bool result_ = false;
+};
+
+}  // namespace pcl

@@ -1,0 +1,119 @@
+#pragma once
+// Node records shared by pcl::ObliqueCut and pcl::ObliqueCutFront (OMiCroN §3).
+//
+// A subtree root in a cut list L_{C,l} is a value (CutNode) in a worklist: fix moves it from
+// list to list. When its parent is created it is copied into permanent storage (Node, in an
+// arena, siblings contiguous) and never moves again. The front only ever holds permanent
+// nodes, which is what keeps roots of L_C out of it (invariant 2.2). A node's parent link
+// is set when its grandparent is created (Algorithm 4), so a front node can be pruned into
+// its parent only once that parent has itself left L_C.
+#include <pclx/omicron/morton_code.h>
+
+#include <algorithm>
+#include <cmath>
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace pcl {
+namespace omicron {
+
+enum NodeFlags : std::uint8_t
+{
+  kCollapsed = 1  // leaf that took the points of its only child (leaf collapse)
+};
+
+template <typename PointT>
+struct Node
+{
+  MortonCode code;
+  const PointT* points = nullptr;    // leaves: a range of the sorted array; parents: own sample
+  std::uint32_t num_points = 0;
+  std::uint8_t level = 0;
+  std::uint8_t num_children = 0;
+  std::uint8_t flags = 0;
+  const Node* children = nullptr;    // contiguous, Morton order
+  mutable std::atomic<const Node*> parent{nullptr};  // set when the grandparent is created
+
+  bool isLeaf () const { return num_children == 0; }
+};
+
+template <typename PointT>
+struct CutNode
+{
+  MortonCode code;  // at `level`; for a placeholder P_{X,level} of the leaf X
+  const PointT* points = nullptr;
+  std::uint32_t num_points = 0;
+  std::uint8_t level = 0;
+  std::uint8_t leaf_level = 0;  // == level, or the level of X for a placeholder (§3.1.3)
+  std::uint8_t num_children = 0;
+  std::uint8_t flags = 0;
+  const Node<PointT>* children = nullptr;
+
+  bool isPlaceholder () const { return leaf_level < level; }
+
+  // A leaf at `level` holding [points, points + n).
+  static CutNode
+  leaf (MortonCode code, const PointT* points, std::uint32_t n)
+  {
+    CutNode c;
+    c.code = code;
+    c.points = points;
+    c.num_points = n;
+    c.level = c.leaf_level = static_cast<std::uint8_t> (code.level ());
+    return c;
+  }
+};
+
+// Blocks that never move: pointers into them stay valid while other threads allocate more
+// (a std::vector would relocate). One arena per worker, so allocation takes no lock.
+template <typename T>
+class BlockArena
+{
+public:
+  explicit BlockArena (std::size_t block = 4096) : block_ (block) {}
+
+  T*
+  allocate (std::size_t k)
+  {
+    if (used_ + k > capacity_)
+    {
+      capacity_ = std::max (block_, k);
+      blocks_.emplace_back (new T[capacity_]);
+      reserved_ += capacity_;
+      used_ = 0;
+    }
+    T* p = blocks_.back ().get () + used_;
+    used_ += k;
+    return p;
+  }
+  std::size_t bytes () const { return reserved_ * sizeof (T); }
+
+private:
+  std::size_t block_;
+  std::vector<std::unique_ptr<T[]>> blocks_;
+  std::size_t used_ = 0, capacity_ = 0, reserved_ = 0;
+};
+
+// Points a parent takes from a child of n points: round (ratio · n), at least one.
+inline std::uint32_t
+parentSampleCount (std::uint32_t n, float ratio)
+{
+  if (n == 0)
+    return 0;
+  const double m = std::floor (static_cast<double> (ratio) * n + 0.5);
+  return static_cast<std::uint32_t> (std::min<double> (n, std::max (1.0, m)));
+}
+
+// Index of the t-th of m picks among n points: the centres of m equal strides, so the
+// sample spreads over the child's Morton-ordered points.
+inline std::uint32_t
+parentSampleIndex (std::uint32_t t, std::uint32_t m, std::uint32_t n)
+{
+  return static_cast<std::uint32_t> ((2 * std::uint64_t (t) + 1) * n / (2 * std::uint64_t (m)));
+}
+
+}  // namespace omicron
+}  // namespace pcl

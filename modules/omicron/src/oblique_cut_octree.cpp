@@ -1,0 +1,14 @@
+// Explicit instantiation for PCL's common xyz point types, so users link instead of recompiling.
+#include <pclx/omicron/impl/oblique_cut_octree.hpp>
+
+#include <pcl/impl/instantiate.hpp>
+#include <pcl/point_types.h>
+
+#ifndef PCL_NO_PRECOMPILE
+#define PCLX_OMICRON_POINT_TYPES \
+  (pcl::PointXYZ)(pcl::PointXYZRGB)(pcl::PointXYZRGBA)(pcl::PointXYZI)(pcl::PointNormal)
+PCL_INSTANTIATE (MortonSorter, PCLX_OMICRON_POINT_TYPES)
+PCL_INSTANTIATE (ObliqueCut, PCLX_OMICRON_POINT_TYPES)
+PCL_INSTANTIATE (ObliqueCutFront, PCLX_OMICRON_POINT_TYPES)
+PCL_INSTANTIATE (ObliqueCutOctree, PCLX_OMICRON_POINT_TYPES)
+#endif

@@ -1,0 +1,1 @@
+#include "omicron_test_util.h"
