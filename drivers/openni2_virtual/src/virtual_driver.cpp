@@ -632,7 +632,7 @@ VirtualStream::isPropertySupported (int id)
     case XN_STREAM_PROPERTY_ZERO_PLANE_DISTANCE:
     case XN_STREAM_PROPERTY_ZERO_PLANE_PIXEL_SIZE:
       return type_ == ONI_SENSOR_DEPTH;
-    default:  // cropping included: not supported
+    default:  // cropping included: only its "off" state can be read or set
       return FALSE;
   }
 }
@@ -659,6 +659,16 @@ VirtualStream::getProperty (int id, void* data, int* size)
       return readValue (data, size, mode_.resolutionX * bytesPerPixel (mode_.pixelFormat));
     case ONI_STREAM_PROPERTY_MIRRORING:
       return readValue (data, size, OniBool (mirror_ ? TRUE : FALSE));
+    case ONI_STREAM_PROPERTY_CROPPING: {
+      // Not supported, but readable as "off": openni::Recorder writes xnCropping only when this
+      // succeeds, and Debian's OniFile player drops every frame of a stream without it.
+      OniCropping off;
+      off.enabled = FALSE;
+      off.originX = off.originY = 0;
+      off.width = mode_.resolutionX;
+      off.height = mode_.resolutionY;
+      return readValue (data, size, off);
+    }
     default:
       break;
   }
@@ -691,6 +701,14 @@ VirtualStream::setProperty (int id, const void* data, int size)
     std::memcpy (&on, data, sizeof (on));
     mirror_ = on != FALSE;
     return ONI_STATUS_OK;
+  }
+  if (id == ONI_STREAM_PROPERTY_CROPPING)
+  {
+    if (size != int (sizeof (OniCropping)))
+      return ONI_STATUS_BAD_PARAMETER;
+    OniCropping c;
+    std::memcpy (&c, data, sizeof (c));
+    return c.enabled ? ONI_STATUS_NOT_SUPPORTED : ONI_STATUS_OK;
   }
   if (id == ONI_STREAM_PROPERTY_VIDEO_MODE)
   {
