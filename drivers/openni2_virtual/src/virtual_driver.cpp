@@ -178,6 +178,10 @@ public:
   void
   stopStream (VirtualStream* stream);
 
+  // Stops the frame thread for good (with the streams it served).
+  void
+  destroyAllStreams ();
+
   bool
   failed () const
   {
@@ -274,6 +278,7 @@ public:
       std::lock_guard<std::mutex> lock (mutex_);
       if (device != device_)
         return;
+      device_->destroyAllStreams ();  // joins the frame thread: failed () is final after it
       recovered = device_->failed ();
       delete device_;
       device_ = nullptr;
@@ -366,6 +371,12 @@ VirtualDevice::VirtualDevice (VirtualDriver& driver, std::unique_ptr<FrameSource
 }
 
 VirtualDevice::~VirtualDevice ()
+{
+  destroyAllStreams ();
+}
+
+void
+VirtualDevice::destroyAllStreams ()
 {
   // OpenNI destroys streams before closing the device; this is the safety net.
   std::vector<VirtualStream*> left;
@@ -562,6 +573,11 @@ VirtualDevice::run (int generation)
       }
     else
     {
+      // Marked failed before the event goes out, so whoever reacts to it sees the state.
+      {
+        std::lock_guard<std::mutex> relock (mutex_);
+        failed_ = true;
+      }
       driver_.log (kLogError, "stopped streaming: %s%s", error.c_str (),
                    source_->present () ? "" : " (the recording folder is gone: device unplugged)");
       driver_.reportError ();
@@ -569,7 +585,6 @@ VirtualDevice::run (int generation)
 
     lock.lock ();
     delivering_ = false;
-    failed_ = !ok;
     cv_.notify_all ();
     // Late frames are not made up in a burst: the clock restarts from now.
     next += period;
