@@ -50,7 +50,7 @@ public:
     std::vector<std::size_t> nodes_per_level, points_per_level, leaves_per_level;
     double seconds_read = 0;            // bounds + bucket passes (the whole input is read)
     double seconds_to_first_chunk = 0;  // … and the first chunk sorted
-    double seconds_to_first_front = 0;  // first leaf handed to the front
+    double seconds_to_first_front = 0;  // first leaf handed to the front (something to draw)
     double seconds_total = 0;
     std::size_t sorted_bytes = 0, hierarchy_bytes = 0;  // sorted array; node + parent-point arenas
   };

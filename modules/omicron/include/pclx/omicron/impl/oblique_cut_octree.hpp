@@ -234,7 +234,7 @@ pcl::ObliqueCutOctree<PointT>::run ()
 
   stats_.seconds_total = since ();
   stats_.seconds_to_first_front = front_.secondsToFirstLeaf () < 0 ? stats_.seconds_total
-                                                                   : stats_.seconds_read + front_.secondsToFirstLeaf ();
+                                                                   : stats_.seconds_to_first_chunk + front_.secondsToFirstLeaf ();
   stats_.hierarchy_bytes = cut_->memoryBytes ();
   stats_.nodes_per_level.assign (lmax + 1, 0);
   stats_.points_per_level.assign (lmax + 1, 0);
