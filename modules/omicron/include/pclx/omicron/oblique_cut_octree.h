@@ -25,6 +25,7 @@
 
 #include <atomic>
 #include <memory>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -94,8 +95,10 @@ public:
   // After the build:
   const Node* getRoot () const { return finished_ && cut_ ? cut_->getRoot () : nullptr; }
   const typename PointCloud::VectorType& getSortedPoints () const { return sorted_; }
-  const Eigen::Vector3d& getRootOrigin () const { return origin_; }
-  double getRootEdge () const { return edge_; }
+  // Root cube of the current build (known once the input has been read; safe to call from
+  // the front thread during the build).
+  Eigen::Vector3d getRootOrigin () const { std::lock_guard<std::mutex> g (cube_mutex_); return root_origin_; }
+  double getRootEdge () const { std::lock_guard<std::mutex> g (cube_mutex_); return root_edge_; }
   std::vector<float> getSplatRadii () const { return radii_; }
   Statistics getStatistics () const;
   // The cut, for inspection (nullptr before a build).
@@ -112,6 +115,9 @@ private:
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero ();
   double edge_ = 1.0;
   float leaf_radius_ = 0.f;
+  mutable std::mutex cube_mutex_;
+  Eigen::Vector3d root_origin_ = Eigen::Vector3d::Zero ();
+  double root_edge_ = 1.0;
   std::vector<float> multipliers_{4.2f, 2.4f, 2.2f, 2.2f, 2.0f};
   std::vector<float> radii_;
 

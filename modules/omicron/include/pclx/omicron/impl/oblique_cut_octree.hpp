@@ -121,7 +121,7 @@ pcl::ObliqueCutOctree<PointT>::startBuild ()
   finished_ = false;
   cut_.reset ();
   // The front is emptied here, so evaluate() right after startBuild () sees no stale nodes.
-  front_.reset (params_.max_depth, origin_, edge_, {});
+  front_.reset (params_.max_depth, Eigen::Vector3d::Zero (), 1.0, {});
   thread_ = std::thread ([this] {
     result_ = run ();
     running_ = false;
@@ -165,8 +165,13 @@ pcl::ObliqueCutOctree<PointT>::run ()
   stats_.dropped_outside = sorter.getDroppedOutside ();
   stats_.chunks = sorter.numChunks ();
   stats_.sorted_bytes = sorted_.capacity () * sizeof (PointT);
-  origin_ = sorter.getOrigin ();
-  edge_ = sorter.getEdge ();
+  const Eigen::Vector3d origin = sorter.getOrigin ();
+  const double edge = sorter.getEdge ();
+  {
+    std::lock_guard<std::mutex> g (cube_mutex_);
+    root_origin_ = origin;
+    root_edge_ = edge;
+  }
   if (kept == 0)
   {
     PCL_ERROR ("[pcl::ObliqueCutOctree::build] the cloud has no finite point%s (%zu points, %zu NaN/Inf, %zu outside "
@@ -182,7 +187,7 @@ pcl::ObliqueCutOctree<PointT>::run ()
   sorter.sortChunk (0, sorted_, codes);
   stats_.seconds_to_first_chunk = since ();
   float leaf_radius = leaf_radius_;
-  const double cell = edge_ / static_cast<double> (std::uint64_t (1) << lmax);
+  const double cell = edge / static_cast<double> (std::uint64_t (1) << lmax);
   if (!(leaf_radius > 0.f))
   {
     std::size_t occupied = 0;
@@ -193,7 +198,7 @@ pcl::ObliqueCutOctree<PointT>::run ()
   radii_.assign (lmax + 1, leaf_radius);
   for (int l = lmax - 1; l >= 0; --l)
     radii_[l] = radii_[l + 1] * multipliers_[std::min<std::size_t> (lmax - 1 - l, multipliers_.size () - 1)];
-  front_.reset (lmax, origin_, edge_, radii_);
+  front_.reset (lmax, origin, edge, radii_);
   cut_.reset (new ObliqueCut<PointT> (params_));
   cut_->setFront (&front_);
 
