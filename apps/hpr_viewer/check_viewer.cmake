@@ -1,5 +1,5 @@
 # Renders frames, replays them through PCDGrabber into hpr_viewer off-screen, and checks
-# the screenshot and the visible-point output; then the same for a single PLY file.
+# the screenshot and the visible-point output; then the same frames as 7-Scenes depth PNGs.
 file(REMOVE_RECURSE ${WORK_DIR})
 file(MAKE_DIRECTORY ${WORK_DIR}/frames)
 function(run)
@@ -25,6 +25,12 @@ foreach(f frames.png visible.pcd)
     message(FATAL_ERROR "${f} is too small (${size} bytes)")
   endif()
 endforeach()
+# The same frames in the 7-Scenes layout through --depth-dir.
+run(${MAKE_FRAMES} --depth-png-dir ${WORK_DIR}/depth --frames 2)
+run(${XVFB_RUN} -a ${VIEWER} --depth-dir ${WORK_DIR}/depth --fps 10 --frames 2 --screenshot ${WORK_DIR}/depth.png)
+if(NOT LAST_OUT MATCHES "frame 1: " OR NOT EXISTS ${WORK_DIR}/depth.png)
+  message(FATAL_ERROR "the viewer did not process 2 depth-dir frames")
+endif()
 # Bad inputs give an error exit, not a crash: a missing file, an unknown type, an empty frame folder.
 file(WRITE ${WORK_DIR}/cloud.txt "0 0 0\n")
 file(MAKE_DIRECTORY ${WORK_DIR}/empty)

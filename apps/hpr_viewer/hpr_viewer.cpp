@@ -1,35 +1,28 @@
-// hpr_viewer: hidden point removal on a PCD/PLY file, on recorded frames (PCDGrabber /
-// ImageGrabber) or live from an OpenNI2 device, shown in a VTK window.
+// hpr_viewer: hidden point removal on a PCD/PLY/XYZ file, on recorded frames (PCDGrabber,
+// ImageGrabber, 7-Scenes depth PNGs) or live from an OpenNI2 device, shown in a VTK window.
 //
-// Every source feeds the same pcl::Grabber-style callback, onCloud(). Left viewport:
+// Every source (pclx::apps::FrameSource) feeds the same callback, onCloud(). Left viewport:
 // what the observer at the viewpoint sees (visible points, optionally the partial
 // mesh). Right viewport: the scene from the side, visible points coloured, hidden ones
 // grey, the viewpoint as a red sphere. Move the camera of the left viewport with the
 // mouse: HPR is recomputed from the new camera position when the mouse rests.
+#include <pclx/apps/cloud_loader.h>
+#include <pclx/apps/frame_source.h>
+#include <pclx/apps/view.h>
 #include <pclx/hpr/hpr_filter.h>
 
 #include <pcl/common/centroid.h>
 #include <pcl/common/common.h>
-#include <pcl/filters/extract_indices.h>
-#include <pcl/io/image_grabber.h>
-#include <pcl/io/openni2_grabber.h>
-#include <pcl/io/pcd_grabber.h>
 #include <pcl/io/pcd_io.h>
-#include <pcl/io/ply_io.h>
-#include <pcl/visualization/pcl_visualizer.h>
 
-#include <vtkPNGWriter.h>
-#include <vtkRenderWindow.h>
 #include <vtkCamera.h>
 #include <vtkRenderer.h>
 #include <vtkRendererCollection.h>
-#include <vtkWindowToImageFilter.h>
 
 #include <CLI/CLI.hpp>
 
 #include <chrono>
 #include <deque>
-#include <filesystem>
 #include <mutex>
 #include <thread>
 
@@ -41,9 +34,9 @@ namespace {
 
 struct Options
 {
-  std::string input, pcd_dir, image_dir, device, screenshot, output, method = "auto";
-  bool has_device = false, mesh = false, pclzf = false, show_hidden = true;
-  float fps = 10.f;
+  pclx::apps::SourceOptions source;
+  std::string screenshot, output, method = "auto";
+  bool mesh = false, show_hidden = true;
   int frames = 1, width = 1280, height = 640;
   double gamma = 0, radius = 0, occlusion = 0.05;
   std::size_t k = 0;
@@ -90,30 +83,15 @@ public:
     pending_.push_back (cloud);
   }
 
+  // Throws pclx::apps::LoadError / SourceError (bad input, a device that stops).
   int
   run ()
   {
-    std::unique_ptr<pcl::Grabber> grabber;
-    try
-    {
-      grabber = makeGrabber ();
-    }
-    catch (const std::exception& e)
-    {
-      std::cerr << "hpr_viewer: " << e.what () << "\n";
-      return 1;
-    }
-    if (grabber)
-    {
-      std::function<void (const Cloud::ConstPtr&)> cb = [this] (const Cloud::ConstPtr& c) { onCloud (c); };
-      grabber->registerCallback (cb);
-      grabber->start ();
-    }
+    pclx::apps::FrameSource<PointT> source (opt_.source);
+    std::cout << source.description () << std::endl;
+    source.start ([this] (const Cloud::ConstPtr& c) { onCloud (c); });
     const bool offscreen = !opt_.screenshot.empty ();
-    viewer_.reset (new pcl::visualization::PCLVisualizer ("hpr_viewer", !offscreen));
-    if (offscreen)
-      viewer_->getRenderWindow ()->SetOffScreenRendering (1);
-    viewer_->setSize (opt_.width, opt_.height);
+    viewer_ = pclx::apps::makeVisualizer ("hpr_viewer", offscreen, opt_.width, opt_.height);
     viewer_->createViewPort (0.0, 0.0, 0.5, 1.0, left_);
     viewer_->createViewPort (0.5, 0.0, 1.0, 1.0, right_);
     // PCLVisualizer's viewports share one camera; the side view needs its own.
@@ -129,7 +107,6 @@ public:
     viewer_->setBackgroundColor (0.12, 0.12, 0.14, right_);
 
     int processed = 0;
-    const auto deadline = std::chrono::steady_clock::now () + std::chrono::seconds (60);
     auto last_move = std::chrono::steady_clock::now ();
     Eigen::Vector3f last_cam = Eigen::Vector3f::Constant (std::numeric_limits<float>::quiet_NaN ());
     while (true)
@@ -159,33 +136,27 @@ public:
           std::lock_guard<std::mutex> lock (mutex_);
           drained = pending_.empty ();
         }
-        if (std::chrono::steady_clock::now () > deadline || (!frame && drained && (!grabber || !grabber->isRunning ())))
-        {
-          if (processed == 0)
-          {
-            std::cerr << "hpr_viewer: no frame arrived\n";
-            return 1;
-          }
+        if (!frame && drained && source.finished ())
           break;
-        }
+        source.check ();  // a stalled device or replay ends the run with its message
         std::this_thread::sleep_for (std::chrono::milliseconds (5));
         continue;
       }
       if (viewer_->wasStopped ())
         break;
+      if (!source.finished ())
+        source.check ();
       viewer_->spinOnce (30);
       // A moved camera (left viewport) becomes the new viewpoint once the mouse rests.
       if (current_)
       {
-        std::vector<pcl::visualization::Camera> cams;
-        viewer_->getCameras (cams);
-        const Eigen::Vector3f cam (float (cams[0].pos[0]), float (cams[0].pos[1]), float (cams[0].pos[2]));
+        const Eigen::Vector3f cam = leftCamera ();
         if (!(cam - last_cam).isZero (1e-6f))
         {
           last_cam = cam;
           last_move = std::chrono::steady_clock::now ();
         }
-        else if ((cam - viewpoint_).norm () > 1e-3f * diag_ &&
+        else if ((cam - placed_camera_).norm () > 1e-3f * diag_ &&
                  std::chrono::steady_clock::now () - last_move > std::chrono::milliseconds (300))
         {
           viewpoint_ = cam;
@@ -194,55 +165,24 @@ public:
         }
       }
     }
-    if (grabber)
-      grabber->stop ();
+    source.stop ();
+    if (processed == 0)
+      throw std::runtime_error ("no frame arrived");
     if (offscreen)
-      return saveScreenshot () ? 0 : 1;
+    {
+      pclx::apps::saveScreenshot (*viewer_, opt_.screenshot);
+      std::cout << "wrote " << opt_.screenshot << std::endl;
+    }
     return 0;
   }
 
 private:
-  std::unique_ptr<pcl::Grabber>
-  makeGrabber ()
+  Eigen::Vector3f
+  leftCamera ()
   {
-    namespace fs = std::filesystem;
-    if (!opt_.pcd_dir.empty ())
-    {
-      std::vector<std::string> files;
-      for (const auto& e : fs::directory_iterator (opt_.pcd_dir))
-        if (e.path ().extension () == ".pcd")
-          files.push_back (e.path ().string ());
-      std::sort (files.begin (), files.end ());
-      if (files.empty ())
-        throw std::runtime_error ("no .pcd files in " + opt_.pcd_dir);
-      // fps > 0: PCDGrabber in trigger mode (fps 0) aborts on start() in PCL 1.13.
-      return std::make_unique<pcl::PCDGrabber<PointT>> (files, std::max (opt_.fps, 1.f), false);
-    }
-    if (!opt_.image_dir.empty ())
-    {
-      auto g = std::make_unique<pcl::ImageGrabber<PointT>> (opt_.image_dir, std::max (opt_.fps, 1.f), false,
-                                                            opt_.pclzf);
-      return g;
-    }
-    if (opt_.has_device)
-      return std::make_unique<pcl::io::OpenNI2Grabber> (opt_.device);
-    if (!opt_.input.empty ())
-    {
-      const std::string ext = fs::path (opt_.input).extension ().string ();
-      Cloud::Ptr cloud (new Cloud);
-      int rc = -1;
-      if (ext == ".pcd")
-        rc = pcl::io::loadPCDFile (opt_.input, *cloud);
-      else if (ext == ".ply")
-        rc = pcl::io::loadPLYFile (opt_.input, *cloud);
-      else
-        throw std::runtime_error ("unknown input type (want .pcd or .ply): " + opt_.input);
-      if (rc < 0 || cloud->empty ())
-        throw std::runtime_error ("cannot read a point cloud from " + opt_.input);
-      onCloud (cloud);  // the same path a grabber's frames take
-      return nullptr;
-    }
-    throw std::runtime_error ("no input: give --input, --pcd-dir, --image-dir or --device (see --help)");
+    double p[3];
+    pclx::apps::viewportRenderer (*viewer_, left_)->GetActiveCamera ()->GetPosition (p);
+    return Eigen::Vector3d (p[0], p[1], p[2]).cast<float> ();
   }
 
   void
@@ -332,11 +272,12 @@ private:
     if (opt_.mesh && !hpr.getMesh ().polygons.empty ())
       viewer_->addPolygonMesh (hpr.getMesh (), "mesh", left_);
     const float size = std::max (0.01f * diag_, 1e-6f);
-    viewer_->addSphere (pcl::PointXYZ (viewpoint_.x (), viewpoint_.y (), viewpoint_.z ()), size, 1.0, 0.2, 0.2,
-                        "viewpoint", right_);
+    const pcl::PointXYZ vp (viewpoint_.x (), viewpoint_.y (), viewpoint_.z ());
+    viewer_->addSphere (vp, size, 1.0, 0.2, 0.2, "viewpoint", right_);
+    viewer_->addLine (pcl::PointXYZ (centre_.x (), centre_.y (), centre_.z ()), vp, 1.0, 0.2, 0.2, "to_viewpoint", right_);
     viewer_->addText ("seen from the viewpoint: " + std::to_string (visible.size ()) + " visible points", 10, 10,
                       14, 1, 1, 1, "label_left", left_);
-    viewer_->addText ("from the side: visible (orange), hidden (grey)", 10, 10, 14, 1, 1, 1,
+    viewer_->addText ("from the side: visible (orange), hidden (grey), red: towards the viewpoint", 10, 10, 14, 1, 1, 1,
                       "label_right", right_);
     if (!user_moved_)
     {
@@ -349,6 +290,11 @@ private:
       viewer_->setCameraFieldOfView (0.9, left_);  // ~52°, about a depth camera's field of view
       viewer_->setCameraPosition (side.x (), side.y (), side.z (), centre_.x (), centre_.y (), centre_.z (),
                                   up_.x (), up_.y (), up_.z (), right_);
+      // Both views keep their direction and move in until the points fill them; the
+      // viewpoint may lie outside the side view, a red line points to it.
+      pclx::apps::frameViewport (*viewer_, left_);
+      pclx::apps::frameViewport (*viewer_, right_, 0.05, {"visible_right", "hidden_right"});
+      placed_camera_ = leftCamera ();
     }
     // setCameraPosition keeps the old near/far planes: fit them to the new scene.
     auto renderers = viewer_->getRendererCollection ();
@@ -357,34 +303,14 @@ private:
       r->ResetCameraClippingRange ();
   }
 
-  bool
-  saveScreenshot ()
-  {
-    vtkRenderWindow* win = viewer_->getRenderWindow ();
-    win->Render ();
-    vtkNew<vtkWindowToImageFilter> grab;
-    grab->SetInput (win);
-    grab->ReadFrontBufferOff ();
-    grab->Update ();
-    vtkNew<vtkPNGWriter> png;
-    png->SetFileName (opt_.screenshot.c_str ());
-    png->SetInputConnection (grab->GetOutputPort ());
-    png->Write ();
-    if (!std::filesystem::exists (opt_.screenshot))
-    {
-      std::cerr << "hpr_viewer: could not write " << opt_.screenshot << "\n";
-      return false;
-    }
-    std::cout << "wrote " << opt_.screenshot << std::endl;
-    return true;
-  }
-
   Options opt_;
   std::mutex mutex_;
   std::deque<Cloud::ConstPtr> pending_;
   Cloud::ConstPtr current_;
   pcl::visualization::PCLVisualizer::Ptr viewer_;
   int left_ = 0, right_ = 0;
+  // placed_camera_: where process() put the left camera; the user moved it when it differs.
+  Eigen::Vector3f placed_camera_ = Eigen::Vector3f::Zero ();
   Eigen::Vector3f viewpoint_ = Eigen::Vector3f::Zero (), centre_ = Eigen::Vector3f::Zero (), up_ = Eigen::Vector3f::UnitY ();
   float diag_ = 1.f;
   bool user_moved_ = false;
@@ -397,15 +323,7 @@ main (int argc, char** argv)
 {
   Options o;
   CLI::App app ("hpr_viewer: hidden point removal (pcl::HPRFilter) on files, recorded frames or an OpenNI2 device");
-  auto* src = app.add_option_group ("source", "where the points come from (one of)");
-  src->add_option ("-i,--input", o.input, "a .pcd or .ply file");
-  src->add_option ("--pcd-dir", o.pcd_dir, "recorded frames: a folder of .pcd files, replayed by pcl::PCDGrabber");
-  src->add_option ("--image-dir", o.image_dir, "recorded frames for pcl::ImageGrabber (TIFF, or PCLZF with --pclzf)");
-  auto* dev = src->add_option ("--device", o.device,
-                               "live OpenNI2 device: \"\" (first), \"#N\", or an .oni file (pcl::io::OpenNI2Grabber)");
-  src->require_option (1);
-  app.add_flag ("--pclzf", o.pclzf, "--image-dir holds PCLZF frames");
-  app.add_option ("--fps", o.fps, "replay rate of recorded frames (> 0)")->capture_default_str ();
+  pclx::apps::addSourceOptions (app, o.source);
   app.add_option ("--frames", o.frames, "with --screenshot: frames to process before saving")->capture_default_str ();
   app.add_option ("-m,--method", o.method, "auto, exact, grid, candidate_hull, bfp, kavan, hybrid")
       ->check (CLI::IsMember ({"auto", "exact", "grid", "candidate_hull", "bfp", "kavan", "hybrid"}))
@@ -424,7 +342,7 @@ main (int argc, char** argv)
   app.add_option ("--height", o.height)->capture_default_str ();
   app.add_option ("-o,--output", o.output, "save the visible points of the last frame (.pcd)");
   CLI11_PARSE (app, argc, argv);
-  o.has_device = dev->count () > 0;
+  pclx::apps::finishSourceOptions (app, o.source);
   try
   {
     HprViewer viewer (o);

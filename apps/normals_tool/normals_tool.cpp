@@ -2,6 +2,9 @@
 // PlanarOctreeNormalEstimation (octree / hybrid / merged) or PCL's PCA, optional
 // orientation (MST or viewpoint), an error table against ground truth, and a VTK view
 // coloured by angle error or by planar region (off-screen PNG with --screenshot).
+#include <pclx/apps/cloud_loader.h>
+#include <pclx/apps/progress.h>
+#include <pclx/apps/view.h>
 #include <pclx/normals/mst_normal_orientation.h>
 #include <pclx/normals/normal_error.h>
 #include <pclx/normals/planar_octree_normal_estimation.h>
@@ -14,12 +17,6 @@
 #include <pcl/common/io.h>
 #include <pcl/features/normal_3d_omp.h>
 #include <pcl/io/pcd_io.h>
-#include <pcl/io/ply_io.h>
-#include <pcl/visualization/pcl_visualizer.h>
-
-#include <vtkPNGWriter.h>
-#include <vtkRenderWindow.h>
-#include <vtkWindowToImageFilter.h>
 
 #include <CLI/CLI.hpp>
 #include <chrono>
@@ -57,33 +54,15 @@ loadColumns (const std::string& path, std::vector<Eigen::Vector3f>& rows)
   return true;
 }
 
-// PCD / PLY through pcl::io (with normals when the file has them), XYZ as text.
-bool
+// PCD / PLY / XYZ through the app kit (checked first; normals when the file has them).
+void
 loadCloud (const std::string& path, pcl::PointCloud<pcl::PointNormal>& out, bool& has_normals)
 {
-  has_normals = false;
-  if (endsWith (path, ".pcd") || endsWith (path, ".ply"))
-  {
-    pcl::PCLPointCloud2 blob;
-    const int rc = endsWith (path, ".pcd") ? pcl::io::loadPCDFile (path, blob) : pcl::io::loadPLYFile (path, blob);
-    if (rc < 0)
-      return false;
-    for (const auto& f : blob.fields)
-      has_normals |= f.name == "normal_x";
-    pcl::fromPCLPointCloud2 (blob, out);
-    return true;
-  }
-  std::vector<Eigen::Vector3f> rows;
-  if (!loadColumns (path, rows))
-    return false;
-  for (const auto& r : rows)
-  {
-    pcl::PointNormal p;
-    p.getVector3fMap () = r;
-    p.getNormalVector3fMap ().setConstant (std::numeric_limits<float>::quiet_NaN ());
-    out.push_back (p);
-  }
-  return true;
+  pclx::apps::CloudInfo info;
+  out = *pclx::apps::loadCloud<pcl::PointNormal> (path, &info);
+  pclx::apps::requireFinitePoints (info);
+  has_normals = info.fields.normals;
+  std::cout << info.summary () << "\n";
 }
 
 Eigen::Vector3f
@@ -196,10 +175,17 @@ main (int argc, char** argv)
     loaded = s.cloud;
     has_normals = true;
   }
-  else if (!loadCloud (input, loaded, has_normals))
+  else
   {
-    std::cerr << "normals_tool: cannot read " << input << "\n";
-    return 1;
+    try
+    {
+      loadCloud (input, loaded, has_normals);
+    }
+    catch (const pclx::apps::LoadError& e)
+    {
+      std::cerr << "normals_tool: " << e.what () << "\n";
+      return 1;
+    }
   }
   Cloud::Ptr cloud (new Cloud);
   pcl::copyPointCloud (loaded, *cloud);
@@ -209,8 +195,18 @@ main (int argc, char** argv)
   {
     std::vector<Eigen::Vector3f> rows;
     bool truth_has_normals = false;
-    if (endsWith (truth_path, ".normals") ? loadColumns (truth_path, rows)
-                                          : loadCloud (truth_path, truth, truth_has_normals) && truth_has_normals)
+    bool read = false;
+    try
+    {
+      read = endsWith (truth_path, ".normals") ? loadColumns (truth_path, rows)
+                                               : (loadCloud (truth_path, truth, truth_has_normals), truth_has_normals);
+    }
+    catch (const pclx::apps::LoadError& e)
+    {
+      std::cerr << "normals_tool: " << e.what () << "\n";
+      return 1;
+    }
+    if (read)
     {
       if (!rows.empty ())
       {
@@ -237,6 +233,7 @@ main (int argc, char** argv)
   Normals normals;
   std::vector<int> region_ids (cloud->size (), -1);
   const auto t0 = std::chrono::steady_clock::now ();
+  pclx::apps::Progress estimating ("estimating normals (" + method + ")");
   if (method == "pca")
   {
     pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> ne (threads);
@@ -281,12 +278,14 @@ main (int argc, char** argv)
                  count[Estimator::PATCH_FIT], count[Estimator::ADOPTED_REGION], count[Estimator::KNN_PCA],
                  count[Estimator::NEIGHBOUR_FALLBACK], count[Estimator::INVALID_POINT]);
   }
+  estimating.done ();
   const double t_est = std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count ();
   std::printf ("estimation (%s): %.3f s\n", method.c_str (), t_est);
 
   if (orient == "mst")
   {
     const auto t1 = std::chrono::steady_clock::now ();
+    pclx::apps::Progress orienting ("orienting normals (MST)");
     pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
     mst.setInputCloud (cloud);
     mst.setKSearch (orient_k);
@@ -294,6 +293,7 @@ main (int argc, char** argv)
     mst.setAcrossSurfacePenalty (across_penalty);
     if (!mst.orient (normals))
       return 1;
+    orienting.done ();
     std::printf ("orientation (MST, k=%d): %.3f s, %zu components, %zu flipped\n", orient_k,
                  std::chrono::duration<double> (std::chrono::steady_clock::now () - t1).count (),
                  mst.getNumberOfComponents (), mst.getNumberOfFlipped ());
@@ -353,11 +353,8 @@ main (int argc, char** argv)
     pcl::getMinMax3D (*cloud, lo, hi);
     const float diag = (hi - lo).head<3> ().norm ();
     const bool offscreen = !screenshot.empty ();
-    // Off-screen: no interactor (PCLVisualizer::saveScreenshot needs one and crashes without).
-    pcl::visualization::PCLVisualizer viewer ("normals_tool", !offscreen);
-    if (offscreen)
-      viewer.getRenderWindow ()->SetOffScreenRendering (1);
-    viewer.setSize (1024, 768);
+    const auto window = pclx::apps::makeVisualizer ("normals_tool", offscreen, 1024, 768);
+    pcl::visualization::PCLVisualizer& viewer = *window;
     viewer.setBackgroundColor (0.1, 0.1, 0.12);
     viewer.addPointCloud<pcl::PointXYZRGB> (coloured, pcl::visualization::PointCloudColorHandlerRGBField<pcl::PointXYZRGB> (coloured), "cloud");
     viewer.setPointCloudRenderingProperties (pcl::visualization::PCL_VISUALIZER_POINT_SIZE, 3, "cloud");
@@ -370,16 +367,19 @@ main (int argc, char** argv)
     viewer.initCameraParameters ();
     const Eigen::Vector3f c = ((lo + hi) / 2).head<3> ();
     viewer.setCameraPosition (c.x () + 1.2 * diag, c.y () - 1.0 * diag, c.z () + 0.9 * diag, c.x (), c.y (), c.z (), 0, 0, 1);
+    // The cloud fills the window from that direction.
+    pclx::apps::frameViewport (viewer, 0, 0.05, {"cloud"});
     if (offscreen)
     {
-      viewer.getRenderWindow ()->Render ();
-      vtkNew<vtkWindowToImageFilter> grab;
-      grab->SetInput (viewer.getRenderWindow ());
-      grab->Update ();
-      vtkNew<vtkPNGWriter> png;
-      png->SetFileName (screenshot.c_str ());
-      png->SetInputConnection (grab->GetOutputPort ());
-      png->Write ();
+      try
+      {
+        pclx::apps::saveScreenshot (viewer, screenshot);
+      }
+      catch (const std::exception& e)
+      {
+        std::cerr << "normals_tool: " << e.what () << "\n";
+        return 1;
+      }
       std::cout << "wrote " << screenshot << "\n";
     }
     else

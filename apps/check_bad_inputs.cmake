@@ -1,0 +1,21 @@
+# hpr_viewer --input and normals_tool --input on broken files: exit code 1 and one line on
+# stderr naming the app (PCL 1.13's PCDReader alone segfaults on the 0- and 1-byte .pcd).
+file(REMOVE_RECURSE ${WORK_DIR})
+file(MAKE_DIRECTORY ${WORK_DIR}/folder.pcd)
+file(WRITE ${WORK_DIR}/empty.pcd "")
+file(WRITE ${WORK_DIR}/one_byte.pcd "#")
+file(WRITE ${WORK_DIR}/one_byte.ply "p")
+file(WRITE ${WORK_DIR}/huge.pcd "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 4000000000\nHEIGHT 1\nPOINTS 4000000000\nDATA binary\n")
+file(WRITE ${WORK_DIR}/nan.xyz "nan nan nan\nnan nan nan\n")
+foreach(app VIEWER NORMALS)
+  get_filename_component(name ${${app}} NAME)
+  foreach(f empty.pcd one_byte.pcd one_byte.ply huge.pcd nan.xyz folder.pcd)
+    execute_process(COMMAND ${${app}} --input ${WORK_DIR}/${f} RESULT_VARIABLE rc OUTPUT_QUIET ERROR_VARIABLE err
+                    TIMEOUT 60)
+    string(STRIP "${err}" line)
+    if(NOT rc EQUAL 1 OR NOT line MATCHES "^${name}: " OR line MATCHES "\n")
+      message(FATAL_ERROR "${name} --input ${f}: want exit 1 and one line '${name}: ...', got ${rc}: ${err}")
+    endif()
+    message(STATUS "${name} ${f}: ${line}")
+  endforeach()
+endforeach()
