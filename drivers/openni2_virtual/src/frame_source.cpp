@@ -10,7 +10,6 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
-#include <regex>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -312,14 +311,19 @@ openFolderSource (const std::string& dir, std::string& error)
     error = "recording folder " + dir + " does not exist or is not a folder";
     return nullptr;
   }
-  static const std::regex depth_name (R"(frame-(\d+)\.depth\.png)");
+  // frame-<digits>.depth.png
+  const std::string prefix = "frame-", suffix = ".depth.png";
   std::vector<std::pair<long long, std::string>> numbered;
   for (fs::directory_iterator it (dir, ec), end; !ec && it != end; it.increment (ec))
   {
-    std::smatch m;
     const std::string name = it->path ().filename ().string ();
-    if (std::regex_match (name, m, depth_name))
-      numbered.emplace_back (std::stoll (m[1].str ()), it->path ().string ());
+    if (name.size () <= prefix.size () + suffix.size () || name.compare (0, prefix.size (), prefix) != 0 ||
+        name.compare (name.size () - suffix.size (), suffix.size (), suffix) != 0)
+      continue;
+    const std::string digits = name.substr (prefix.size (), name.size () - prefix.size () - suffix.size ());
+    if (digits.size () > 12 || !std::all_of (digits.begin (), digits.end (), [] (unsigned char c) { return std::isdigit (c); }))
+      continue;
+    numbered.emplace_back (std::stoll (digits), it->path ().string ());
   }
   if (ec)
   {
