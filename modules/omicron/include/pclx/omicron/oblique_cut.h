@@ -17,8 +17,7 @@
 // Mutual exclusion is per level (one mutex per list), as in the paper. Placeholders and
 // leaves for the front go to an ObliqueCutFront when one is attached.
 #include <pclx/omicron/octree_node.h>
-
-#include <oneapi/tbb/task_arena.h>
+#include <pclx/omicron/worker_pool.h>
 
 #include <array>
 #include <atomic>
@@ -117,7 +116,7 @@ private:
   std::mutex signal_mutex_;
   std::condition_variable signal_;
   std::vector<std::unique_ptr<Slot>> slots_;
-  std::unique_ptr<tbb::task_arena> arena_;
+  std::unique_ptr<omicron::WorkerPool> pool_;
 };
 
 }  // namespace pcl

@@ -1,8 +1,6 @@
 #pragma once
 #include <pclx/omicron/morton_sorter.h>
-
-#include <oneapi/tbb/parallel_for.h>
-#include <oneapi/tbb/task_arena.h>
+#include <pclx/omicron/worker_pool.h>
 
 #include <algorithm>
 #include <cmath>
@@ -44,7 +42,7 @@ pcl::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector
     throw std::length_error ("MortonSorter: more than 2^32 - 1 points (32-bit point counts per node)");
   chunk_begin_.clear ();
   dropped_invalid_ = dropped_outside_ = 0;
-  tbb::task_arena arena (threads_);
+  omicron::WorkerPool pool (threads_);
   // Contiguous blocks in input order: per-block histograms make the scatter stable.
   const std::size_t blocks = std::max<std::size_t> (1, std::min<std::size_t> (4 * threads_, n / 4096 + 1));
   const auto blockRange = [&] (std::size_t b) {
@@ -58,16 +56,14 @@ pcl::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector
   {
     std::vector<Eigen::Array3f> lo (blocks, Eigen::Array3f::Constant (std::numeric_limits<float>::max ()));
     std::vector<Eigen::Array3f> hi (blocks, Eigen::Array3f::Constant (-std::numeric_limits<float>::max ()));
-    arena.execute ([&] {
-      tbb::parallel_for (std::size_t (0), blocks, [&] (std::size_t b) {
-        const auto r = blockRange (b);
-        for (std::size_t i = r.first; i < r.second; ++i)
-          if (finite (cloud[i]))
-          {
-            lo[b] = lo[b].min (cloud[i].getArray3fMap ());
-            hi[b] = hi[b].max (cloud[i].getArray3fMap ());
-          }
-      });
+    pool.parallelFor (blocks, [&] (std::size_t b, int) {
+      const auto r = blockRange (b);
+      for (std::size_t i = r.first; i < r.second; ++i)
+        if (finite (cloud[i]))
+        {
+          lo[b] = lo[b].min (cloud[i].getArray3fMap ());
+          hi[b] = hi[b].max (cloud[i].getArray3fMap ());
+        }
     });
     Eigen::Array3f l = lo[0], h = hi[0];
     for (std::size_t b = 1; b < blocks; ++b)
@@ -111,19 +107,17 @@ pcl::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector
 
   std::vector<std::size_t> hist (blocks * nb, 0);
   std::vector<std::size_t> bad (blocks, 0), outside (blocks, 0);
-  arena.execute ([&] {
-    tbb::parallel_for (std::size_t (0), blocks, [&] (std::size_t b) {
-      std::size_t* h = hist.data () + b * nb;
-      const auto r = blockRange (b);
-      for (std::size_t i = r.first; i < r.second; ++i)
-      {
-        const int c = classify (cloud[i]);
-        if (c == 0)
-          ++h[key (cloud[i]) >> shift];
-        else
-          ++(c == 1 ? bad[b] : outside[b]);
-      }
-    });
+  pool.parallelFor (blocks, [&] (std::size_t b, int) {
+    std::size_t* h = hist.data () + b * nb;
+    const auto r = blockRange (b);
+    for (std::size_t i = r.first; i < r.second; ++i)
+    {
+      const int c = classify (cloud[i]);
+      if (c == 0)
+        ++h[key (cloud[i]) >> shift];
+      else
+        ++(c == 1 ? bad[b] : outside[b]);
+    }
   });
   // Exclusive offsets, bucket-major then block: the scatter keeps input order per bucket.
   std::vector<std::size_t> bucket_start (nb + 1, 0);
@@ -147,14 +141,12 @@ pcl::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector
   sorted.clear ();
   sorted.shrink_to_fit ();
   sorted.resize (sum);
-  arena.execute ([&] {
-    tbb::parallel_for (std::size_t (0), blocks, [&] (std::size_t b) {
-      std::size_t* h = hist.data () + b * nb;
-      const auto r = blockRange (b);
-      for (std::size_t i = r.first; i < r.second; ++i)
-        if (classify (cloud[i]) == 0)
-          sorted[h[key (cloud[i]) >> shift]++] = cloud[i];
-    });
+  pool.parallelFor (blocks, [&] (std::size_t b, int) {
+    std::size_t* h = hist.data () + b * nb;
+    const auto r = blockRange (b);
+    for (std::size_t i = r.first; i < r.second; ++i)
+      if (classify (cloud[i]) == 0)
+        sorted[h[key (cloud[i]) >> shift]++] = cloud[i];
   });
 
   // Chunks: whole buckets, boundaries at the bucket edge nearest each quantile j·n/k.

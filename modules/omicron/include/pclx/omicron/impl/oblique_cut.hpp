@@ -4,8 +4,6 @@
 
 #include <pcl/console/print.h>
 
-#include <oneapi/tbb/parallel_for.h>
-
 #include <stdexcept>
 #include <string>
 
@@ -23,7 +21,7 @@ pcl::ObliqueCut<PointT>::ObliqueCut (const Parameters& params) : params_ (params
   for (int i = 0; i < params.threads; ++i)
     slots_.emplace_back (new Slot);
   if (params.threads > 1)
-    arena_.reset (new tbb::task_arena (params.threads));
+    pool_.reset (new omicron::WorkerPool (params.threads));
 }
 
 template <typename PointT>
@@ -255,12 +253,8 @@ pcl::ObliqueCut<PointT>::fixLevel (int l)
       j = jj;
     }
   };
-  if (arena_ && ws.size () > 1)
-    arena_->execute ([&] {
-      tbb::parallel_for (std::size_t (0), ws.size (), [&] (std::size_t i) {
-        work (i, *slots_[tbb::this_task_arena::current_thread_index ()]);
-      });
-    });
+  if (pool_ && ws.size () > 1)
+    pool_->parallelFor (ws.size (), [&] (std::size_t i, int worker) { work (i, *slots_[worker]); });
   else
     for (std::size_t i = 0; i < ws.size (); ++i)
       work (i, *slots_[0]);
