@@ -1,0 +1,107 @@
+#!/usr/bin/env python3
+"""Lists what the demo wrote, one caption per file, and writes index.html beside it.
+
+  python3 scripts/demo_index.py demo_output
+
+Pictures come first (what an app showed), then charts (from bench/plot.py, captioned
+with their chart titles), then the CSV and point files. Files without a caption are
+listed by name so nothing the demo wrote is hidden.
+"""
+import html
+import importlib.util
+import os
+import sys
+
+# What each fixed demo output shows; charts take their titles from bench/*/charts.py.
+CAPTIONS = {
+    "hpr_scene.png": "hpr_viewer on the generated cloud: left what the observer sees, right the scene "
+                     "from the side (visible orange, hidden grey, viewpoint red)",
+    "hpr_frames.png": "hpr_viewer on recorded depth frames replayed through pcl::PCDGrabber",
+    "hpr_depth_frames.png": "hpr_viewer on 16-bit PNG depth frames (7-Scenes layout) replayed as a folder",
+    "hpr_device.png": "hpr_viewer live from the pclx virtual OpenNI2 camera through "
+                      "pcl::io::OpenNI2Grabber (the same path a Kinect or Xtion takes)",
+    "normals_scene.png": "normals_tool on the generated cloud: PlanarOctreeNormalEstimation, MST-oriented, "
+                         "coloured by planar region",
+    "scene.ply": "the generated scene cloud (torus and sphere on a plate)",
+    "hpr_scene_visible.pcd": "the points hpr_viewer found visible in the scene cloud",
+    "scene_normals.pcd": "the scene cloud with normals from normals_tool",
+    "scenes.csv": "ground-truth throughput (sampling, ray casting, distances)",
+    "hpr.csv": "HPR benchmark rows (quick mode): ours against Open3D's HiddenPointRemoval, same run",
+    "normals.csv": "normals benchmark rows (quick mode): ours against PCL and Open3D, same run",
+    "frames": "three Kinect-like depth frames as organized PCD (pcl::PCDGrabber input)",
+    "depth_frames": "the same frames as 16-bit PNG depth in millimetres (7-Scenes layout)",
+}
+
+
+def chart_titles():
+    """Chart name -> title, from the specs bench/plot.py draws."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    bench = os.path.join(here, "..", "bench")
+    titles = {}
+    for entry in sorted(os.listdir(bench)):
+        path = os.path.join(bench, entry, "charts.py")
+        if not os.path.isfile(path):
+            continue
+        spec = importlib.util.spec_from_file_location(f"charts_{entry}", path)
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        for s in getattr(mod, "SPECS", []):
+            titles[s["name"] + ".png"] = s.get("title", s["name"])
+    return titles
+
+
+def main():
+    if len(sys.argv) != 2 or not os.path.isdir(sys.argv[1]):
+        sys.exit("usage: demo_index.py OUTPUT_DIR")
+    out = sys.argv[1]
+    titles = chart_titles()
+    pictures, charts, data = [], [], []
+    for name in sorted(os.listdir(out)):
+        path = os.path.join(out, name)
+        if name == "index.html":
+            continue
+        if name == "charts" and os.path.isdir(path):
+            for c in sorted(os.listdir(path)):
+                if c.endswith(".png"):
+                    charts.append(("charts/" + c, titles.get(c, c[:-4].replace("_", " "))))
+        elif name.endswith(".png"):
+            pictures.append((name, CAPTIONS.get(name, name)))
+        else:
+            data.append((name + ("/" if os.path.isdir(path) else ""), CAPTIONS.get(name, "")))
+
+    print(f"demo.sh wrote to {out}/ (open {out}/index.html to see everything on one page):")
+    for group, items in (("pictures", pictures), ("charts", charts), ("data", data)):
+        if items:
+            print(f"  {group}:")
+            for name, cap in items:
+                print(f"    {name:<40} {cap}")
+
+    parts = ["<!doctype html><html><head><meta charset='utf-8'><title>pclx demo</title>",
+             "<style>body{font-family:sans-serif;max-width:1400px;margin:auto;padding:1em;background:#fafafa}"
+             "figure{display:inline-block;vertical-align:top;margin:0.6em;max-width:660px}"
+             "img{max-width:100%;border:1px solid #ccc;background:#fff}"
+             "figcaption{font-size:0.9em;color:#333}td{padding:0.2em 1em 0.2em 0}</style></head><body>",
+             "<h1>pclx demo output</h1>",
+             "<p>Written by <code>scripts/demo.sh</code> on generated data. Pictures are what the apps "
+             "rendered off-screen; charts come from the benchmarks' quick runs, with the peers measured in "
+             "the same run.</p>"]
+    for heading, items in (("Pictures", pictures), ("Charts", charts)):
+        if not items:
+            continue
+        parts.append(f"<h2>{heading}</h2>")
+        for name, cap in items:
+            n, c = html.escape(name), html.escape(cap)
+            parts.append(f"<figure><a href='{n}'><img src='{n}' alt='{c}'></a><figcaption>{c}</figcaption></figure>")
+    if data:
+        parts.append("<h2>Data</h2><table>")
+        for name, cap in data:
+            parts.append(f"<tr><td><a href='{html.escape(name)}'>{html.escape(name)}</a></td>"
+                         f"<td>{html.escape(cap)}</td></tr>")
+        parts.append("</table>")
+    parts.append("</body></html>")
+    with open(os.path.join(out, "index.html"), "w") as f:
+        f.write("\n".join(parts))
+
+
+if __name__ == "__main__":
+    main()
