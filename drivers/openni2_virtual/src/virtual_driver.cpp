@@ -1,7 +1,7 @@
 // OpenNI2 driver presenting a virtual depth camera (URI pclx://virtual): depth DEPTH_1_MM and
 // colour RGB888 at 640x480 / 320x240, 30 fps, from a recorded folder or a generated scene.
 // One frame thread per device paces both streams, so depth and colour share frame indices
-// and timestamps (OpenNI's frame sync matches frames by index).
+// and timestamps (without OpenNI's frame sync, which is refused: see enableFrameSync).
 #include "frame_source.h"
 
 #include <Driver/OniDriverAPI.h>
@@ -189,13 +189,6 @@ public:
     return failed_;
   }
 
-  bool
-  owns (oni::driver::StreamBase* stream) const
-  {
-    std::lock_guard<std::mutex> lock (mutex_);
-    return std::find (streams_.begin (), streams_.end (), stream) != streams_.end ();
-  }
-
   void
   log (int severity, const char* format, ...);
 
@@ -303,22 +296,20 @@ public:
     device_ = nullptr;
   }
 
-  // Our streams are paced by one thread and already share frame indices; the group is a token.
+  // Frame sync is refused. Our streams already share frame indices and timestamps, and OpenNI's
+  // SyncedStreamsFrameHolder can block its callback thread forever when a stream stops between
+  // a frame event and the read (then stream destruction cancels that thread and double-frees):
+  // see the README. Refused, OpenNI keeps the per-stream holders, which do not block.
   void*
-  enableFrameSync (oni::driver::StreamBase** streams, int count) override
+  enableFrameSync (oni::driver::StreamBase** /*streams*/, int /*count*/) override
   {
-    std::lock_guard<std::mutex> lock (mutex_);
-    for (int i = 0; i < count; ++i)
-      if (!device_ || !device_->owns (streams[i]))
-        return nullptr;
-    return new (std::nothrow) int (count);
+    log (kLogInfo, "depth/colour frame sync refused (frames already share indices and timestamps)");
+    return nullptr;
   }
 
   void
-  disableFrameSync (void* group) override
-  {
-    delete static_cast<int*> (group);
-  }
+  disableFrameSync (void* /*group*/) override
+  {}
 
   void
   reportError ()

@@ -309,17 +309,30 @@ TEST (VirtualCamera, ServesWhatPclAndOpenNIAsk)
   bad.setResolution (1280, 1024);
   EXPECT_NE (depth.setVideoMode (bad), openni::STATUS_OK);
 
-  // Mirroring flips rows; frame sync pairs depth and colour with equal indices.
+  // Mirroring flips rows. OpenNI frame sync is refused (README), but depth and colour frames of
+  // one index carry one timestamp.
   EXPECT_EQ (depth.setMirroringEnabled (true), openni::STATUS_OK);
   EXPECT_TRUE (depth.getMirroringEnabled ());
   ASSERT_EQ (depth.start (), openni::STATUS_OK);
   ASSERT_EQ (colour.start (), openni::STATUS_OK);
-  EXPECT_EQ (dev.setDepthColorSyncEnabled (true), openni::STATUS_OK);
+  EXPECT_NE (dev.setDepthColorSyncEnabled (true), openni::STATUS_OK);
   openni::VideoFrameRef df, cf;
-  ASSERT_EQ (depth.readFrame (&df), openni::STATUS_OK);
-  ASSERT_EQ (colour.readFrame (&cf), openni::STATUS_OK);
-  EXPECT_EQ (df.getFrameIndex (), cf.getFrameIndex ());
-  EXPECT_EQ (df.getTimestamp (), cf.getTimestamp ());
+  std::map<int, std::uint64_t> depth_stamps, colour_stamps;
+  for (int i = 0; i < 4; ++i)
+  {
+    ASSERT_EQ (depth.readFrame (&df), openni::STATUS_OK);
+    ASSERT_EQ (colour.readFrame (&cf), openni::STATUS_OK);
+    depth_stamps[df.getFrameIndex ()] = df.getTimestamp ();
+    colour_stamps[cf.getFrameIndex ()] = cf.getTimestamp ();
+  }
+  int common = 0;
+  for (const auto& [index, stamp] : depth_stamps)
+    if (colour_stamps.count (index))
+    {
+      ++common;
+      EXPECT_EQ (colour_stamps[index], stamp) << "frame " << index;
+    }
+  EXPECT_GT (common, 0);
   ASSERT_EQ (df.getWidth (), 320);
   EXPECT_EQ (cf.getWidth (), 640);
   const auto* p = static_cast<const std::uint16_t*> (df.getData ());
@@ -327,7 +340,6 @@ TEST (VirtualCamera, ServesWhatPclAndOpenNIAsk)
   for (int v = 0; v < 240; v += 37)
     for (int u = 0; u < 320; u += 29)
       ASSERT_EQ (p[v * 320 + u], half[v * 320 + (319 - u)]) << "mirrored pixel " << u << "," << v;
-  dev.setDepthColorSyncEnabled (false);
   depth.stop ();
   colour.stop ();
   depth.destroy ();
