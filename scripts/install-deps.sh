@@ -8,7 +8,7 @@ PKGS=(
   libvtk9-dev libopenni2-dev libpng-dev
   libembree-dev libcgal-dev libtbb-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
-  libopen3d-dev
+  libopen3d-dev nlohmann-json3-dev
   xvfb xauth gnuplot-nox python3-matplotlib python3-numpy
 )
 missing=()

@@ -1,0 +1,196 @@
+#pragma once
+#include <pclx/omicron/oblique_cut_octree.h>
+#include <pclx/omicron/potree_writer.h>
+
+#include <pcl/exceptions.h>
+#include <pcl/point_types.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <stdexcept>
+
+template <typename PointT>
+pcl::PotreeWriter<PointT>::PotreeWriter () : colors_ (pcl::traits::has_color_v<PointT>)
+{
+}
+
+template <typename PointT>
+pcl::PotreeWriter<PointT>::~PotreeWriter ()
+{
+  if (file_)
+    std::fclose (file_);
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::setHierarchyStepSize (int step)
+{
+  if (step < 1 || step > MortonCode::kMaxDepth)
+    throw std::invalid_argument ("PotreeWriter: the hierarchy step size must be in [1, 21]");
+  meta_.step_size = step;
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::open (const std::string& directory, const Eigen::Vector3d& origin, double edge)
+{
+  if (file_)
+    throw std::logic_error ("PotreeWriter: already open");
+  if (!origin.allFinite () || !(edge > 0) || !std::isfinite (edge))
+    throw std::invalid_argument ("PotreeWriter: the root cube needs a finite origin and edge > 0");
+  std::error_code ec;
+  std::filesystem::create_directories (directory, ec);
+  const std::string path = directory + "/octree.bin";
+  if (ec)
+    throw pcl::IOException ("PotreeWriter: cannot create the output folder '" + directory + "': " + ec.message (),
+                            __FILE__, __func__, __LINE__);
+  file_ = std::fopen (path.c_str (), "wb");
+  if (!file_)
+    throw pcl::IOException ("PotreeWriter: cannot write '" + path + "': " + std::strerror (errno), __FILE__, __func__,
+                            __LINE__);
+  directory_ = directory;
+  offset_ = 0;
+  records_.clear ();
+  double scale = scale_;
+  if (!(scale > 0))
+    scale = std::pow (10.0, std::ceil (std::log10 (edge / 1073741824.0)));
+  if (edge / scale > 2147483000.0)
+  {
+    abandon ();
+    throw std::invalid_argument ("PotreeWriter: the scale is too fine for the root cube (int32 positions)");
+  }
+  meta_.scale = Eigen::Vector3d::Constant (scale);
+  meta_.offset = origin;
+  meta_.box_min = origin;
+  meta_.box_max = origin + Eigen::Vector3d::Constant (edge);
+  meta_.spacing = edge / 128.0;  // PotreeConverter's root spacing
+  meta_.rgb = colors_;
+  lo_ = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ());
+  hi_ = -lo_;
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::encode (const PointT* points, std::uint32_t n, std::vector<std::uint8_t>& out) const
+{
+  const std::size_t bpp = meta_.bytesPerPoint ();
+  out.resize (bpp * n);
+  const double inv = 1.0 / meta_.scale.x ();
+  for (std::uint32_t i = 0; i < n; ++i)
+  {
+    const PointT& p = points[i];
+    std::int32_t q[3];
+    for (int a = 0; a < 3; ++a)
+      q[a] = static_cast<std::int32_t> (std::llround ((static_cast<double> (p.data[a]) - meta_.offset[a]) * inv));
+    std::memcpy (out.data () + i * bpp, q, 12);
+    if constexpr (pcl::traits::has_color_v<PointT>)
+      if (meta_.rgb)
+      {
+        const std::uint16_t c[3] = {static_cast<std::uint16_t> (p.r * 257u), static_cast<std::uint16_t> (p.g * 257u),
+                                    static_cast<std::uint16_t> (p.b * 257u)};
+        std::memcpy (out.data () + i * bpp + 12, c, 6);
+      }
+  }
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::appendNode (MortonCode code, const PointT* points, std::uint32_t n)
+{
+  std::vector<std::uint8_t> buf;
+  encode (points, n, buf);  // outside the lock: workers encode in parallel
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ()), hi = -lo;
+  for (std::uint32_t i = 0; i < n; ++i)
+  {
+    lo = lo.cwiseMin (points[i].getVector3fMap ().template cast<double> ());
+    hi = hi.cwiseMax (points[i].getVector3fMap ().template cast<double> ());
+  }
+  std::lock_guard<std::mutex> g (mutex_);
+  if (!file_)
+    throw std::logic_error ("PotreeWriter: appendNode before open");
+  if (!buf.empty () && std::fwrite (buf.data (), 1, buf.size (), file_) != buf.size ())
+    throw pcl::IOException ("PotreeWriter: writing '" + directory_ + "/octree.bin' failed (disk full?)", __FILE__,
+                            __func__, __LINE__);
+  records_.push_back ({code, n, offset_, buf.size ()});
+  offset_ += buf.size ();
+  lo_ = lo_.cwiseMin (lo);
+  hi_ = hi_.cwiseMax (hi);
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::appendSubtree (const Node& node)
+{
+  std::vector<const Node*> stack{&node};
+  while (!stack.empty ())
+  {
+    const Node* n = stack.back ();
+    stack.pop_back ();
+    appendNode (n->code, n->points, n->num_points);
+    for (int c = n->num_children - 1; c >= 0; --c)
+      stack.push_back (n->children + c);
+  }
+}
+
+template <typename PointT> std::uint64_t
+pcl::PotreeWriter<PointT>::bytesWritten () const
+{
+  std::lock_guard<std::mutex> g (mutex_);
+  return offset_;
+}
+
+template <typename PointT> std::size_t
+pcl::PotreeWriter<PointT>::nodesWritten () const
+{
+  std::lock_guard<std::mutex> g (mutex_);
+  return records_.size ();
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::abandon ()
+{
+  if (file_)
+    std::fclose (file_);
+  file_ = nullptr;
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::close (std::uint64_t points)
+{
+  std::lock_guard<std::mutex> g (mutex_);
+  if (!file_)
+    throw std::logic_error ("PotreeWriter: close before open");
+  const bool flushed = std::fflush (file_) == 0 && !std::ferror (file_);
+  const bool closed = std::fclose (file_) == 0;
+  file_ = nullptr;
+  if (!flushed || !closed)
+    throw pcl::IOException ("PotreeWriter: writing '" + directory_ + "/octree.bin' failed (disk full?)", __FILE__,
+                            __func__, __LINE__);
+  meta_.points = points;
+  if (lo_.x () <= hi_.x ())
+  {
+    meta_.position_min = lo_;
+    meta_.position_max = hi_;
+  }
+  omicron::potree::writeHierarchy (directory_ + "/hierarchy.bin", records_, meta_);
+  omicron::potree::writeMetadata (directory_ + "/metadata.json", meta_);
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::write (const ObliqueCutOctree<PointT>& octree, const std::string& directory)
+{
+  const Node* root = octree.getRoot ();
+  if (!root)
+    throw std::logic_error ("PotreeWriter: the octree is not built (or empty)");
+  open (directory, octree.getRootOrigin (), octree.getRootEdge ());
+  try
+  {
+    appendSubtree (*root);
+    close (octree.getStatistics ().kept_points);
+  }
+  catch (...)
+  {
+    abandon ();
+    throw;
+  }
+}
+
+#define PCL_INSTANTIATE_PotreeWriter(T) template class PCL_EXPORTS pcl::PotreeWriter<T>;

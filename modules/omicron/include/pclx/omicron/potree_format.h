@@ -1,0 +1,75 @@
+#pragma once
+// The Potree 2.0 file format as PotreeConverter 2.x writes it and potree's 2.0 loader reads it
+// (PotreeConverter Converter/src/indexer.cpp createHierarchy / writeMetadata and
+// Converter/include/HierarchyBuilder.h; potree src/modules/loader/2.0/OctreeLoader.js
+// parseHierarchy). Shared by pcl::PotreeWriter and pcl::PotreeReader.
+//
+//   metadata.json  version "2.0", points, hierarchy {firstChunkSize, stepSize, depth}, offset,
+//                  scale, spacing, boundingBox (the root cube), encoding "DEFAULT", attributes
+//                  (position int32 × 3, scaled; optionally rgb uint16 × 3)
+//   hierarchy.bin  chunks of 22-byte little-endian records {uint8 type, uint8 childMask,
+//                  uint32 numPoints, int64 byteOffset, int64 byteSize}, breadth-first from the
+//                  chunk root down to stepSize levels below it. A node on that last level that
+//                  has children is a proxy (type 2): its offset/size locate its own chunk in
+//                  hierarchy.bin, whose first record is the node again with its real type.
+//                  The root chunk comes first (firstChunkSize bytes).
+//   octree.bin     per node numPoints records, attributes interleaved per point.
+// Node names: "r" and one digit per level, the child index (x << 2) | (y << 1) | z, which is
+// MortonCode's child index.
+#include <pclx/omicron/morton_code.h>
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace pcl {
+namespace omicron {
+namespace potree {
+
+enum NodeType : std::uint8_t
+{
+  kNormal = 0,
+  kLeaf = 1,
+  kProxy = 2
+};
+constexpr std::size_t kRecordBytes = 22;
+
+// One node as stored in octree.bin.
+struct NodeRecord
+{
+  MortonCode code;
+  std::uint32_t num_points = 0;
+  std::uint64_t byte_offset = 0, byte_size = 0;
+};
+
+struct Metadata
+{
+  std::string name, description, projection;
+  std::uint64_t points = 0;
+  std::uint64_t first_chunk_size = 0;
+  int step_size = 4, depth = 0;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero (), scale = Eigen::Vector3d::Constant (0.001);
+  double spacing = 0;
+  Eigen::Vector3d box_min = Eigen::Vector3d::Zero (), box_max = Eigen::Vector3d::Zero ();
+  bool rgb = false;
+  Eigen::Vector3d position_min = Eigen::Vector3d::Zero (), position_max = Eigen::Vector3d::Zero ();
+  std::uint32_t bytesPerPoint () const { return rgb ? 18 : 12; }
+};
+
+std::string nodeName (MortonCode code);
+// Throws std::invalid_argument on a malformed name.
+MortonCode codeFromName (const std::string& name);
+
+// Writes hierarchy.bin for `records` (any order; every node's parent must be present) and
+// returns firstChunkSize and depth through `meta`. Throws pcl::IOException.
+void writeHierarchy (const std::string& path, const std::vector<NodeRecord>& records, Metadata& meta);
+void writeMetadata (const std::string& path, const Metadata& meta);
+
+// Throws pcl::IOException with the reason on anything malformed.
+Metadata readMetadata (const std::string& path);
+
+}  // namespace potree
+}  // namespace omicron
+}  // namespace pcl

@@ -1,0 +1,254 @@
+#include <pclx/omicron/potree_format.h>
+
+#include <pcl/exceptions.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <deque>
+#include <fstream>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace pcl {
+namespace omicron {
+namespace potree {
+
+namespace {
+[[noreturn]] void
+fail (const std::string& msg)
+{
+  throw pcl::IOException (msg, __FILE__, "", __LINE__);
+}
+
+template <typename T> void
+put (std::vector<std::uint8_t>& buf, std::size_t at, T v)
+{
+  // The format is little endian, as is every platform PCL builds on.
+  std::memcpy (buf.data () + at, &v, sizeof (T));
+}
+
+nlohmann::ordered_json
+vec (const Eigen::Vector3d& v)
+{
+  return nlohmann::ordered_json::array ({v.x (), v.y (), v.z ()});
+}
+}  // namespace
+
+std::string
+nodeName (MortonCode code)
+{
+  std::string s (code.level () + 1, 'r');
+  for (int l = code.level (); l >= 1; --l, code = code.parent ())
+    s[l] = static_cast<char> ('0' + code.childIndex ());
+  return s;
+}
+
+MortonCode
+codeFromName (const std::string& name)
+{
+  if (name.empty () || name[0] != 'r' || name.size () > MortonCode::kMaxDepth + 1u)
+    throw std::invalid_argument ("potree: bad node name '" + name + "'");
+  MortonCode c = MortonCode::root ();
+  for (std::size_t i = 1; i < name.size (); ++i)
+  {
+    if (name[i] < '0' || name[i] > '7')
+      throw std::invalid_argument ("potree: bad node name '" + name + "'");
+    c = c.child (name[i] - '0');
+  }
+  return c;
+}
+
+void
+writeHierarchy (const std::string& path, const std::vector<NodeRecord>& records, Metadata& meta)
+{
+  const int step = meta.step_size;
+  std::unordered_map<std::uint64_t, std::size_t> index;
+  index.reserve (records.size ());
+  for (std::size_t i = 0; i < records.size (); ++i)
+    if (!index.emplace (records[i].code.bits (), i).second)
+      fail ("PotreeWriter: node " + nodeName (records[i].code) + " was written twice");
+  std::vector<std::uint8_t> mask (records.size (), 0);
+  int depth = 0;
+  for (const NodeRecord& r : records)
+  {
+    depth = std::max (depth, r.code.level ());
+    if (r.code.level () == 0)
+      continue;
+    const auto p = index.find (r.code.parent ().bits ());
+    if (p == index.end ())
+      fail ("PotreeWriter: node " + nodeName (r.code) + " has no parent in the output");
+    mask[p->second] |= static_cast<std::uint8_t> (1u << r.code.childIndex ());
+  }
+  if (!index.count (MortonCode::root ().bits ()))
+    fail ("PotreeWriter: the output has no root node");
+
+  // Chunks as PotreeConverter cuts them: breadth-first from each chunk root down to `step`
+  // levels below; bottom nodes with children start chunks of their own.
+  std::vector<std::vector<std::size_t>> chunks;
+  std::unordered_map<std::uint64_t, std::size_t> chunk_of;  // chunk root code -> chunk
+  std::deque<std::size_t> roots{index[MortonCode::root ().bits ()]};
+  while (!roots.empty ())
+  {
+    const std::size_t r = roots.front ();
+    roots.pop_front ();
+    chunk_of[records[r].code.bits ()] = chunks.size ();
+    std::vector<std::size_t> nodes{r};
+    const int bottom = records[r].code.level () + step;
+    for (std::size_t i = 0; i < nodes.size (); ++i)
+    {
+      const std::size_t n = nodes[i];
+      if (records[n].code.level () == bottom)
+      {
+        if (mask[n])
+          roots.push_back (n);
+        continue;
+      }
+      for (int c = 0; c < 8; ++c)
+        if (mask[n] & (1u << c))
+          nodes.push_back (index[records[n].code.child (c).bits ()]);
+    }
+    chunks.push_back (std::move (nodes));
+  }
+  std::vector<std::uint64_t> chunk_offset (chunks.size () + 1, 0);
+  for (std::size_t k = 0; k < chunks.size (); ++k)
+    chunk_offset[k + 1] = chunk_offset[k] + kRecordBytes * chunks[k].size ();
+
+  std::vector<std::uint8_t> buf (chunk_offset.back ());
+  std::size_t at = 0;
+  for (std::size_t k = 0; k < chunks.size (); ++k)
+  {
+    const int bottom = records[chunks[k][0]].code.level () + step;
+    for (std::size_t n : chunks[k])
+    {
+      const NodeRecord& r = records[n];
+      std::uint8_t type = mask[n] ? kNormal : kLeaf;
+      std::uint64_t offset = r.byte_offset, size = r.byte_size;
+      if (r.code.level () == bottom && mask[n])
+      {
+        const std::size_t target = chunk_of.at (r.code.bits ());
+        type = kProxy;
+        offset = chunk_offset[target];
+        size = chunk_offset[target + 1] - chunk_offset[target];
+      }
+      put<std::uint8_t> (buf, at + 0, type);
+      put<std::uint8_t> (buf, at + 1, mask[n]);
+      put<std::uint32_t> (buf, at + 2, r.num_points);
+      put<std::uint64_t> (buf, at + 6, offset);
+      put<std::uint64_t> (buf, at + 14, size);
+      at += kRecordBytes;
+    }
+  }
+  std::FILE* f = std::fopen (path.c_str (), "wb");
+  if (!f)
+    fail ("PotreeWriter: cannot write '" + path + "': " + std::strerror (errno));
+  const bool ok = std::fwrite (buf.data (), 1, buf.size (), f) == buf.size ();
+  if (std::fclose (f) != 0 || !ok)
+    fail ("PotreeWriter: writing '" + path + "' failed (disk full?)");
+  meta.first_chunk_size = chunk_offset[1];
+  meta.depth = depth;
+}
+
+void
+writeMetadata (const std::string& path, const Metadata& meta)
+{
+  using json = nlohmann::ordered_json;  // keeps PotreeConverter's field order
+  json attributes = json::array ();
+  attributes.push_back ({{"name", "position"},
+                         {"description", ""},
+                         {"size", 12},
+                         {"numElements", 3},
+                         {"elementSize", 4},
+                         {"type", "int32"},
+                         {"min", vec (meta.position_min)},
+                         {"max", vec (meta.position_max)},
+                         {"scale", vec (Eigen::Vector3d::Ones ())},
+                         {"offset", vec (Eigen::Vector3d::Zero ())}});
+  if (meta.rgb)
+    attributes.push_back ({{"name", "rgb"},
+                           {"description", ""},
+                           {"size", 6},
+                           {"numElements", 3},
+                           {"elementSize", 2},
+                           {"type", "uint16"},
+                           {"min", vec (Eigen::Vector3d::Zero ())},
+                           {"max", vec (Eigen::Vector3d::Constant (65535))},
+                           {"scale", vec (Eigen::Vector3d::Ones ())},
+                           {"offset", vec (Eigen::Vector3d::Zero ())}});
+  json j;
+  j["version"] = "2.0";
+  j["name"] = meta.name;
+  j["description"] = meta.description;
+  j["points"] = meta.points;
+  j["projection"] = meta.projection;
+  j["hierarchy"] = {{"firstChunkSize", meta.first_chunk_size}, {"stepSize", meta.step_size}, {"depth", meta.depth}};
+  j["offset"] = vec (meta.offset);
+  j["scale"] = vec (meta.scale);
+  j["spacing"] = meta.spacing;
+  j["boundingBox"] = {{"min", vec (meta.box_min)}, {"max", vec (meta.box_max)}};
+  j["encoding"] = "DEFAULT";
+  j["attributes"] = attributes;
+  std::ofstream out (path);
+  out << j.dump (1, '\t') << '\n';
+  out.close ();
+  if (!out)
+    fail ("PotreeWriter: cannot write '" + path + "'");
+}
+
+Metadata
+readMetadata (const std::string& path)
+{
+  std::ifstream in (path);
+  if (!in)
+    fail ("PotreeReader: cannot open '" + path + "'");
+  Metadata m;
+  try
+  {
+    const nlohmann::json j = nlohmann::json::parse (in);
+    if (j.at ("version").get<std::string> () != "2.0")
+      fail ("PotreeReader: '" + path + "' is version " + j.at ("version").get<std::string> () + ", not 2.0");
+    if (j.value ("encoding", "DEFAULT") != "DEFAULT")
+      fail ("PotreeReader: only the DEFAULT encoding is read (got " + j.value ("encoding", "") + ")");
+    const auto v3 = [] (const nlohmann::json& a) {
+      return Eigen::Vector3d (a.at (0).get<double> (), a.at (1).get<double> (), a.at (2).get<double> ());
+    };
+    m.name = j.value ("name", "");
+    m.description = j.value ("description", "");
+    m.projection = j.value ("projection", "");
+    m.points = j.at ("points").get<std::uint64_t> ();
+    m.first_chunk_size = j.at ("hierarchy").at ("firstChunkSize").get<std::uint64_t> ();
+    m.step_size = j.at ("hierarchy").at ("stepSize").get<int> ();
+    m.depth = j.at ("hierarchy").at ("depth").get<int> ();
+    m.offset = v3 (j.at ("offset"));
+    m.scale = v3 (j.at ("scale"));
+    m.spacing = j.at ("spacing").get<double> ();
+    m.box_min = v3 (j.at ("boundingBox").at ("min"));
+    m.box_max = v3 (j.at ("boundingBox").at ("max"));
+    const auto& attrs = j.at ("attributes");
+    if (attrs.empty () || attrs.at (0).at ("name") != "position" || attrs.at (0).at ("type") != "int32")
+      fail ("PotreeReader: the first attribute must be position int32 × 3");
+    m.position_min = v3 (attrs.at (0).at ("min"));
+    m.position_max = v3 (attrs.at (0).at ("max"));
+    for (std::size_t i = 1; i < attrs.size (); ++i)
+    {
+      if (attrs[i].at ("name") == "rgb" && attrs[i].at ("type") == "uint16" && i == 1)
+        m.rgb = true;
+      else
+        fail ("PotreeReader: unsupported attribute " + attrs[i].at ("name").get<std::string> () +
+              " (position and rgb are read)");
+    }
+  }
+  catch (const nlohmann::json::exception& e)
+  {
+    fail ("PotreeReader: malformed '" + path + "': " + e.what ());
+  }
+  if (m.step_size < 1 || m.depth < 0 || m.depth > MortonCode::kMaxDepth || !(m.scale.array () > 0).all ())
+    fail ("PotreeReader: '" + path + "' has an out-of-range stepSize, depth or scale");
+  return m;
+}
+
+}  // namespace potree
+}  // namespace omicron
+}  // namespace pcl

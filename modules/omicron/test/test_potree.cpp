@@ -1,0 +1,282 @@
+// PotreeWriter / PotreeReader: an octree written and read back agrees with the in-memory
+// hierarchy; the bytes follow PotreeConverter 2.x's layout; bad folders and files are errors.
+#include "omicron_test_util.h"
+
+#include <pclx/omicron/oblique_cut_octree.h>
+#include <pclx/omicron/potree_reader.h>
+#include <pclx/omicron/potree_writer.h>
+
+#include <pcl/exceptions.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+namespace fs = std::filesystem;
+using omitest::Shape;
+
+namespace {
+struct TempDir
+{
+  fs::path path;
+  TempDir ()
+  {
+    path = fs::temp_directory_path () / ("pclx_omicron_" + std::to_string (::getpid ()) + "_" + std::to_string (counter ()++));
+    fs::remove_all (path);
+    fs::create_directories (path);
+  }
+  ~TempDir () { fs::remove_all (path); }
+  static int& counter ()
+  {
+    static int c = 0;
+    return c;
+  }
+};
+
+pcl::PointCloud<pcl::PointXYZRGB>::Ptr
+colouredCloud (Shape shape, std::size_t n, unsigned seed)
+{
+  const auto c = omitest::makeCloud (shape, n, seed);
+  pcl::PointCloud<pcl::PointXYZRGB>::Ptr out (new pcl::PointCloud<pcl::PointXYZRGB>);
+  out->resize (c->size ());
+  for (std::size_t i = 0; i < c->size (); ++i)
+  {
+    (*out)[i].x = (*c)[i].x;
+    (*out)[i].y = (*c)[i].y;
+    (*out)[i].z = (*c)[i].z;
+    (*out)[i].r = static_cast<std::uint8_t> (i * 7);
+    (*out)[i].g = static_cast<std::uint8_t> (i * 13);
+    (*out)[i].b = static_cast<std::uint8_t> (255 - i % 256);
+  }
+  return out;
+}
+
+std::vector<std::uint8_t>
+slurp (const fs::path& p)
+{
+  std::ifstream in (p, std::ios::binary);
+  return std::vector<std::uint8_t> ((std::istreambuf_iterator<char> (in)), std::istreambuf_iterator<char> ());
+}
+
+// Every node of the in-memory tree is in the file with the same points (within the scale).
+template <typename PointT> void
+expectSameHierarchy (const pcl::omicron::Node<PointT>& root, const pcl::PotreeReader& reader)
+{
+  const double tol = 0.5 * reader.getMetadata ().scale.x () + 1e-6;
+  std::size_t count = 0;
+  std::vector<const pcl::omicron::Node<PointT>*> stack{&root};
+  pcl::PointCloud<pcl::PointXYZRGB> pts;
+  while (!stack.empty ())
+  {
+    const auto* n = stack.back ();
+    stack.pop_back ();
+    ++count;
+    const long i = reader.find (n->code);
+    ASSERT_GE (i, 0) << "node " << n->code << " missing";
+    const auto& info = reader.getNodes ()[i];
+    ASSERT_EQ (info.num_points, n->num_points) << info.name;
+    std::uint8_t mask = 0;
+    for (int c = 0; c < n->num_children; ++c)
+    {
+      mask |= static_cast<std::uint8_t> (1u << n->children[c].code.childIndex ());
+      stack.push_back (n->children + c);
+    }
+    ASSERT_EQ (info.child_mask, mask) << info.name;
+    ASSERT_EQ (info.type, mask ? pcl::omicron::potree::kNormal : pcl::omicron::potree::kLeaf) << info.name;
+    reader.readNode (static_cast<std::size_t> (i), pts);
+    ASSERT_EQ (pts.size (), n->num_points);
+    for (std::uint32_t k = 0; k < n->num_points; ++k)
+    {
+      ASSERT_NEAR (pts[k].x, n->points[k].x, tol) << info.name << " point " << k;
+      ASSERT_NEAR (pts[k].y, n->points[k].y, tol);
+      ASSERT_NEAR (pts[k].z, n->points[k].z, tol);
+      if constexpr (pcl::traits::has_color_v<PointT>)
+      {
+        ASSERT_EQ (pts[k].r, n->points[k].r);
+        ASSERT_EQ (pts[k].g, n->points[k].g);
+        ASSERT_EQ (pts[k].b, n->points[k].b);
+      }
+    }
+  }
+  EXPECT_EQ (count, reader.getNodes ().size ());
+}
+}  // namespace
+
+TEST (PotreeWriter, WrittenOctreeReadsBackAsTheInMemoryHierarchy)
+{
+  struct Case
+  {
+    Shape shape;
+    int depth, step;
+    bool collapse;
+  };
+  for (const Case& c : {Case{Shape::CLUSTERED, 6, 4, true}, Case{Shape::UNIFORM, 7, 2, false},
+                        Case{Shape::LATTICE, 5, 1, true}, Case{Shape::IDENTICAL, 3, 4, false},
+                        Case{Shape::UNIFORM, 9, 3, true}})
+  {
+    SCOPED_TRACE (std::string (omitest::shapeName (c.shape)) + " depth " + std::to_string (c.depth) + " step " +
+                  std::to_string (c.step));
+    const auto cloud = colouredCloud (c.shape, 30000, 5 + c.depth);
+    pcl::ObliqueCutOctree<pcl::PointXYZRGB> o;
+    o.setInputCloud (cloud);
+    o.setMaxDepth (c.depth);
+    o.setLeafCollapse (c.collapse);
+    o.setThreads (2);
+    ASSERT_TRUE (o.build ());
+    TempDir dir;
+    pcl::PotreeWriter<pcl::PointXYZRGB> w;
+    w.setHierarchyStepSize (c.step);
+    w.setName ("test");
+    w.write (o, dir.path.string ());
+    pcl::PotreeReader r;
+    r.open (dir.path.string ());
+    const auto& m = r.getMetadata ();
+    EXPECT_EQ (m.points, cloud->size ());
+    EXPECT_TRUE (m.rgb);
+    EXPECT_EQ (m.step_size, c.step);
+    const auto st = o.getStatistics ();
+    int depth = 0;
+    std::size_t nodes = 0;
+    for (std::size_t l = 0; l < st.nodes_per_level.size (); ++l)
+    {
+      nodes += st.nodes_per_level[l];
+      if (st.nodes_per_level[l])
+        depth = static_cast<int> (l);
+    }
+    EXPECT_EQ (m.depth, depth);
+    EXPECT_EQ (r.getNodes ().size (), nodes);
+    // Bounds: the root cube, as PotreeConverter writes it; positions within it.
+    EXPECT_TRUE (m.box_min.isApprox (o.getRootOrigin ()));
+    EXPECT_NEAR (m.box_max.x () - m.box_min.x (), o.getRootEdge (), 1e-9);
+    EXPECT_TRUE ((m.position_min.array () >= m.box_min.array () - 1e-6).all ());
+    EXPECT_TRUE ((m.position_max.array () <= m.box_max.array () + 1e-6).all ());
+    // The root chunk holds the nodes of levels 0..step.
+    std::size_t first = 0;
+    for (int l = 0; l <= std::min (c.step, depth); ++l)
+      first += st.nodes_per_level[l];
+    EXPECT_EQ (m.first_chunk_size, 22 * first);
+    expectSameHierarchy (*o.getRoot (), r);
+    // hierarchy.bin holds each node once, plus one proxy record per chunk below the root.
+    std::size_t proxies = 0;
+    for (const auto& n : r.getNodes ())
+      proxies += (n.code.level () > 0 && n.code.level () % c.step == 0 && n.child_mask) ? 1 : 0;
+    EXPECT_EQ (fs::file_size (dir.path / "hierarchy.bin"), 22 * (nodes + proxies));
+    if (c.step < depth)
+      EXPECT_GT (proxies, 0u);
+  }
+}
+
+TEST (PotreeWriter, BytesFollowPotreeConverterLayout)
+{
+  // Two points at opposite corners, depth 1: root (2 samples) + two leaves.
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
+  cloud->push_back (pcl::PointXYZ (0.f, 0.f, 0.f));
+  cloud->push_back (pcl::PointXYZ (2.f, 3.f, 4.f));
+  pcl::ObliqueCutOctree<pcl::PointXYZ> o;
+  o.setInputCloud (cloud);
+  o.setMaxDepth (1);
+  o.setParentPointRatio (1.f);
+  ASSERT_TRUE (o.build ());
+  TempDir dir;
+  pcl::PotreeWriter<pcl::PointXYZ> w;
+  w.setScale (0.001);
+  w.write (o, dir.path.string ());
+  const auto h = slurp (dir.path / "hierarchy.bin");
+  ASSERT_EQ (h.size (), 3u * 22u);
+  const auto u32 = [&] (std::size_t at) { std::uint32_t v; std::memcpy (&v, h.data () + at, 4); return v; };
+  const auto u64 = [&] (std::size_t at) { std::uint64_t v; std::memcpy (&v, h.data () + at, 8); return v; };
+  // Root: NORMAL, children 0 (x−y−z−) and 7 (x+y+z+); 2 points of 12 bytes.
+  EXPECT_EQ (h[0], 0);
+  EXPECT_EQ (h[1], (1u << 0) | (1u << 7));
+  EXPECT_EQ (u32 (2), 2u);
+  EXPECT_EQ (u64 (14), 24u);
+  // Leaves r0 then r7, breadth-first in child order.
+  EXPECT_EQ (h[22], 1);
+  EXPECT_EQ (h[23], 0);
+  EXPECT_EQ (u32 (24), 1u);
+  EXPECT_EQ (u64 (36), 12u);
+  EXPECT_EQ (h[44], 1);
+  const auto oct = slurp (dir.path / "octree.bin");
+  ASSERT_EQ (oct.size (), 48u);
+  // r7 holds (2, 3, 4): int32 (x − offset) / 0.001 with offset = the cube's min corner (0, 0, 0).
+  std::int32_t q[3];
+  std::memcpy (q, oct.data () + u64 (44 + 6), 12);
+  EXPECT_EQ (q[0], 2000);
+  EXPECT_EQ (q[1], 3000);
+  EXPECT_EQ (q[2], 4000);
+  // metadata.json: the fields potree's loader reads.
+  std::ifstream in (dir.path / "metadata.json");
+  const std::string js ((std::istreambuf_iterator<char> (in)), std::istreambuf_iterator<char> ());
+  for (const char* key : {"\"version\": \"2.0\"", "\"firstChunkSize\": 66", "\"stepSize\": 4", "\"depth\": 1",
+                          "\"encoding\": \"DEFAULT\"", "\"name\": \"position\"", "\"type\": \"int32\"", "\"points\": 2"})
+    EXPECT_NE (js.find (key), std::string::npos) << key << " in\n" << js;
+  EXPECT_EQ (js.find ("rgb"), std::string::npos);
+}
+
+TEST (PotreeWriter, UnwritableFolderIsAClearError)
+{
+  const auto cloud = omitest::makeCloud (Shape::UNIFORM, 1000, 3);
+  pcl::ObliqueCutOctree<pcl::PointXYZ> o;
+  o.setInputCloud (cloud);
+  ASSERT_TRUE (o.build ());
+  TempDir dir;
+  // A regular file where a folder is needed (permissions would not stop root).
+  std::ofstream (dir.path / "file") << "x";
+  const std::string bad = (dir.path / "file" / "out").string ();
+  pcl::PotreeWriter<pcl::PointXYZ> w;
+  try
+  {
+    w.write (o, bad);
+    FAIL () << "no error for " << bad;
+  }
+  catch (const pcl::IOException& e)
+  {
+    EXPECT_NE (std::string (e.what ()).find (bad), std::string::npos) << e.what ();
+  }
+  EXPECT_FALSE (w.isOpen ());
+  pcl::PotreeWriter<pcl::PointXYZ> unbuilt;
+  pcl::ObliqueCutOctree<pcl::PointXYZ> empty;
+  EXPECT_THROW (unbuilt.write (empty, (dir.path / "x").string ()), std::logic_error);
+}
+
+TEST (PotreeReader, CorruptFilesAreClearErrors)
+{
+  const auto cloud = omitest::makeCloud (Shape::CLUSTERED, 5000, 4);
+  pcl::ObliqueCutOctree<pcl::PointXYZ> o;
+  o.setInputCloud (cloud);
+  o.setMaxDepth (6);
+  ASSERT_TRUE (o.build ());
+  TempDir dir;
+  pcl::PotreeWriter<pcl::PointXYZ> w;
+  w.setHierarchyStepSize (2);
+  w.write (o, dir.path.string ());
+  pcl::PotreeReader r;
+  EXPECT_NO_THROW (r.open (dir.path.string ()));
+  EXPECT_THROW (r.open ((dir.path / "missing").string ()), pcl::IOException);
+  const auto h = slurp (dir.path / "hierarchy.bin");
+  const auto o_bin = slurp (dir.path / "octree.bin");
+  const auto rewrite = [&] (const char* name, const std::vector<std::uint8_t>& bytes) {
+    std::ofstream (dir.path / name, std::ios::binary).write (reinterpret_cast<const char*> (bytes.data ()), bytes.size ());
+  };
+  // Truncated hierarchy (a proxy's chunk is cut off).
+  rewrite ("hierarchy.bin", std::vector<std::uint8_t> (h.begin (), h.end () - 30));
+  EXPECT_THROW (r.open (dir.path.string ()), pcl::IOException);
+  // A child mask naming more nodes than the chunk holds.
+  auto bad = h;
+  bad[1] = 0xff;
+  rewrite ("hierarchy.bin", bad);
+  EXPECT_THROW (r.open (dir.path.string ()), pcl::IOException);
+  rewrite ("hierarchy.bin", h);
+  // Truncated octree.bin.
+  rewrite ("octree.bin", std::vector<std::uint8_t> (o_bin.begin (), o_bin.begin () + o_bin.size () / 2));
+  EXPECT_THROW (r.open (dir.path.string ()), pcl::IOException);
+  rewrite ("octree.bin", o_bin);
+  // Not JSON / wrong version.
+  std::ofstream (dir.path / "metadata.json") << "{\"version\": \"1.8\"}";
+  EXPECT_THROW (r.open (dir.path.string ()), pcl::IOException);
+  std::ofstream (dir.path / "metadata.json") << "{ not json";
+  EXPECT_THROW (r.open (dir.path.string ()), pcl::IOException);
+  std::ofstream (dir.path / "metadata.json") << "";
+  EXPECT_THROW (r.open (dir.path.string ()), pcl::IOException);
+}
