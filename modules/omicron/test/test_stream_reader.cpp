@@ -1,0 +1,232 @@
+// PointStreamReader: every format PCL writes (and hand-made PLY / XYZ) read back in chunks
+// equals the cloud; NaN/Inf dropped and counted; empty, truncated and garbage files throw.
+#include <pclx/omicron/point_stream_reader.h>
+
+#include <pcl/exceptions.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+using Cloud = pcl::PointCloud<pcl::PointXYZRGB>;
+
+namespace {
+struct TempDir
+{
+  fs::path path = fs::temp_directory_path () / ("pclx_stream_" + std::to_string (::getpid ()));
+  TempDir ()
+  {
+    fs::remove_all (path);
+    fs::create_directories (path);
+  }
+  ~TempDir () { fs::remove_all (path); }
+};
+
+Cloud
+randomCloud (std::size_t n, std::size_t nans)
+{
+  std::mt19937 rng (7);
+  std::uniform_real_distribution<float> u (-50.f, 50.f);
+  Cloud c;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    pcl::PointXYZRGB p;
+    p.x = u (rng);
+    p.y = u (rng);
+    p.z = u (rng);
+    p.r = static_cast<std::uint8_t> (rng ());
+    p.g = static_cast<std::uint8_t> (rng ());
+    p.b = static_cast<std::uint8_t> (rng ());
+    if (i % (n / std::max<std::size_t> (1, nans)) == 3 && nans)
+      (i % 2 ? p.x : p.z) = i % 3 ? std::numeric_limits<float>::quiet_NaN () : std::numeric_limits<float>::infinity ();
+    c.push_back (p);
+  }
+  return c;
+}
+
+Cloud
+readAll (const std::string& path, std::size_t chunk, pcl::PointStreamReader* keep = nullptr)
+{
+  pcl::PointStreamReader local;
+  pcl::PointStreamReader& r = keep ? *keep : local;
+  r.open (path);
+  Cloud all, part;
+  while (r.read (chunk, part))
+  {
+    EXPECT_LE (part.size (), chunk);
+    all += part;
+  }
+  return all;
+}
+
+void
+expectSame (const Cloud& got, const Cloud& want, bool colour, float tol)
+{
+  Cloud finite;
+  for (const auto& p : want)
+    if (std::isfinite (p.x) && std::isfinite (p.y) && std::isfinite (p.z))
+      finite.push_back (p);
+  ASSERT_EQ (got.size (), finite.size ());
+  for (std::size_t i = 0; i < got.size (); ++i)
+  {
+    ASSERT_NEAR (got[i].x, finite[i].x, tol) << i;
+    ASSERT_NEAR (got[i].y, finite[i].y, tol) << i;
+    ASSERT_NEAR (got[i].z, finite[i].z, tol) << i;
+    if (colour)
+    {
+      ASSERT_EQ (got[i].r, finite[i].r) << i;
+      ASSERT_EQ (got[i].g, finite[i].g) << i;
+      ASSERT_EQ (got[i].b, finite[i].b) << i;
+    }
+  }
+}
+
+void
+expectThrows (const std::string& path, const std::string& fragment)
+{
+  try
+  {
+    readAll (path, 1000);
+    ADD_FAILURE () << "no error for " << path;
+  }
+  catch (const pcl::IOException& e)
+  {
+    EXPECT_NE (std::string (e.what ()).find (fragment), std::string::npos) << e.what ();
+    EXPECT_NE (std::string (e.what ()).find (path), std::string::npos) << e.what ();
+  }
+}
+}  // namespace
+
+TEST (PointStreamReader, EveryPCLFormatReadsBackInChunks)
+{
+  TempDir dir;
+  const Cloud cloud = randomCloud (5000, 40);
+  const std::string base = (dir.path / "c").string ();
+  ASSERT_EQ (pcl::io::savePCDFileBinary (base + "_b.pcd", cloud), 0);
+  ASSERT_EQ (pcl::io::savePCDFileASCII (base + "_a.pcd", cloud), 0);
+  ASSERT_EQ (pcl::io::savePCDFileBinaryCompressed (base + "_c.pcd", cloud), 0);
+  ASSERT_EQ (pcl::io::savePLYFileBinary (base + "_b.ply", cloud), 0);
+  ASSERT_EQ (pcl::io::savePLYFileASCII (base + "_a.ply", cloud), 0);
+  for (const char* suffix : {"_b.pcd", "_a.pcd", "_c.pcd", "_b.ply", "_a.ply"})
+    for (std::size_t chunk : {1ul, 777ul, 100000ul})
+    {
+      SCOPED_TRACE (std::string (suffix) + " chunk " + std::to_string (chunk));
+      pcl::PointStreamReader r;
+      const Cloud got = readAll (base + suffix, chunk, &r);
+      EXPECT_TRUE (r.hasColor ());
+      EXPECT_EQ (r.getDeclaredPoints (), cloud.size ());
+      const bool ascii = std::strstr (suffix, "_a") != nullptr;
+      expectSame (got, cloud, true, ascii ? 1e-4f : 0.f);
+      // PCL's ascii PLY writer drops non-finite points itself.
+      if (std::string (suffix) != "_a.ply")
+        EXPECT_EQ (r.getDroppedInvalid (), 40u);
+      EXPECT_EQ (r.getPointsRead (), got.size ());
+      // A second pass gives the same points.
+      r.rewind ();
+      Cloud again, part;
+      while (r.read (chunk == 1 ? 1000 : chunk, part))
+        again += part;
+      EXPECT_EQ (again.size (), got.size ());
+    }
+  // Other point types: xyz only.
+  pcl::PointStreamReader r (base + "_b.pcd");
+  pcl::PointCloud<pcl::PointXYZ> xyz;
+  ASSERT_TRUE (r.read (10, xyz));
+  EXPECT_EQ (xyz.size (), 10u);
+}
+
+TEST (PointStreamReader, HandMadePLYAndXYZ)
+{
+  TempDir dir;
+  // Binary PLY with double coordinates, ushort colour, an element before the vertices.
+  {
+    std::ofstream f (dir.path / "d.ply", std::ios::binary);
+    f << "ply\nformat binary_little_endian 1.0\ncomment made by hand\nelement info 2\nproperty int a\n"
+         "element vertex 3\nproperty double x\nproperty double y\nproperty double z\nproperty float nx\n"
+         "property ushort red\nproperty ushort green\nproperty ushort blue\nelement face 0\n"
+         "property list uchar int vertex_indices\nend_header\n";
+    const std::int32_t info[2] = {11, 22};
+    f.write (reinterpret_cast<const char*> (info), 8);
+    for (int i = 0; i < 3; ++i)
+    {
+      const double xyz[3] = {i + 0.5, i == 1 ? std::nan ("") : -2.0 * i, 1e6 + i};
+      const float nx = 1.f;
+      const std::uint16_t c[3] = {static_cast<std::uint16_t> (257 * 10 * i), 65535, 0};
+      f.write (reinterpret_cast<const char*> (xyz), 24);
+      f.write (reinterpret_cast<const char*> (&nx), 4);
+      f.write (reinterpret_cast<const char*> (c), 6);
+    }
+  }
+  pcl::PointStreamReader r;
+  const Cloud got = readAll ((dir.path / "d.ply").string (), 2, &r);
+  ASSERT_EQ (got.size (), 2u);
+  EXPECT_EQ (r.getDroppedInvalid (), 1u);
+  EXPECT_FLOAT_EQ (got[1].x, 2.5f);
+  EXPECT_FLOAT_EQ (got[1].y, -4.f);
+  EXPECT_FLOAT_EQ (got[1].z, 1e6f + 2.f);
+  EXPECT_EQ (got[1].r, 20);
+  EXPECT_EQ (got[1].g, 255);
+  EXPECT_EQ (got[1].b, 0);
+  // XYZ text: comments, commas, tabs, optional colour.
+  std::ofstream (dir.path / "p.xyz") << "# comment\n1 2 3\n\n4,5,6, 10, 20, 30\r\n7\t8\t9\nnan 1 1\n";
+  const Cloud xyz = readAll ((dir.path / "p.xyz").string (), 2, &r);
+  ASSERT_EQ (xyz.size (), 3u);
+  EXPECT_EQ (r.getDroppedInvalid (), 1u);
+  EXPECT_FLOAT_EQ (xyz[1].y, 5.f);
+  EXPECT_EQ (xyz[1].g, 20);
+  EXPECT_FLOAT_EQ (xyz[2].z, 9.f);
+}
+
+TEST (PointStreamReader, EmptyTruncatedAndGarbageFilesAreClearErrors)
+{
+  TempDir dir;
+  const Cloud cloud = randomCloud (1000, 0);
+  const auto p = [&] (const char* name) { return (dir.path / name).string (); };
+  ASSERT_EQ (pcl::io::savePCDFileBinary (p ("b.pcd"), cloud), 0);
+  ASSERT_EQ (pcl::io::savePCDFileASCII (p ("a.pcd"), cloud), 0);
+  ASSERT_EQ (pcl::io::savePLYFileBinary (p ("b.ply"), cloud), 0);
+  ASSERT_EQ (pcl::io::savePCDFileBinaryCompressed (p ("c.pcd"), cloud), 0);
+  const auto truncate = [&] (const char* from, const char* to, double keep) {
+    fs::copy_file (p (from), p (to));
+    fs::resize_file (p (to), static_cast<std::uintmax_t> (fs::file_size (p (from)) * keep));
+  };
+  truncate ("b.pcd", "tb.pcd", 0.7);
+  truncate ("a.pcd", "ta.pcd", 0.7);
+  truncate ("b.ply", "tb.ply", 0.7);
+  truncate ("c.pcd", "tc.pcd", 0.7);
+  truncate ("b.pcd", "header_only.pcd", 0.0);
+  for (const char* e : {"e.pcd", "e.ply", "e.xyz"})
+    std::ofstream (dir.path / e);
+  std::ofstream (dir.path / "one.pcd") << "#";
+  std::ofstream (dir.path / "g.pcd") << "hello world\n";
+  std::ofstream (dir.path / "g.ply") << "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nend_header\n1\n2\n";
+  std::ofstream (dir.path / "g.xyz") << "1 2 3\n4 5\n";
+  std::ofstream (dir.path / "h.xyz") << "1 2 x\n";
+  std::ofstream (dir.path / "big.pcd") << "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 99999999999\nPOINTS 99999999999\nDATA binary\n";
+  expectThrows (p ("tb.pcd"), "truncated");
+  expectThrows (p ("ta.pcd"), "truncated");
+  expectThrows (p ("tb.ply"), "truncated");
+  expectThrows (p ("tc.pcd"), "truncated");
+  expectThrows (p ("e.pcd"), "empty");
+  expectThrows (p ("e.ply"), "empty");
+  expectThrows (p ("e.xyz"), "empty");
+  expectThrows (p ("one.pcd"), "DATA");
+  expectThrows (p ("g.pcd"), "unknown keyword");
+  expectThrows (p ("g.ply"), "x, y and z");
+  expectThrows (p ("g.xyz"), "line 2");
+  expectThrows (p ("h.xyz"), "not a number");
+  expectThrows (p ("big.pcd"), "truncated");
+  expectThrows (p ("missing.pcd"), "cannot open");
+  expectThrows (p ("cloud.las"), "extension");
+  fs::create_directories (dir.path / "dir.pcd");
+  EXPECT_THROW (readAll (p ("dir.pcd"), 10), pcl::IOException);
+}
