@@ -9,7 +9,7 @@ PKGS=(
   libembree-dev libcgal-dev libtbb-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   libopen3d-dev nlohmann-json3-dev
-  xvfb xauth gnuplot-nox python3-matplotlib python3-numpy
+  xvfb xauth gnuplot-nox python3-matplotlib python3-numpy time
 )
 missing=()
 for p in "${PKGS[@]}"; do
