@@ -1,38 +1,49 @@
 #!/usr/bin/env bash
-# The README's main job: installs Debian packages, builds (Release), and runs the demo on
-# generated data: the HPR viewer off-screen on a generated scene (cloud and replayed depth
-# frames), the benchmarks in their quick mode (peers in the same run), and the charts.
-# Everything lands in ${PCLX_DEMO_OUT:-demo_output}/.
+# The README's main job: installs Debian packages, builds (Release), installs the OpenNI2
+# virtual camera, and runs the demo on generated data: hpr_viewer off-screen on a generated
+# cloud, on recorded frames (PCD through pcl::PCDGrabber, 16-bit PNG depth) and live from the
+# virtual camera through pcl::io::OpenNI2Grabber; normals_tool; the benchmarks in their quick
+# mode (peers in the same run) and their charts. Everything lands in ${PCLX_DEMO_OUT:-demo_output}/,
+# listed at the end and on one page in index.html.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install-deps.sh
 OUT=${PCLX_DEMO_OUT:-demo_output}
-mkdir -p "$OUT/frames"
+rm -rf "$OUT/frames" "$OUT/depth_frames" "$OUT/charts"
+mkdir -p "$OUT/frames" "$OUT/depth_frames"
 
-cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release > /dev/null
 cmake --build build -j "$(nproc)"
+./scripts/install-openni2-driver.sh build
 
-echo "== generated scene: a sampled cloud and three Kinect-like depth frames"
+echo "== generated scene: a sampled cloud and three Kinect-like depth frames (PCD and 16-bit PNG)"
 ./build/apps/hpr_viewer/make_scene --cloud "$OUT/scene.ply" --points 200000 \
-  --dir "$OUT/frames" --frames 3 --width 640 --height 480
+  --dir "$OUT/frames" --depth-png-dir "$OUT/depth_frames" --frames 3 --width 640 --height 480
 
-echo "== hpr_viewer (off-screen) on the cloud and on the frames through pcl::PCDGrabber"
+echo "== hpr_viewer (off-screen): the cloud, the PCD frames, the PNG depth frames, the virtual camera"
 xvfb-run -a ./build/apps/hpr_viewer/hpr_viewer --input "$OUT/scene.ply" --mesh --view-dir 1 -0.7 0.45 --up 0 0 1 \
   --screenshot "$OUT/hpr_scene.png" --output "$OUT/hpr_scene_visible.pcd"
 xvfb-run -a ./build/apps/hpr_viewer/hpr_viewer --pcd-dir "$OUT/frames" --frames 3 \
   --screenshot "$OUT/hpr_frames.png"
+xvfb-run -a ./build/apps/hpr_viewer/hpr_viewer --depth-dir "$OUT/depth_frames" --frames 3 \
+  --screenshot "$OUT/hpr_depth_frames.png"
+# The live path: the pclx virtual camera replays its generated room (set PCLX_VIRTUAL_CAMERA_DIR
+# to a 7-Scenes folder to replay that instead); a Kinect or Xtion takes the same path.
+env -u PCLX_VIRTUAL_CAMERA_DIR xvfb-run -a ./build/apps/hpr_viewer/hpr_viewer --device "" --frames 3 \
+  --screenshot "$OUT/hpr_device.png"
+
+echo "== normals_tool (off-screen) on the cloud"
+xvfb-run -a ./build/apps/normals_tool/normals_tool --input "$OUT/scene.ply" --output "$OUT/scene_normals.pcd" \
+  --view --screenshot "$OUT/normals_scene.png"
 
 echo "== benchmarks (quick mode; CSV in $OUT)"
 ./build/bench/bench_scenes --sizes 10000 100000 --csv "$OUT/scenes.csv" > /dev/null
 ./build/bench/hpr/bench_hpr --quick --csv "$OUT/hpr.csv" > /dev/null
-if [ -x ./build/bench/normals/bench_normals ]; then
-  ./build/bench/normals/bench_normals --csv "$OUT/normals.csv" > /dev/null
-fi
-if [ -x ./build/apps/normals_tool/normals_tool ] && [ -n "$(ls ./build/apps/normals_tool/ 2>/dev/null)" ]; then
-  xvfb-run -a ./build/apps/normals_tool/normals_tool --input "$OUT/scene.ply" --output "$OUT/scene_normals.pcd" \
-    --view --screenshot "$OUT/normals_scene.png" || echo "normals_tool demo failed (see above)"
+./build/bench/normals/bench_normals --csv "$OUT/normals.csv" > /dev/null
+if [ -x ./build/bench/omicron/bench_omicron ]; then
+  ./build/bench/omicron/bench_omicron --quick --csv "$OUT/omicron.csv" > /dev/null
 fi
 
 echo "== charts"
-/usr/bin/python3 bench/plot.py "$OUT"/*.csv --out "$OUT/charts"
-echo "demo.sh: pictures and charts are in $OUT/"
+/usr/bin/python3 bench/plot.py "$OUT"/*.csv --out "$OUT/charts" > /dev/null
+/usr/bin/python3 scripts/demo_index.py "$OUT"

@@ -13,7 +13,9 @@
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <iostream>
 #include <mutex>
+#include <sstream>
 #include <thread>
 
 namespace pclx {
@@ -257,14 +259,50 @@ FrameSource<PointT>::start (Callback callback)
   else if (d.grabber)
   {
     d.connect ();
+    // PCL's OpenNI2Grabber asks every device for depth/colour frame sync and prints the refusal
+    // to std::cerr. The pclx virtual camera refuses it on purpose (OpenNI2's synced frame holder
+    // races at stop; drivers/openni2_virtual/README.md), so that one message is dropped for it;
+    // everything else PCL prints passes through.
+    std::ostringstream captured;
+    std::streambuf* const cerr_buf = d.is_live ? std::cerr.rdbuf (captured.rdbuf ()) : nullptr;
+    std::string failure;
     try
     {
       d.grabber->start ();
     }
     catch (const std::exception& e)
     {
-      throw SourceError (d.description + ": cannot start: " + e.what ());
+      failure = e.what ();
     }
+    if (cerr_buf)
+    {
+      std::cerr.rdbuf (cerr_buf);
+      std::string text = captured.str ();
+      const auto* ni = static_cast<pcl::io::OpenNI2Grabber*> (d.grabber.get ());
+      const bool virtual_camera = ni->getDevice () && ni->getDevice ()->getUri ().rfind ("pclx://", 0) == 0;
+      if (virtual_camera)
+      {
+        // The exception text is one line (function @ file @ line : message), then OpenNI's
+        // empty extended error and blank lines.
+        std::istringstream lines (text);
+        std::string line, kept;
+        bool dropping = false;
+        while (std::getline (lines, line))
+        {
+          if (line.find ("Enabling depth color synchronization failed") != std::string::npos)
+            dropping = true;
+          else if (!(dropping && line.empty ()))
+          {
+            dropping = false;
+            kept += line + "\n";
+          }
+        }
+        text = kept;
+      }
+      std::cerr << text;
+    }
+    if (!failure.empty ())
+      throw SourceError (d.description + ": cannot start: " + failure);
   }
 }
 
