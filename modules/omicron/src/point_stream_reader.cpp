@@ -566,12 +566,16 @@ pcl::PointStreamReader::readText (std::size_t max_points, pcl::PointCloud<pcl::P
     p.z = static_cast<float> (v[z_.index]);
     p.rgba = 0xff000000u;
     const auto c = [] (double d) { return static_cast<std::uint8_t> (std::min (255.0, std::max (0.0, std::round (d)))); };
-    if (format_ == Format::XYZ && v.size () >= 6)
+    if (format_ == Format::XYZ)
     {
-      color_ = true;
-      p.r = c (v[3]);
-      p.g = c (v[4]);
-      p.b = c (v[5]);
+      // Colour per line: lines without it keep black.
+      if (v.size () >= 6)
+      {
+        color_ = true;
+        p.r = c (v[3]);
+        p.g = c (v[4]);
+        p.b = c (v[5]);
+      }
     }
     else if (packed_rgb_)
     {

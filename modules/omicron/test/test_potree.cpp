@@ -280,3 +280,58 @@ TEST (PotreeReader, CorruptFilesAreClearErrors)
   std::ofstream (dir.path / "metadata.json") << "";
   EXPECT_THROW (r.open (dir.path.string ()), pcl::IOException);
 }
+
+#include <pclx/omicron/point_stream_reader.h>
+
+#include <pcl/io/pcd_io.h>
+
+TEST (PotreeWriter, StreamedLatticeAndMillionsOfDuplicatesEndToEnd)
+{
+  // File → PointStreamReader (chunks) → octree → Potree → PotreeReader, against the octree
+  // built from the cloud in memory.
+  TempDir dir;
+  struct Case
+  {
+    const char* name;
+    std::size_t n;
+    Shape shape;
+    int depth;
+  };
+  for (const Case& c : {Case{"lattice", 64 * 64 * 64, Shape::LATTICE, 8}, Case{"duplicates", 2000000, Shape::DUPLICATES, 7}})
+  {
+    SCOPED_TRACE (c.name);
+    const auto cloud = omitest::makeCloud (c.shape, c.n, 21);
+    const std::string file = (dir.path / (std::string (c.name) + ".pcd")).string ();
+    ASSERT_EQ (pcl::io::savePCDFileBinary (file, *cloud), 0);
+    pcl::PointStreamReader reader (file);
+    pcl::PointCloud<pcl::PointXYZ>::Ptr streamed (new pcl::PointCloud<pcl::PointXYZ>), part (new pcl::PointCloud<pcl::PointXYZ>);
+    while (reader.read (100000, *part))
+      *streamed += *part;
+    ASSERT_EQ (streamed->size (), cloud->size ());
+    pcl::ObliqueCutOctree<pcl::PointXYZ> a, b;
+    for (auto* o : {&a, &b})
+    {
+      o->setMaxDepth (c.depth);
+      o->setLeafCollapse (true);
+      o->setThreads (2);
+    }
+    a.setInputCloud (cloud);
+    b.setInputCloud (streamed);
+    ASSERT_TRUE (a.build ());
+    ASSERT_TRUE (b.build ());
+    EXPECT_EQ (a.getStatistics ().nodes_per_level, b.getStatistics ().nodes_per_level);
+    EXPECT_EQ (a.getStatistics ().points_per_level, b.getStatistics ().points_per_level);
+    const std::string out = (dir.path / (std::string (c.name) + "_potree")).string ();
+    pcl::PotreeWriter<pcl::PointXYZ> w;
+    w.write (b, out);
+    pcl::PotreeReader r;
+    r.open (out);
+    EXPECT_EQ (r.getMetadata ().points, c.n);
+    expectSameHierarchy (*a.getRoot (), r);
+    if (c.shape == Shape::DUPLICATES)
+    {
+      // Three distinct positions: three leaves hold every point.
+      EXPECT_EQ (b.getStatistics ().leaves_per_level[c.depth] + b.getStatistics ().leaves_per_level[c.depth - 1], 3u);
+    }
+  }
+}
