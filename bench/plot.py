@@ -50,6 +50,8 @@ def read_rows(paths):
 
 # Chart specs per module. x / y name a column (or a metric, or p_<param>);
 # `where` filters rows, `series` names the column that makes one line per value.
+# Optional: kind="bars" (grouped bars, categorical x) or kind="stacked" (bars stacked from the
+# metrics in `stack`); hlines=[(y, text)] reference lines on bar charts; xlabel / ylabel.
 SPECS = {
     "scenes": [
         dict(name="scenes_time_vs_points", title="Ground truth throughput", x="points", y="seconds",
@@ -78,7 +80,91 @@ def matches(row, where):
     return True
 
 
+def label(key, val):
+    """Legend / tick text of a value: point counts as 20M, 500k."""
+    if key == "points" or key == "p_points":
+        n = int(val)
+        if n % 1000000 == 0:
+            return f"{n // 1000000}M"
+        if n % 1000 == 0:
+            return f"{n // 1000}k"
+        return str(n)
+    if isinstance(val, float) and val == int(val):
+        return str(int(val))
+    return str(val)
+
+
+def bar_chart(rows, spec, out_dir):
+    """kind="bars": grouped bars, one group per x value (categorical), one bar per series value.
+    kind="stacked": one bar per x value, stacked from the metrics listed in spec["stack"]."""
+    stacked = spec["kind"] == "stacked"
+    ys = spec["stack"] if stacked else [spec["y"]]
+    rows = [r for r in rows if matches(r, spec.get("where"))
+            and r.get(spec["x"]) is not None and all(isinstance(r.get(y), float) for y in ys)]
+    if not rows:
+        return []
+    split = spec.get("split") or []
+    split = [split] if isinstance(split, str) else split
+    groups = collections.OrderedDict()
+    for r in sorted(rows, key=lambda r: tuple((r.get(k, 0) if k == "points" else str(r.get(k, ""))) for k in split)):
+        groups.setdefault(", ".join(label(k, r.get(k, "")) for k in split), []).append(r)
+    ncols = min(spec.get("cols", 3), len(groups))
+    nrows = (len(groups) + ncols - 1) // ncols
+    fig, axes = plt.subplots(nrows, ncols, figsize=(6.5 * ncols, 5 * nrows), squeeze=False)
+    for ax in axes.flat[len(groups):]:
+        ax.set_visible(False)
+    for ax, (gname, grows) in zip(axes.flat, groups.items()):
+        xvals = sorted({r[spec["x"]] for r in grows}, key=lambda v: (isinstance(v, str), v))
+        if stacked:
+            bottom = [0.0] * len(xvals)
+            for y in ys:
+                h = []
+                for x in xvals:
+                    sel = [r[y] for r in grows if r[spec["x"]] == x]
+                    h.append(min(sel) if sel else 0.0)  # best of repeated rows
+                ax.bar(range(len(xvals)), h, bottom=bottom, label=spec.get("stack_labels", {}).get(y, y))
+                bottom = [b + v for b, v in zip(bottom, h)]
+        else:
+            series = collections.OrderedDict()
+            for r in grows:
+                series.setdefault(spec.get("series_fmt", "{}").format(label(spec["series"], r.get(spec["series"], ""))),
+                                  []).append(r)
+            order = spec.get("series_order")
+            names = sorted(series, key=lambda s: order.index(s) if order and s in order else len(order or []))
+            width = 0.8 / max(1, len(names))
+            for i, sname in enumerate(names):
+                xs, hs = [], []
+                for j, x in enumerate(xvals):
+                    sel = [r[spec["y"]] for r in series[sname] if r[spec["x"]] == x]
+                    if sel:
+                        xs.append(j - 0.4 + width * (i + 0.5))
+                        hs.append(min(sel))
+                bars = ax.bar(xs, hs, width=width, label=sname)
+                if spec.get("annotate"):
+                    ax.bar_label(bars, fmt=spec["annotate"], fontsize=6, rotation=90, padding=2)
+        for yline, text in spec.get("hlines", []):
+            ax.axhline(yline, color="k", linestyle="--", linewidth=1)
+            ax.annotate(text, (0.01, yline), xycoords=("axes fraction", "data"), fontsize=7,
+                        va="bottom")
+        ax.set_xticks(range(len(xvals)))
+        ax.set_xticklabels([label(spec["x"], x) for x in xvals])
+        ax.set_xlabel(spec.get("xlabel", spec["x"].replace("p_", "")))
+        ax.set_ylabel(spec.get("ylabel", spec.get("y", "seconds")))
+        if spec.get("logy"):
+            ax.set_yscale("log")
+        ax.grid(True, axis="y", which="both", alpha=0.3)
+        ax.set_title(f"{spec['title']}" + (f"\n{gname}" if gname else ""), fontsize=10)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    path = os.path.join(out_dir, spec["name"] + ".png")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return [path]
+
+
 def chart(rows, spec, out_dir):
+    if spec.get("kind") in ("bars", "stacked"):
+        return bar_chart(rows, spec, out_dir)
     rows = [r for r in rows if matches(r, spec.get("where"))
             and isinstance(r.get(spec["x"]), float) and isinstance(r.get(spec["y"]), float)]
     if not rows:

@@ -485,12 +485,17 @@ runOurs (const Cloud::ConstPtr& cloud, const Config& c, std::size_t rss0)
       double cost = 0;
       while (!octree.isFinished ())
       {
+        // snapshot () cannot see the worklists the fix master has taken out to process (they are
+        // between L_l and L_{l-1}), so one count is a lower bound: keep the largest of two
+        // snapshots and of the earlier samples (the true count never decreases).
         const auto ts = Clock::now ();
-        const std::size_t k = finishedNodes (*octree.getCut ());
-        cost = since (ts);
+        std::size_t k = finishedNodes (*octree.getCut ());
+        if (k != std::size_t (-1))
+          k = std::max (k, finishedNodes (*octree.getCut ()));
+        cost = since (ts) / 2;
         if (k == std::size_t (-1))
           break;
-        samples.emplace_back (since (t0), k);
+        samples.emplace_back (since (t0), std::max (k, samples.empty () ? 0 : samples.back ().second));
         // Every 5 ms, or 4× the snapshot's own cost when that is larger (it takes the level locks).
         std::this_thread::sleep_for (std::chrono::duration<double> (std::max (0.005, 4 * cost)));
       }
@@ -798,6 +803,7 @@ main (int argc, char** argv)
   std::string outofcore_dir = fs::is_directory ("/dev/shm") ? "/dev/shm/pclx_omicron_outofcore" : "";
   std::vector<std::string> outofcore_inputs;
   bool outofcore_disk = false;
+  std::size_t outofcore_tmpfs_max = 20000000;
   app.add_option ("--csv", csv, "also write rows to this file");
   app.add_option ("--sizes", sizes, "point counts of the size sweep (scene input)")->capture_default_str ();
   app.add_option ("--other-sizes", other_sizes,
@@ -817,6 +823,10 @@ main (int argc, char** argv)
       ->capture_default_str ();
   app.add_option ("--outofcore-inputs", outofcore_inputs, "inputs pcl_outofcore_process runs on (default all; "
                                                           "--quick: scene)");
+  app.add_option ("--outofcore-tmpfs-max", outofcore_tmpfs_max,
+                  "above this many points pcl_outofcore_process writes to the work dir instead (its tree is "
+                  "~130 B/point)")
+      ->capture_default_str ();
   app.add_flag ("--outofcore-disk", outofcore_disk,
                 "also run pcl_outofcore_process into the work dir (disk) on the scene at the smallest size");
   app.add_flag ("--no-sweeps", no_sweeps, "only the main rows (ours default, front, peers)");
@@ -1031,9 +1041,10 @@ main (int argc, char** argv)
       }
       const bool oc_here = std::find (outofcore_inputs.begin (), outofcore_inputs.end (), name) != outofcore_inputs.end ();
       std::vector<std::pair<std::string, std::string>> oc_runs;  // (dir, label)
+      const std::string oc_dir = n > outofcore_tmpfs_max ? work : outofcore_dir;
       if (!no_outofcore && oc_here)
-        oc_runs.emplace_back (outofcore_dir, outofcore_dir.rfind ("/dev/shm", 0) == 0 ? "tmpfs" : "disk");
-      if (!no_outofcore && outofcore_disk && name == "scene" && n == sizes.front () && outofcore_dir != work)
+        oc_runs.emplace_back (oc_dir, oc_dir.rfind ("/dev/shm", 0) == 0 ? "tmpfs" : "disk");
+      if (!no_outofcore && outofcore_disk && name == "scene" && n == sizes.front () && oc_dir != work)
         oc_runs.emplace_back (work, "disk");
       for (const auto& [oc_dir, oc_label] : oc_runs)
       {
