@@ -18,5 +18,7 @@ printf 'called_from_lib:libOpenNI2.so.0\n' >"$BUILD/tsan.supp"
 # time); second_deadlock_stack for lock-order reports.
 export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$BUILD/tsan.supp ${TSAN_OPTIONS:-}"
 cmake --build "$BUILD" -j "$JOBS" --target test_omicron
-"$BUILD/test/omicron/test_omicron" --gtest_brief=1
+# The 2M-point end-to-end test runs the same threads as the other octree tests on more data
+# (30 s under TSan): left to the release and ASan runs to keep this one short.
+"$BUILD/test/omicron/test_omicron" --gtest_brief=1 --gtest_filter=-*MillionsOfDuplicates*
 echo "tsan-omicron.sh: test_omicron passed under ThreadSanitizer"
