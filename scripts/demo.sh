@@ -34,7 +34,7 @@ env -u PCLX_VIRTUAL_CAMERA_DIR xvfb-run -a ./build/apps/hpr_viewer/hpr_viewer --
 
 echo "== normals_tool (off-screen) on the cloud"
 xvfb-run -a ./build/apps/normals_tool/normals_tool --input "$OUT/scene.ply" --output "$OUT/scene_normals.pcd" \
-  --view --color region --screenshot "$OUT/normals_scene.png"
+  --orient mst --view --color region --screenshot "$OUT/normals_scene.png"
 
 echo "== benchmarks (quick mode; CSV in $OUT)"
 ./build/bench/bench_scenes --sizes 10000 100000 --csv "$OUT/scenes.csv" > /dev/null

@@ -28,6 +28,8 @@ CAPTIONS = {
     "scenes.csv": "ground-truth throughput (sampling, ray casting, distances)",
     "hpr.csv": "HPR benchmark rows (quick mode): ours against Open3D's HiddenPointRemoval, same run",
     "normals.csv": "normals benchmark rows (quick mode): ours against PCL and Open3D, same run",
+    "omicron.csv": "OMiCroN benchmark rows (quick mode): ours against pcl_outofcore_process, a top-down "
+                   "octree and PCL's octree, same run",
     "frames": "three Kinect-like depth frames as organized PCD (pcl::PCDGrabber input)",
     "depth_frames": "the same frames as 16-bit PNG depth in millimetres (7-Scenes layout)",
 }
@@ -68,6 +70,11 @@ def main():
             pictures.append((name, CAPTIONS.get(name, name)))
         else:
             data.append((name + ("/" if os.path.isdir(path) else ""), CAPTIONS.get(name, "")))
+
+    # Known outputs in the order the demo makes them, then anything else by name.
+    order = {name: i for i, name in enumerate(CAPTIONS)}
+    pictures.sort(key=lambda item: (order.get(item[0], len(order)), item[0]))
+    data.sort(key=lambda item: (order.get(item[0].rstrip("/"), len(order)), item[0]))
 
     print(f"demo.sh wrote to {out}/ (open {out}/index.html to see everything on one page):")
     for group, items in (("pictures", pictures), ("charts", charts), ("data", data)):
