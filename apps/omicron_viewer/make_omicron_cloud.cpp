@@ -1,0 +1,106 @@
+// make_omicron_cloud: large test clouds for omicron_viewer. Samples a triangle mesh (a PLY
+// such as ../shared/data/meshes/fertility.ply, or the generated torus-sphere-plate scene of
+// make_scene) uniformly, optionally coloured by the surface normal, and writes binary PCD or
+// binary PLY.
+#include <pclx/apps/progress.h>
+#include <pclx/testing/mesh_sampling.h>
+#include <pclx/testing/shapes.h>
+#include <pclx/testing/triangle_mesh.h>
+
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
+
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+
+using namespace pclx::testing;
+
+namespace {
+
+bool
+endsWith (const std::string& s, const std::string& suffix)
+{
+  return s.size () >= suffix.size () && s.compare (s.size () - suffix.size (), suffix.size (), suffix) == 0;
+}
+
+template <typename PointT>
+int
+write (const std::string& path, const pcl::PointCloud<PointT>& cloud)
+{
+  return endsWith (path, ".ply") ? pcl::PLYWriter ().write (path, cloud, true, false)
+                                 : pcl::io::savePCDFileBinary (path, cloud);
+}
+
+int
+run (int argc, char** argv)
+{
+  CLI::App app ("Test clouds for omicron_viewer: a sampled mesh (PLY) or the generated scene, binary PCD/PLY out");
+  std::string mesh_path, out;
+  std::size_t points = 1000000;
+  bool color = false;
+  std::uint32_t seed = 1;
+  app.add_option ("--mesh", mesh_path, "triangle mesh to sample (PLY); default: torus, sphere and base plate");
+  app.add_option ("--points", points, "points to sample")->capture_default_str ();
+  app.add_flag ("--color", color, "colour the points by their surface normal (rgb field)");
+  app.add_option ("--seed", seed)->capture_default_str ();
+  app.add_option ("-o,--out", out, "output cloud (.pcd or .ply, binary)")->required ();
+  CLI11_PARSE (app, argc, argv);
+  if (!endsWith (out, ".pcd") && !endsWith (out, ".ply"))
+    throw std::runtime_error ("--out must end in .pcd or .ply");
+
+  TriangleMesh mesh;
+  if (!mesh_path.empty ())
+    mesh = loadPlyMesh (mesh_path);
+  else
+  {
+    mesh = makeTorus (0.3f, 0.1f, 128, 48);
+    mesh.append (makeSphere (0.12f, 4, Eigen::Vector3f (0, 0, 0.05f)));
+    TriangleMesh base = makeBox (Eigen::Vector3f (1.f, 1.f, 0.04f), 8);
+    base.transform (Eigen::Affine3f (Eigen::Translation3f (0, 0, -0.2f)));
+    mesh.append (base);
+  }
+  pclx::apps::Progress sampling ("sampling " + std::to_string (points) + " points");
+  const SampledCloud s = sampleUniform (mesh, points, seed);
+  sampling.done ();
+  int rc;
+  if (color)
+  {
+    pcl::PointCloud<pcl::PointXYZRGB> c;
+    c.resize (s.cloud.size ());
+    for (std::size_t i = 0; i < c.size (); ++i)
+    {
+      const auto& p = s.cloud[i];
+      auto& q = c[i];
+      q.x = p.x;
+      q.y = p.y;
+      q.z = p.z;
+      q.r = static_cast<std::uint8_t> (127.5f + 127.f * p.normal_x);
+      q.g = static_cast<std::uint8_t> (127.5f + 127.f * p.normal_y);
+      q.b = static_cast<std::uint8_t> (127.5f + 127.f * p.normal_z);
+    }
+    rc = write (out, c);
+  }
+  else
+    rc = write (out, *positions (s.cloud));
+  if (rc != 0)
+    throw std::runtime_error ("could not write " + out);
+  std::printf ("wrote %zu points%s to %s\n", s.cloud.size (), color ? " (rgb)" : "", out.c_str ());
+  return 0;
+}
+
+}  // namespace
+
+int
+main (int argc, char** argv)
+{
+  try
+  {
+    return run (argc, argv);
+  }
+  catch (const std::exception& e)
+  {
+    std::fprintf (stderr, "make_omicron_cloud: %s\n", e.what ());
+    return 1;
+  }
+}
