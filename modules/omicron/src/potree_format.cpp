@@ -9,8 +9,10 @@
 #include <cstring>
 #include <deque>
 #include <fstream>
+#include <cerrno>
+#include <limits>
 #include <stdexcept>
-#include <unordered_map>
+#include <utility>
 
 namespace pcl {
 namespace omicron {
@@ -64,12 +66,25 @@ codeFromName (const std::string& name)
 void
 writeHierarchy (const std::string& path, const std::vector<NodeRecord>& records, Metadata& meta)
 {
+  // Lean on memory (about 10 B per node beside the records: budgeted builds hold the whole
+  // hierarchy here): a sorted index instead of a hash map, one flat list of chunk members,
+  // and each chunk's records encoded and written on its own.
   const int step = meta.step_size;
-  std::unordered_map<std::uint64_t, std::size_t> index;
-  index.reserve (records.size ());
+  if (records.size () >= std::numeric_limits<std::uint32_t>::max ())
+    fail ("PotreeWriter: too many nodes for one hierarchy");
+  std::vector<std::uint32_t> order (records.size ());
   for (std::size_t i = 0; i < records.size (); ++i)
-    if (!index.emplace (records[i].code.bits (), i).second)
-      fail ("PotreeWriter: node " + nodeName (records[i].code) + " was written twice");
+    order[i] = static_cast<std::uint32_t> (i);
+  std::sort (order.begin (), order.end (),
+             [&] (std::uint32_t a, std::uint32_t b) { return records[a].code.bits () < records[b].code.bits (); });
+  for (std::size_t i = 1; i < order.size (); ++i)
+    if (records[order[i]].code == records[order[i - 1]].code)
+      fail ("PotreeWriter: node " + nodeName (records[order[i]].code) + " was written twice");
+  const auto find = [&] (MortonCode c) -> long {
+    const auto it = std::lower_bound (order.begin (), order.end (), c.bits (),
+                                      [&] (std::uint32_t a, std::uint64_t v) { return records[a].code.bits () < v; });
+    return it != order.end () && records[*it].code == c ? static_cast<long> (*it) : -1;
+  };
   std::vector<std::uint8_t> mask (records.size (), 0);
   int depth = 0;
   for (const NodeRecord& r : records)
@@ -77,29 +92,33 @@ writeHierarchy (const std::string& path, const std::vector<NodeRecord>& records,
     depth = std::max (depth, r.code.level ());
     if (r.code.level () == 0)
       continue;
-    const auto p = index.find (r.code.parent ().bits ());
-    if (p == index.end ())
+    const long p = find (r.code.parent ());
+    if (p < 0)
       fail ("PotreeWriter: node " + nodeName (r.code) + " has no parent in the output");
-    mask[p->second] |= static_cast<std::uint8_t> (1u << r.code.childIndex ());
+    mask[p] |= static_cast<std::uint8_t> (1u << r.code.childIndex ());
   }
-  if (!index.count (MortonCode::root ().bits ()))
+  const long root = find (MortonCode::root ());
+  if (root < 0)
     fail ("PotreeWriter: the output has no root node");
 
   // Chunks as PotreeConverter cuts them: breadth-first from each chunk root down to `step`
-  // levels below; bottom nodes with children start chunks of their own.
-  std::vector<std::vector<std::size_t>> chunks;
-  std::unordered_map<std::uint64_t, std::size_t> chunk_of;  // chunk root code -> chunk
-  std::deque<std::size_t> roots{index[MortonCode::root ().bits ()]};
+  // levels below; bottom nodes with children start chunks of their own (in this order, so a
+  // proxy's chunk is the next unassigned one).
+  std::vector<std::uint32_t> members;            // chunk after chunk
+  std::vector<std::size_t> chunk_begin{0};
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> chunk_of;  // chunk root code -> chunk
+  std::deque<std::uint32_t> roots{static_cast<std::uint32_t> (root)};
   while (!roots.empty ())
   {
-    const std::size_t r = roots.front ();
+    const std::uint32_t r = roots.front ();
     roots.pop_front ();
-    chunk_of[records[r].code.bits ()] = chunks.size ();
-    std::vector<std::size_t> nodes{r};
+    chunk_of.emplace_back (records[r].code.bits (), static_cast<std::uint32_t> (chunk_begin.size () - 1));
+    const std::size_t first = members.size ();
+    members.push_back (r);
     const int bottom = records[r].code.level () + step;
-    for (std::size_t i = 0; i < nodes.size (); ++i)
+    for (std::size_t i = first; i < members.size (); ++i)
     {
-      const std::size_t n = nodes[i];
+      const std::uint32_t n = members[i];
       if (records[n].code.level () == bottom)
       {
         if (mask[n])
@@ -108,30 +127,37 @@ writeHierarchy (const std::string& path, const std::vector<NodeRecord>& records,
       }
       for (int c = 0; c < 8; ++c)
         if (mask[n] & (1u << c))
-          nodes.push_back (index[records[n].code.child (c).bits ()]);
+          members.push_back (static_cast<std::uint32_t> (find (records[n].code.child (c))));
     }
-    chunks.push_back (std::move (nodes));
+    chunk_begin.push_back (members.size ());
   }
-  std::vector<std::uint64_t> chunk_offset (chunks.size () + 1, 0);
-  for (std::size_t k = 0; k < chunks.size (); ++k)
-    chunk_offset[k + 1] = chunk_offset[k] + kRecordBytes * chunks[k].size ();
+  std::sort (chunk_of.begin (), chunk_of.end ());
+  const auto chunkOffset = [&] (std::size_t k) { return kRecordBytes * chunk_begin[k]; };
 
-  std::vector<std::uint8_t> buf (chunk_offset.back ());
-  std::size_t at = 0;
-  for (std::size_t k = 0; k < chunks.size (); ++k)
+  std::FILE* f = std::fopen (path.c_str (), "wb");
+  if (!f)
+    fail ("PotreeWriter: cannot write '" + path + "': " + std::strerror (errno));
+  std::vector<std::uint8_t> buf;
+  bool ok = true;
+  for (std::size_t k = 0; k + 1 < chunk_begin.size () && ok; ++k)
   {
-    const int bottom = records[chunks[k][0]].code.level () + step;
-    for (std::size_t n : chunks[k])
+    buf.assign (kRecordBytes * (chunk_begin[k + 1] - chunk_begin[k]), 0);
+    const int bottom = records[members[chunk_begin[k]]].code.level () + step;
+    std::size_t at = 0;
+    for (std::size_t m = chunk_begin[k]; m < chunk_begin[k + 1]; ++m)
     {
+      const std::uint32_t n = members[m];
       const NodeRecord& r = records[n];
       std::uint8_t type = mask[n] ? kNormal : kLeaf;
       std::uint64_t offset = r.byte_offset, size = r.byte_size;
       if (r.code.level () == bottom && mask[n])
       {
-        const std::size_t target = chunk_of.at (r.code.bits ());
+        const auto it = std::lower_bound (chunk_of.begin (), chunk_of.end (),
+                                          std::make_pair (r.code.bits (), std::uint32_t (0)));
+        const std::size_t target = it->second;
         type = kProxy;
-        offset = chunk_offset[target];
-        size = chunk_offset[target + 1] - chunk_offset[target];
+        offset = chunkOffset (target);
+        size = chunkOffset (target + 1) - chunkOffset (target);
       }
       put<std::uint8_t> (buf, at + 0, type);
       put<std::uint8_t> (buf, at + 1, mask[n]);
@@ -140,14 +166,11 @@ writeHierarchy (const std::string& path, const std::vector<NodeRecord>& records,
       put<std::uint64_t> (buf, at + 14, size);
       at += kRecordBytes;
     }
+    ok = std::fwrite (buf.data (), 1, buf.size (), f) == buf.size ();
   }
-  std::FILE* f = std::fopen (path.c_str (), "wb");
-  if (!f)
-    fail ("PotreeWriter: cannot write '" + path + "': " + std::strerror (errno));
-  const bool ok = std::fwrite (buf.data (), 1, buf.size (), f) == buf.size ();
   if (std::fclose (f) != 0 || !ok)
     fail ("PotreeWriter: writing '" + path + "' failed (disk full?)");
-  meta.first_chunk_size = chunk_offset[1];
+  meta.first_chunk_size = chunkOffset (1);
   meta.depth = depth;
 }
 

@@ -50,6 +50,12 @@ public:
   void sortChunk (std::size_t k, PointVector& sorted, std::vector<MortonCode>& codes);
   // Frees the chunk buffers (call after the last chunk).
   void release ();
+  // Bytes of the chunk sort buffers now allocated (keys and the point scratch).
+  std::size_t
+  bufferBytes () const
+  {
+    return (keys_.capacity () + keys_tmp_.capacity ()) * sizeof (KeyIndex) + points_tmp_.capacity () * sizeof (PointT);
+  }
 
   // prepare() + every chunk in order; on_chunk (begin, end, codes) is called as each is sorted.
   template <typename F> std::size_t

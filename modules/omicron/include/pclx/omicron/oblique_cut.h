@@ -13,6 +13,10 @@
 //   fix ()           fixLevel (lmax … 1): the fix operator of §3.1.2.
 //   finishInput ()   no more leaves: m_C moves to the last code, so fix climbs to the root.
 //   runMaster ()     Algorithm 3's loop, for a thread of its own while another concatenates.
+//   advanceBoundary  moves m_C to the end of a finished input range without a leaf there, so
+//                    the range's last sibling groups close without waiting for more input.
+//   setSpill (s, f)  out-of-core build: subtrees below level s are handed to f when their
+//                    level-s ancestor is created, then cut off (see setSpill).
 //
 // Mutual exclusion is per level (one mutex per list), as in the paper. Placeholders and
 // leaves for the front go to an ObliqueCutFront when one is attached.
@@ -23,6 +27,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -65,6 +70,27 @@ public:
   // m_C (invalid, i.e. 0, before the first concatenate).
   MortonCode getBoundary () const;
 
+  // Moves m_C forward to `m` (a code at l_max, not before m_C) without concatenating a leaf
+  // there: the caller promises no leaf in (m_C, m] will come, so fix can close every sibling
+  // group up to m now (e.g. at the end of a chunk of whole cells). False (PCL_ERROR) otherwise.
+  bool advanceBoundary (MortonCode m);
+
+  // Out-of-core build. When a node X at `level` is created its subtree is complete: each
+  // child subtree of X is handed to `sink` (which writes it somewhere; it is called from the
+  // fix workers, concurrently, and must not throw), then X loses its children and is flagged
+  // omicron::kSpilled, so it is drawn as a leaf from its own sample. Nodes and samples below
+  // `level` live in scratch arenas that releaseScratch () frees. The front receives
+  // placeholders at `level` (not l_max) and no node below it. 1 <= level < l_max (< l_max − 1
+  // with leaf collapse, so no leaf is at or above it); every leaf must be deeper than `level`.
+  // Call before the first concatenate. Throws std::invalid_argument.
+  using SpillSink = std::function<void (const Node& subtree_root)>;
+  void setSpill (int level, SpillSink sink);
+  int getSpillLevel () const { return spill_level_; }
+  // Frees the scratch arenas. Only between fix passes, when L_C holds no root below the spill
+  // level (after a fix with m_C at the end of a range of whole spill-level cells).
+  void releaseScratch ();
+  std::size_t scratchBytes () const;
+
   bool fixLevel (int level);
   void fix ();
   void finishInput ();
@@ -84,7 +110,7 @@ public:
   };
   Snapshot snapshot () const;
 
-  std::size_t memoryBytes () const;  // node and parent-point arenas
+  std::size_t memoryBytes () const;  // node and parent-point arenas (scratch included)
 
 private:
   struct Segment
@@ -97,6 +123,8 @@ private:
   {
     omicron::BlockArena<Node> nodes{1024};
     omicron::BlockArena<PointT> points{8192};
+    omicron::BlockArena<Node> scratch_nodes{1024};     // below the spill level
+    omicron::BlockArena<PointT> scratch_points{8192};
   };
   void createParent (const CutNode* group, std::size_t k, Slot& slot, Segment& out) const;
   void finalize ();
@@ -105,6 +133,8 @@ private:
 
   Parameters params_;
   ObliqueCutFront<PointT>* front_ = nullptr;
+  int spill_level_ = -1;
+  SpillSink sink_;
   static constexpr int kLevels = MortonCode::kMaxDepth + 1;
   mutable std::array<std::mutex, kLevels> mutex_;
   std::array<std::deque<Worklist>, kLevels> lists_;

@@ -76,6 +76,8 @@ public:
   void insertLeaves (int level, std::vector<const Node*>&& leaves);
 
   std::vector<Entry> entries () const;
+  // Front entries plus placeholders waiting to enter (for memory accounting).
+  std::size_t entryCount () const;
   std::size_t pendingLeaves () const;
   // Seconds from reset() to the first leaf handed to the front (< 0: none yet).
   double secondsToFirstLeaf () const;

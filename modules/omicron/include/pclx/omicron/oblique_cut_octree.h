@@ -17,6 +17,15 @@
 //
 // Data: the kept points are reordered once into a sorted array; leaves are ranges of it and
 // parents hold their own sampled points (arena blocks). NaN/Inf points are dropped and counted.
+//
+// Memory budget (setMemoryBudget): the input (a file through pcl::PointStreamReader, or the
+// cloud) is read in blocks: bounds, counts per cell, then a scatter of whole cells into chunk
+// regions of a file on disk, in input order. Chunks are loaded, sorted and fixed one at a
+// time in Morton order; when a node at the spill level is created its descendants are
+// written to the Potree folder (PotreeWriter::appendSubtree) and dropped, so the front stops
+// at the spill level and draws those nodes from their own samples. The result (node codes,
+// levels and points) equals the in-memory build's; the Potree folder holds all of it.
+#include <pclx/omicron/budget_plan.h>
 #include <pclx/omicron/morton_sorter.h>
 #include <pclx/omicron/oblique_cut.h>
 #include <pclx/omicron/oblique_cut_front.h>
@@ -24,8 +33,10 @@
 #include <pcl/point_cloud.h>
 
 #include <atomic>
+#include <chrono>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -54,6 +65,14 @@ public:
     double seconds_to_first_front = 0;  // first leaf handed to the front (something to draw)
     double seconds_total = 0;
     std::size_t sorted_bytes = 0, hierarchy_bytes = 0;  // sorted array; node + parent-point arenas
+    // Memory accounting (both builds; the caller's input cloud is not counted): the peak sum of
+    // the build's large buffers. In-memory: sorted array + sort buffers + arenas. Budgeted:
+    // see omicron::MemoryLedger; planned_peak_bytes is the planner's bound (<= the budget).
+    std::size_t memory_budget = 0, accounted_peak_bytes = 0, planned_peak_bytes = 0;
+    int spill_level = -1;   // budgeted: nodes below it were written out and dropped
+    int count_level = -1;   // budgeted: level of the count grid
+    std::size_t spilled_nodes = 0, spilled_points = 0;  // written out and dropped
+    double seconds_chunks = 0;  // budgeted: reading, counting and writing the chunk file
   };
 
   ObliqueCutOctree () = default;
@@ -61,7 +80,28 @@ public:
   ObliqueCutOctree (const ObliqueCutOctree&) = delete;
   ObliqueCutOctree& operator= (const ObliqueCutOctree&) = delete;
 
-  void setInputCloud (const PointCloudConstPtr& cloud) { checkIdle (); input_ = cloud; }
+  // The input: a cloud, or a file (PCD/PLY/XYZ, read through pcl::PointStreamReader; without a
+  // memory budget it is read whole into memory first). Each replaces the other.
+  void setInputCloud (const PointCloudConstPtr& cloud) { checkIdle (); input_ = cloud; input_file_.clear (); }
+  void setInputFile (const std::string& path) { checkIdle (); input_file_ = path; input_.reset (); }
+  const std::string& getInputFile () const { return input_file_; }
+  // Memory budget in bytes for the build's own buffers (0, the default: unlimited, the
+  // in-memory build). With a budget the build is out of core (see above) and fails with a
+  // clear error, before allocating, when the budget cannot hold one chunk. The peak of the
+  // accounted buffers stays <= the budget (Statistics::accounted_peak_bytes).
+  void setMemoryBudget (std::size_t bytes) { checkIdle (); budget_ = bytes; }
+  std::size_t getMemoryBudget () const { return budget_; }
+  // Folder of a budgeted build's Potree output (metadata.json, hierarchy.bin, octree.bin; the
+  // chunk file lives there during the build). Empty (default): a fresh folder under the
+  // system temp folder, removed with the octree or by the next build.
+  void setOutputDirectory (const std::string& directory) { checkIdle (); output_dir_ = directory; }
+  // The folder the last budgeted build wrote (empty for in-memory builds).
+  std::string getOutputDirectory () const { std::lock_guard<std::mutex> g (cube_mutex_); return used_output_dir_; }
+  // Spill level of the running or last budgeted build (-1: none, or not chosen yet). Front
+  // items never come from deeper nodes.
+  int getSpillLevel () const { return spill_level_; }
+  // Why the last build failed (empty when it succeeded).
+  std::string getLastError () const { std::lock_guard<std::mutex> g (cube_mutex_); return last_error_; }
   // Setters throw std::invalid_argument on values out of range (and std::logic_error while
   // a build runs).
   void setMaxDepth (int depth);                  // 1..21, default 7 (the paper's)
@@ -106,9 +146,16 @@ public:
 
 private:
   bool run ();
+  bool runBudgeted (std::chrono::steady_clock::time_point t0);
+  bool fail (const std::string& why);
+  void removeTempOutput ();
   void checkIdle () const;
 
   PointCloudConstPtr input_;
+  std::string input_file_;
+  std::size_t budget_ = 0;
+  std::string output_dir_, used_output_dir_, temp_output_dir_, last_error_;
+  std::atomic<int> spill_level_{-1};
   typename ObliqueCut<PointT>::Parameters params_;
   std::size_t chunks_ = 16;
   bool user_cube_ = false;

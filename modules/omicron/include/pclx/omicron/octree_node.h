@@ -15,6 +15,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
 namespace pcl {
@@ -22,7 +23,8 @@ namespace omicron {
 
 enum NodeFlags : std::uint8_t
 {
-  kCollapsed = 1  // leaf that took the points of its only child (leaf collapse)
+  kCollapsed = 1,  // leaf that took the points of its only child (leaf collapse)
+  kSpilled = 2     // budgeted build: children written to disk and dropped; drawn as a leaf
 };
 
 template <typename PointT>
@@ -78,6 +80,17 @@ public:
   T*
   allocate (std::size_t k)
   {
+    // Large requests get a block of their own, so the current block's tail is not wasted:
+    // reserved bytes stay within 1/16 of what is used (memory budgets count them).
+    if (k > block_ / 16 && k > 1)
+    {
+      blocks_.emplace_back (new T[k]);
+      reserved_ += k;
+      T* p = blocks_.back ().get ();
+      if (capacity_ > 0)
+        std::swap (blocks_.back (), blocks_[blocks_.size () - 2]);  // the open block stays last
+      return p;
+    }
     if (used_ + k > capacity_)
     {
       capacity_ = std::max (block_, k);
@@ -90,6 +103,13 @@ public:
     return p;
   }
   std::size_t bytes () const { return reserved_ * sizeof (T); }
+  // Frees every block (pointers into them become invalid).
+  void
+  clear ()
+  {
+    blocks_.clear ();
+    used_ = capacity_ = reserved_ = 0;
+  }
 
 private:
   std::size_t block_;

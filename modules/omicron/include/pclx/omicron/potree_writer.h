@@ -63,6 +63,8 @@ public:
   void appendNode (MortonCode code, const PointT* points, std::uint32_t n);
   void appendSubtree (const Node& node);
   void close (std::uint64_t points);
+  // Reserves the node records (32 B each) so they never reallocate (memory budgets).
+  void reserveNodes (std::size_t nodes);
   bool isOpen () const { return file_ != nullptr; }
   // Bytes appended to octree.bin so far.
   std::uint64_t bytesWritten () const;

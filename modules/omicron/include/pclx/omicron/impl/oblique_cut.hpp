@@ -34,6 +34,64 @@ pcl::ObliqueCut<PointT>::getBoundary () const
   return boundary_[params_.max_depth];
 }
 
+template <typename PointT> void
+pcl::ObliqueCut<PointT>::setSpill (int level, SpillSink sink)
+{
+  const int top = params_.max_depth - (params_.leaf_collapse ? 2 : 1);
+  if (level < 1 || level > top)
+    throw std::invalid_argument ("ObliqueCut: the spill level must be in [1, " + std::to_string (top) + "] (got " +
+                                 std::to_string (level) + ")");
+  if (!sink)
+    throw std::invalid_argument ("ObliqueCut: the spill needs a sink");
+  std::lock_guard<std::mutex> g (mutex_[params_.max_depth]);
+  if (boundary_[params_.max_depth].valid ())
+    throw std::invalid_argument ("ObliqueCut: setSpill after the first concatenate");
+  spill_level_ = level;
+  sink_ = std::move (sink);
+}
+
+template <typename PointT> void
+pcl::ObliqueCut<PointT>::releaseScratch ()
+{
+  for (auto& s : slots_)
+  {
+    s->scratch_nodes.clear ();
+    s->scratch_points.clear ();
+  }
+}
+
+template <typename PointT> std::size_t
+pcl::ObliqueCut<PointT>::scratchBytes () const
+{
+  std::size_t b = 0;
+  for (const auto& s : slots_)
+    b += s->scratch_nodes.bytes () + s->scratch_points.bytes ();
+  return b;
+}
+
+template <typename PointT> bool
+pcl::ObliqueCut<PointT>::advanceBoundary (MortonCode m)
+{
+  const int lmax = params_.max_depth;
+  {
+    std::lock_guard<std::mutex> g (mutex_[lmax]);
+    if (input_finished_ || !m.valid () || m.level () != lmax ||
+        (boundary_[lmax].valid () && m < boundary_[lmax]))
+    {
+      PCL_ERROR ("[pcl::ObliqueCut::advanceBoundary] the boundary must be a code at the max depth not before m_C, "
+                 "before finishInput\n");
+      return false;
+    }
+    boundary_[lmax] = m;
+    dirty_[lmax] = true;
+  }
+  {
+    std::lock_guard<std::mutex> g (signal_mutex_);
+  }
+  signal_.notify_all ();
+  return true;
+}
+
 template <typename PointT> bool
 pcl::ObliqueCut<PointT>::concatenate (Worklist w)
 {
@@ -50,7 +108,7 @@ pcl::ObliqueCut<PointT>::concatenate (Worklist w)
   {
     CutNode& c = w[i];
     if (!c.code.valid () || c.code.level () != c.level || c.leaf_level != c.level || c.num_children != 0 ||
-        c.level > lmax)
+        c.level > lmax || c.level <= spill_level_)
       return reject ("node " + std::to_string (i) + " is not a leaf at a level <= max depth (code and level disagree, or it has children)");
     const MortonCode first = c.code.first (lmax);
     if (i > 0 && !(first > prev_span))
@@ -111,16 +169,21 @@ pcl::ObliqueCut<PointT>::createParent (const CutNode* group, std::size_t k, Slot
     CutNode up = group[0];
     up.level = static_cast<std::uint8_t> (l - 1);
     up.code = up.code.parent ();
-    if (l == lmax)
+    if (l == lmax && spill_level_ < 0)
       out.placeholders.push_back (group[0].code);
     out.parents.push_back (up);
     return;
   }
+  // Budgeted build: the group and the parent's sample below the spill level go to scratch.
+  const bool spill = spill_level_ >= 0;
+  omicron::BlockArena<Node>& node_arena = spill && l > spill_level_ ? slot.scratch_nodes : slot.nodes;
+  omicron::BlockArena<PointT>& point_arena = spill && l - 1 > spill_level_ ? slot.scratch_points : slot.points;
   CutNode pa;
   pa.code = group[0].code.parent ();
   pa.level = pa.leaf_level = static_cast<std::uint8_t> (l - 1);
-  // Every node processed at l_max gets its place in the front (Algorithm 4).
-  if (l == lmax)
+  // Every node processed at l_max gets its place in the front (Algorithm 4); with a spill,
+  // every node created at the spill level.
+  if (l == lmax && !spill)
     for (std::size_t i = 0; i < k; ++i)
       out.placeholders.push_back (group[i].code);
   if (params_.leaf_collapse && k == 1 && l == lmax)
@@ -133,11 +196,11 @@ pcl::ObliqueCut<PointT>::createParent (const CutNode* group, std::size_t k, Slot
     out.parents.push_back (pa);
     return;
   }
-  Node* block = slot.nodes.allocate (k);
+  Node* block = node_arena.allocate (k);
   std::uint32_t total = 0;
   for (std::size_t i = 0; i < k; ++i)
     total += omicron::parentSampleCount (group[i].num_points, params_.parent_ratio);
-  PointT* dst = total > 0 ? slot.points.allocate (total) : nullptr;
+  PointT* dst = total > 0 ? point_arena.allocate (total) : nullptr;
   pa.points = dst;
   pa.num_points = total;
   pa.children = block;
@@ -158,12 +221,25 @@ pcl::ObliqueCut<PointT>::createParent (const CutNode* group, std::size_t k, Slot
       *dst++ = c.points[omicron::parentSampleIndex (t, m, c.num_points)];
     // The grandchildren now have a parent that is no root of L_C: link them, and the leaves
     // among them may enter the front (invariant 2.2).
+    // (Nothing below the spill level enters the front: it is dropped after the spill.)
+    const bool front_level = !spill || l + 1 <= spill_level_;
     for (std::uint8_t j = 0; j < n.num_children; ++j)
     {
       n.children[j].parent.store (&n, std::memory_order_release);
-      if (n.children[j].isLeaf ())
+      if (front_level && n.children[j].isLeaf ())
         out.leaves.push_back (&n.children[j]);
     }
+  }
+  if (spill && l - 1 == spill_level_)
+  {
+    // The subtree of pa is complete: its children's subtrees go to the sink and are cut off.
+    // pa keeps its sample (retained arena) and is drawn as a leaf.
+    for (std::size_t i = 0; i < k; ++i)
+      sink_ (block[i]);
+    pa.children = nullptr;
+    pa.num_children = 0;
+    pa.flags |= omicron::kSpilled;
+    out.placeholders.push_back (pa.code.span (lmax));
   }
   out.parents.push_back (pa);
 }

@@ -81,6 +81,18 @@ pcl::ObliqueCutFront<PointT>::entries () const
   return front_;
 }
 
+template <typename PointT> std::size_t
+pcl::ObliqueCutFront<PointT>::entryCount () const
+{
+  std::size_t n = 0;
+  {
+    std::lock_guard<std::mutex> g (front_mutex_);
+    n = front_.size ();
+  }
+  std::lock_guard<std::mutex> p (placeholder_mutex_);
+  return n + placeholders_.size ();
+}
+
 template <typename PointT> float
 pcl::ObliqueCutFront<PointT>::splatRadius (const Node& n) const
 {

@@ -3,10 +3,12 @@
 #include <pclx/omicron/impl/oblique_cut.hpp>
 #include <pclx/omicron/impl/oblique_cut_front.hpp>
 #include <pclx/omicron/oblique_cut_octree.h>
+#include <pclx/omicron/point_stream_reader.h>
 
 #include <pcl/console/print.h>
 
 #include <chrono>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 
@@ -15,6 +17,26 @@ pcl::ObliqueCutOctree<PointT>::~ObliqueCutOctree ()
 {
   if (thread_.joinable ())
     thread_.join ();
+  removeTempOutput ();
+}
+
+template <typename PointT> void
+pcl::ObliqueCutOctree<PointT>::removeTempOutput ()
+{
+  if (temp_output_dir_.empty ())
+    return;
+  std::error_code ec;
+  std::filesystem::remove_all (temp_output_dir_, ec);
+  temp_output_dir_.clear ();
+}
+
+template <typename PointT> bool
+pcl::ObliqueCutOctree<PointT>::fail (const std::string& why)
+{
+  PCL_ERROR ("[pcl::ObliqueCutOctree::build] %s\n", why.c_str ());
+  std::lock_guard<std::mutex> g (cube_mutex_);
+  last_error_ = why;
+  return false;
 }
 
 template <typename PointT> void
@@ -120,6 +142,13 @@ pcl::ObliqueCutOctree<PointT>::startBuild ()
   running_ = true;
   finished_ = false;
   cut_.reset ();
+  removeTempOutput ();
+  spill_level_ = -1;
+  {
+    std::lock_guard<std::mutex> g (cube_mutex_);
+    last_error_.clear ();
+    used_output_dir_.clear ();
+  }
   // The front is emptied here, so evaluate() right after startBuild () sees no stale nodes.
   front_.reset (params_.max_depth, Eigen::Vector3d::Zero (), 1.0, {});
   thread_ = std::thread ([this] {
@@ -145,11 +174,39 @@ pcl::ObliqueCutOctree<PointT>::run ()
   const auto t0 = Clock::now ();
   const auto since = [&] { return std::chrono::duration<double> (Clock::now () - t0).count (); };
   stats_ = Statistics ();
-  if (!input_)
+  if (budget_ > 0)
   {
-    PCL_ERROR ("[pcl::ObliqueCutOctree::build] no input cloud\n");
-    return false;
+    try
+    {
+      return runBudgeted (t0);
+    }
+    catch (const std::exception& e)
+    {
+      stats_.seconds_total = since ();
+      return fail (e.what ());
+    }
   }
+  // The input: the cloud, or the file read whole (the in-memory build).
+  PointCloudConstPtr input = input_;
+  if (!input_file_.empty ())
+  {
+    try
+    {
+      PointStreamReader reader (input_file_);
+      typename PointCloud::Ptr all (new PointCloud);
+      PointCloud block;
+      while (reader.read (std::size_t (1) << 20, block))
+        all->insert (all->end (), block.begin (), block.end ());
+      stats_.dropped_invalid = reader.getDroppedInvalid ();
+      input = all;
+    }
+    catch (const std::exception& e)
+    {
+      return fail (e.what ());
+    }
+  }
+  if (!input)
+    return fail ("no input cloud");
   const int lmax = params_.max_depth;
   MortonSorter<PointT> sorter;
   sorter.setMaxDepth (lmax);
@@ -157,11 +214,12 @@ pcl::ObliqueCutOctree<PointT>::run ()
   sorter.setThreads (params_.threads);
   if (user_cube_)
     sorter.setRootCube (origin_, edge_);
-  stats_.input_points = input_->size ();
-  const std::size_t kept = sorter.prepare (*input_, sorted_);
+  const std::size_t file_dropped = stats_.dropped_invalid;
+  stats_.input_points = input->size () + file_dropped;
+  const std::size_t kept = sorter.prepare (*input, sorted_);
   stats_.seconds_read = since ();
   stats_.kept_points = kept;
-  stats_.dropped_invalid = sorter.getDroppedInvalid ();
+  stats_.dropped_invalid = sorter.getDroppedInvalid () + file_dropped;
   stats_.dropped_outside = sorter.getDroppedOutside ();
   stats_.chunks = sorter.numChunks ();
   stats_.sorted_bytes = sorted_.capacity () * sizeof (PointT);
@@ -185,6 +243,8 @@ pcl::ObliqueCutOctree<PointT>::run ()
   // The first chunk is sorted here: it fixes the automatic leaf splat radius.
   std::vector<MortonCode> codes;
   sorter.sortChunk (0, sorted_, codes);
+  // The first chunk sort allocates the buffers for the largest chunk.
+  const std::size_t sort_buffer_bytes = sorter.bufferBytes () + codes.capacity () * sizeof (MortonCode);
   stats_.seconds_to_first_chunk = since ();
   float leaf_radius = leaf_radius_;
   const double cell = edge / static_cast<double> (std::uint64_t (1) << lmax);
@@ -241,6 +301,8 @@ pcl::ObliqueCutOctree<PointT>::run ()
   stats_.seconds_to_first_front = front_.secondsToFirstLeaf () < 0 ? stats_.seconds_total
                                                                    : stats_.seconds_to_first_chunk + front_.secondsToFirstLeaf ();
   stats_.hierarchy_bytes = cut_->memoryBytes ();
+  stats_.accounted_peak_bytes = stats_.sorted_bytes + sort_buffer_bytes + stats_.hierarchy_bytes +
+                                (input_file_.empty () ? 0 : input->size () * sizeof (PointT));
   stats_.nodes_per_level.assign (lmax + 1, 0);
   stats_.points_per_level.assign (lmax + 1, 0);
   stats_.leaves_per_level.assign (lmax + 1, 0);
@@ -267,5 +329,7 @@ pcl::ObliqueCutOctree<PointT>::getStatistics () const
     throw std::logic_error ("ObliqueCutOctree: statistics are available after the build");
   return stats_;
 }
+
+#include <pclx/omicron/impl/oblique_cut_octree_budget.hpp>
 
 #define PCL_INSTANTIATE_ObliqueCutOctree(T) template class PCL_EXPORTS pcl::ObliqueCutOctree<T>;

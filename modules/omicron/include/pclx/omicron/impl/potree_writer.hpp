@@ -130,6 +130,13 @@ pcl::PotreeWriter<PointT>::appendSubtree (const Node& node)
   }
 }
 
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::reserveNodes (std::size_t nodes)
+{
+  std::lock_guard<std::mutex> g (mutex_);
+  records_.reserve (nodes);
+}
+
 template <typename PointT> std::uint64_t
 pcl::PotreeWriter<PointT>::bytesWritten () const
 {
@@ -180,6 +187,9 @@ pcl::PotreeWriter<PointT>::write (const ObliqueCutOctree<PointT>& octree, const 
   const Node* root = octree.getRoot ();
   if (!root)
     throw std::logic_error ("PotreeWriter: the octree is not built (or empty)");
+  if (octree.getSpillLevel () >= 0)
+    throw std::logic_error ("PotreeWriter: a budgeted build keeps only its upper tree; it already wrote the whole "
+                            "hierarchy to getOutputDirectory ()");
   open (directory, octree.getRootOrigin (), octree.getRootEdge ());
   try
   {

@@ -1,0 +1,398 @@
+// ObliqueCutOctree under a memory budget: the out-of-core build gives the in-memory build's
+// hierarchy (Potree output node by node, retained tree point by point), from a cloud and from
+// a file larger than the budget, within the budget; impossible budgets and unwritable folders
+// are clear errors; the front never reaches dropped nodes.
+#include "omicron_test_util.h"
+
+#include <pclx/omicron/budget_plan.h>
+#include <pclx/omicron/oblique_cut_octree.h>
+#include <pclx/omicron/potree_reader.h>
+#include <pclx/omicron/potree_writer.h>
+
+#include <pcl/io/pcd_io.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <numeric>
+#include <random>
+
+using namespace omitest;
+using Octree = pcl::ObliqueCutOctree<pcl::PointXYZ>;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct TempDir
+{
+  fs::path path;
+  TempDir ()
+  {
+    std::string t = (fs::temp_directory_path () / "omicron_budget_XXXXXX").string ();
+    path = ::mkdtemp (t.data ());
+  }
+  ~TempDir ()
+  {
+    std::error_code ec;
+    fs::remove_all (path, ec);
+  }
+};
+
+// Several shapes in one cloud, shuffled: uniform (5 %), five tight clusters (10 %), a plane
+// (35 %), eight wide clusters (30 %) and exact duplicates of earlier points (20 %; the
+// stable order of equal codes matters for the samples). Point-bound at depth 6 (about 0.07
+// nodes per point), the regime a budget is for (see the README on node-bound trees).
+Cloud::Ptr
+mixedCloud (std::size_t n, unsigned seed)
+{
+  Cloud::Ptr c (new Cloud);
+  const std::pair<Shape, double> parts[] = {{Shape::UNIFORM, 0.05}, {Shape::CLUSTERED, 0.1}, {Shape::FLAT, 0.35}};
+  for (const auto& p : parts)
+  {
+    const auto part = makeCloud (p.first, static_cast<std::size_t> (n * p.second), seed++);
+    c->insert (c->end (), part->begin (), part->end ());
+  }
+  std::mt19937 rng (seed);
+  std::normal_distribution<float> g (0.f, 0.25f);
+  std::uniform_real_distribution<float> u (-1.f, 3.f);
+  std::vector<pcl::PointXYZ> centres;
+  for (int i = 0; i < 8; ++i)
+    centres.emplace_back (u (rng), u (rng), u (rng));
+  for (std::size_t i = 0, m = static_cast<std::size_t> (n * 0.3); i < m; ++i)
+  {
+    const pcl::PointXYZ& k = centres[rng () % centres.size ()];
+    c->push_back (pcl::PointXYZ (k.x + g (rng), k.y + g (rng), k.z + g (rng)));
+  }
+  const std::size_t base = c->size ();
+  while (c->size () < n)
+    c->push_back ((*c)[rng () % base]);
+  std::shuffle (c->begin (), c->end (), rng);
+  return c;
+}
+
+void
+configure (Octree& o, int depth, bool collapse)
+{
+  o.setMaxDepth (depth);
+  o.setLeafCollapse (collapse);
+  o.setThreads (2);
+  o.setLeafSplatRadius (0.01f);
+}
+
+// Potree folders equal node by node: codes, point counts, and the stored points.
+std::string
+comparePotree (const std::string& a, const std::string& b)
+{
+  pcl::PotreeReader ra, rb;
+  ra.open (a);
+  rb.open (b);
+  if (ra.getNodes ().size () != rb.getNodes ().size ())
+    return "node counts differ: " + std::to_string (ra.getNodes ().size ()) + " vs " + std::to_string (rb.getNodes ().size ());
+  if (ra.getMetadata ().points != rb.getMetadata ().points)
+    return "metadata point counts differ";
+  pcl::PointCloud<pcl::PointXYZ> pa, pb;
+  for (std::size_t i = 0; i < ra.getNodes ().size (); ++i)
+  {
+    const auto& na = ra.getNodes ()[i];
+    const long j = rb.find (na.code);
+    if (j < 0)
+      return "node " + na.name + " missing";
+    if (rb.getNodes ()[j].num_points != na.num_points || rb.getNodes ()[j].type != na.type)
+      return "node " + na.name + ": point count or type differs";
+    ra.readNode (i, pa);
+    rb.readNode (static_cast<std::size_t> (j), pb);
+    for (std::size_t k = 0; k < pa.size (); ++k)
+      if (!samePoint (pa[k], pb[k]))
+        return "node " + na.name + ": point " + std::to_string (k) + " differs";
+  }
+  return "";
+}
+
+// The retained tree of a budgeted build against the in-memory tree: same codes, levels and
+// points; spilled nodes are at the spill level with children in the in-memory tree.
+std::string
+compareRetained (const Octree& budgeted, const Octree& full, int spill, std::size_t& retained)
+{
+  std::map<std::uint64_t, const Node*> index;
+  std::vector<const Node*> stack{full.getRoot ()};
+  while (!stack.empty ())
+  {
+    const Node* n = stack.back ();
+    stack.pop_back ();
+    index[n->code.bits ()] = n;
+    for (int j = 0; j < n->num_children; ++j)
+      stack.push_back (n->children + j);
+  }
+  retained = 0;
+  stack.push_back (budgeted.getRoot ());
+  while (!stack.empty ())
+  {
+    const Node* n = stack.back ();
+    stack.pop_back ();
+    ++retained;
+    const auto it = index.find (n->code.bits ());
+    const std::string where = "node " + std::to_string (n->code.bits ());
+    if (it == index.end ())
+      return where + " not in the in-memory tree";
+    const Node* f = it->second;
+    if (f->level != n->level || f->num_points != n->num_points)
+      return where + ": level or point count differs";
+    for (std::uint32_t k = 0; k < n->num_points; ++k)
+      if (!samePoint (f->points[k], n->points[k]))
+        return where + ": point " + std::to_string (k) + " differs";
+    if (n->flags & pcl::omicron::kSpilled)
+    {
+      if (n->level != spill || n->num_children != 0 || f->num_children == 0)
+        return where + ": spilled node off the spill level, or with children";
+    }
+    else if (n->num_children != f->num_children || n->level >= spill)
+      return where + ": children differ, or a node at/below the spill level was not spilled";
+    for (int j = 0; j < n->num_children; ++j)
+    {
+      if (n->children[j].parent.load () != n)
+        return where + ": child without parent link";
+      stack.push_back (n->children + j);
+    }
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST (ObliqueCutOctreeBudget, QuarterBudgetGivesTheInMemoryHierarchy)
+{
+  const auto cloud = mixedCloud (1000000, 41);
+  for (bool collapse : {false, true})
+  {
+    SCOPED_TRACE (collapse ? "collapse" : "no collapse");
+    TempDir tmp;
+    Octree full;
+    full.setInputCloud (cloud);
+    configure (full, 6, collapse);
+    ASSERT_TRUE (full.build ());
+    const auto fs_ = full.getStatistics ();
+    pcl::PotreeWriter<pcl::PointXYZ> writer;
+    writer.write (full, (tmp.path / "full").string ());
+
+    // A quarter of the in-memory build's footprint: its own buffers plus the cloud it needs in RAM.
+    const std::size_t footprint = fs_.accounted_peak_bytes + cloud->size () * sizeof (pcl::PointXYZ);
+    const std::size_t budget = footprint / 4;
+    Octree o;
+    o.setInputCloud (cloud);
+    configure (o, 6, collapse);
+    o.setMemoryBudget (budget);
+    o.setOutputDirectory ((tmp.path / "budget").string ());
+    ASSERT_TRUE (o.build ()) << o.getLastError ();
+    const auto st = o.getStatistics ();
+    RecordProperty ("footprint", std::to_string (footprint));
+    RecordProperty ("accounted_peak", std::to_string (st.accounted_peak_bytes));
+    EXPECT_LE (st.accounted_peak_bytes, budget);
+    EXPECT_LE (st.planned_peak_bytes, budget);
+    EXPECT_GT (st.chunks, 2u);
+    EXPECT_GE (st.spill_level, 1);
+    EXPECT_EQ (st.spill_level, o.getSpillLevel ());
+    EXPECT_GT (st.spilled_nodes, 0u);
+    EXPECT_EQ (st.kept_points, cloud->size ());
+    EXPECT_EQ (st.nodes_per_level, fs_.nodes_per_level);
+    EXPECT_EQ (st.points_per_level, fs_.points_per_level);
+    EXPECT_EQ (st.leaves_per_level, fs_.leaves_per_level);
+    EXPECT_EQ (o.getOutputDirectory (), (tmp.path / "budget").string ());
+    EXPECT_FALSE (fs::exists (tmp.path / "budget" / ".omicron_chunks.bin"));
+    EXPECT_EQ (comparePotree ((tmp.path / "full").string (), (tmp.path / "budget").string ()), "");
+    std::size_t retained = 0;
+    EXPECT_EQ (compareRetained (o, full, st.spill_level, retained), "");
+    EXPECT_LT (retained, std::accumulate (fs_.nodes_per_level.begin (), fs_.nodes_per_level.end (), std::size_t (0)));
+    // The whole tree is not kept: the octree refuses to be written again from memory.
+    pcl::PotreeWriter<pcl::PointXYZ> again;
+    EXPECT_THROW (again.write (o, (tmp.path / "again").string ()), std::logic_error);
+  }
+}
+
+TEST (ObliqueCutOctreeBudget, FromAFileLargerThanTheBudget)
+{
+  TempDir tmp;
+  const auto cloud = mixedCloud (800000, 7);
+  (*cloud)[5].x = std::numeric_limits<float>::quiet_NaN ();  // dropped and counted on both paths
+  const std::string pcd = (tmp.path / "in.pcd").string ();
+  ASSERT_EQ (pcl::io::savePCDFileBinary (pcd, *cloud), 0);
+  Octree full;
+  full.setInputFile (pcd);  // no budget: read whole, the in-memory build
+  configure (full, 6, false);
+  ASSERT_TRUE (full.build ()) << full.getLastError ();
+  EXPECT_TRUE (full.getOutputDirectory ().empty ());
+  pcl::PotreeWriter<pcl::PointXYZ> writer;
+  writer.write (full, (tmp.path / "full").string ());
+
+  // A quarter of the in-memory footprint (its buffers, the whole cloud read into memory included).
+  const std::size_t budget = full.getStatistics ().accounted_peak_bytes / 4;
+  ASSERT_GT (fs::file_size (pcd), budget);
+  Octree o;
+  o.setInputFile (pcd);
+  configure (o, 6, false);
+  o.setMemoryBudget (budget);  // no output folder: a temp folder owned by the octree
+  ASSERT_TRUE (o.build ()) << o.getLastError ();
+  const auto st = o.getStatistics ();
+  EXPECT_LE (st.accounted_peak_bytes, budget);
+  EXPECT_EQ (st.dropped_invalid, 1u);
+  EXPECT_EQ (st.kept_points, cloud->size () - 1);
+  const std::string out = o.getOutputDirectory ();
+  ASSERT_FALSE (out.empty ());
+  EXPECT_EQ (comparePotree ((tmp.path / "full").string (), out), "");
+  std::size_t retained = 0;
+  EXPECT_EQ (compareRetained (o, full, st.spill_level, retained), "");
+  // A second build replaces the temp folder.
+  ASSERT_TRUE (o.build ());
+  EXPECT_FALSE (fs::exists (out));
+}
+
+TEST (ObliqueCutOctreeBudget, ImpossibleBudgetsAndUnwritableFoldersAreClearErrors)
+{
+  TempDir tmp;
+  const auto cloud = makeCloud (Shape::UNIFORM, 20000, 3);
+  {
+    // Below the fixed overhead: refused before the output folder is even created.
+    Octree o;
+    o.setInputCloud (cloud);
+    o.setMemoryBudget (100000);
+    o.setOutputDirectory ((tmp.path / "never").string ());
+    EXPECT_FALSE (o.build ());
+    EXPECT_NE (o.getLastError ().find ("below the fixed overhead"), std::string::npos) << o.getLastError ();
+    EXPECT_NE (o.getLastError ().find ("nothing was allocated"), std::string::npos);
+    EXPECT_FALSE (fs::exists (tmp.path / "never"));
+    EXPECT_EQ (o.getRoot (), nullptr);
+  }
+  {
+    // One finest cell holds every point: no chunk can take it.
+    Octree o;
+    o.setInputCloud (makeCloud (Shape::IDENTICAL, 200000, 1));
+    o.setMemoryBudget (4 << 20);
+    o.setOutputDirectory ((tmp.path / "identical").string ());
+    EXPECT_FALSE (o.build ());
+    EXPECT_NE (o.getLastError ().find ("no spill level fits"), std::string::npos) << o.getLastError ();
+    EXPECT_NE (o.getLastError ().find ("200000 points"), std::string::npos) << o.getLastError ();
+    EXPECT_LE (o.getStatistics ().accounted_peak_bytes, std::size_t (4 << 20));
+  }
+  {
+    // Output folder below a regular file (root may write anywhere, but not there).
+    const fs::path file = tmp.path / "file";
+    std::ofstream (file.string ()) << "x";
+    Octree o;
+    o.setInputCloud (cloud);
+    o.setMemoryBudget (64 << 20);
+    o.setOutputDirectory ((file / "out").string ());
+    EXPECT_FALSE (o.build ());
+    EXPECT_NE (o.getLastError ().find ("cannot create the output folder"), std::string::npos) << o.getLastError ();
+  }
+  {
+    // Depth 2 with leaf collapse has no level to spill at.
+    Octree o;
+    o.setInputCloud (cloud);
+    o.setMaxDepth (2);
+    o.setLeafCollapse (true);
+    o.setMemoryBudget (64 << 20);
+    EXPECT_FALSE (o.build ());
+    EXPECT_NE (o.getLastError ().find ("max depth"), std::string::npos) << o.getLastError ();
+  }
+}
+
+TEST (ObliqueCutOctreeBudget, FrontDuringABudgetedBuildOnlyReturnsRetainedNodes)
+{
+  const auto cloud = mixedCloud (800000, 5);
+  Octree o;
+  o.setInputCloud (cloud);
+  configure (o, 6, true);
+  o.setMemoryBudget (10 << 20);
+  o.setProjectionThreshold (1e-6f);  // branch as deep as the front can go
+  ASSERT_TRUE (o.startBuild ());
+  struct Seen
+  {
+    const Octree::Node* node;
+    std::uint32_t n;
+    double sum;
+  };
+  std::map<std::uint64_t, Seen> seen;
+  std::vector<Octree::Item> items;
+  Octree::Camera cam;  // identity: the clip cube [-1, 1]^3; the cloud spans [-1, 3]
+  cam.view_projection = Eigen::Matrix4f::Identity () * 0.5f;
+  cam.view_projection (3, 3) = 1.f;
+  int frames = 0;
+  while (!o.isFinished () || frames < 3)
+  {
+    o.evaluate (cam, items);
+    ++frames;
+    const int spill = o.getSpillLevel ();
+    for (const auto& it : items)
+    {
+      ASSERT_GE (spill, 1) << "items before the spill level is known";
+      ASSERT_LE (it.node->level, spill);
+      ASSERT_TRUE (it.node->num_children == 0 ? (it.node->flags & pcl::omicron::kSpilled) != 0 : true);
+      double sum = 0;
+      for (std::uint32_t k = 0; k < it.num_points; ++k)
+        sum += it.points[k].x + 2.0 * it.points[k].y + 3.0 * it.points[k].z;
+      seen[it.node->code.bits ()] = Seen{it.node, it.num_points, sum};
+    }
+  }
+  ASSERT_TRUE (o.wait ()) << o.getLastError ();
+  EXPECT_GT (seen.size (), 0u);
+  // Every node ever drawn is in the retained tree, at the same address with the same points.
+  std::map<std::uint64_t, const Octree::Node*> retained;
+  std::vector<const Octree::Node*> stack{o.getRoot ()};
+  while (!stack.empty ())
+  {
+    const auto* n = stack.back ();
+    stack.pop_back ();
+    retained[n->code.bits ()] = n;
+    for (int j = 0; j < n->num_children; ++j)
+      stack.push_back (n->children + j);
+  }
+  for (const auto& s : seen)
+  {
+    const auto it = retained.find (s.first);
+    ASSERT_NE (it, retained.end ()) << "drawn node " << s.first << " is not retained";
+    ASSERT_EQ (it->second, s.second.node);
+    double sum = 0;
+    for (std::uint32_t k = 0; k < it->second->num_points; ++k)
+      sum += it->second->points[k].x + 2.0 * it->second->points[k].y + 3.0 * it->second->points[k].z;
+    EXPECT_EQ (sum, s.second.sum);
+  }
+  // Converged with the root cube filling the view: the front is the spill level, every
+  // spilled node drawn.
+  const auto st = o.getStatistics ();
+  const float sc = 2.f / static_cast<float> (o.getRootEdge ());
+  cam.view_projection = Eigen::Matrix4f::Identity ();
+  for (int a = 0; a < 3; ++a)
+  {
+    cam.view_projection (a, a) = sc;
+    cam.view_projection (a, 3) = -1.f - sc * static_cast<float> (o.getRootOrigin ()[a]);
+  }
+  for (int k = 0; k < 40; ++k)
+    o.evaluate (cam, items);
+  std::size_t spilled_drawn = 0;
+  for (const auto& it : items)
+    spilled_drawn += (it.node->flags & pcl::omicron::kSpilled) ? 1 : 0;
+  EXPECT_EQ (spilled_drawn, st.nodes_per_level[st.spill_level]);
+}
+
+TEST (ObliqueCutOctreeBudget, PlannerBoundsAndFitsTheBudget)
+{
+  // 8^2 cells at level 2 of a depth-4 tree; one heavy cell.
+  std::vector<std::uint32_t> counts (64, 100);
+  counts[10] = 5000;
+  pcl::omicron::PlanParameters p;
+  p.max_depth = 4;
+  p.count_level = 2;
+  p.budget = 4 << 20;
+  const auto plan = pcl::omicron::planChunks (counts, p);
+  ASSERT_GE (plan.spill_level, 1) << plan.error;
+  EXPECT_LE (plan.peak_bound, p.budget);
+  std::uint64_t total = 0;
+  for (auto c : plan.chunk_points)
+    total += c;
+  EXPECT_EQ (total, 63u * 100u + 5000u);
+  EXPECT_EQ (plan.cell_begin.front (), 0u);
+  EXPECT_EQ (plan.cell_begin.back (), std::uint64_t (1) << (3 * plan.spill_level));
+  p.budget = 200000;  // the heavy cell alone needs more
+  const auto none = pcl::omicron::planChunks (counts, p);
+  EXPECT_LT (none.spill_level, 0);
+  EXPECT_NE (none.error.find ("5000 points"), std::string::npos) << none.error;
+}
