@@ -362,6 +362,7 @@ struct Config
   bool completion = false;  // sample the fraction of finished nodes over time (Fig. 4.4)
   std::size_t budget = 0;   // setMemoryBudget (bytes), 0 = none
   std::string curve;        // completion curve label
+  std::string file, out_dir;  // budgeted builds read the PCD and write Potree output here
 
   std::string
   params () const
@@ -466,8 +467,14 @@ runOurs (const Cloud::ConstPtr& cloud, const Config& c, std::size_t rss0)
   octree.setWorklistSize (c.worklist);
   octree.setSortChunks (c.chunks);
   octree.setThreads (c.threads);
-  if (c.budget && !trySetBudget (octree, c.budget, 0))
-    throw std::runtime_error ("no setMemoryBudget in this ObliqueCutOctree");
+  if (c.budget)
+  {
+    // Out of core: the file is streamed (pcl::PointStreamReader), the cloud is not touched.
+    if (!trySetBudget (octree, c.budget, 0))
+      throw std::runtime_error ("no setMemoryBudget in this ObliqueCutOctree");
+    octree.setInputFile (c.file);
+    octree.setOutputDirectory (c.out_dir);
+  }
 
   std::vector<double> frames;
   std::vector<std::pair<double, std::size_t>> samples;  // (s, finished nodes)
@@ -523,7 +530,7 @@ runOurs (const Cloud::ConstPtr& cloud, const Config& c, std::size_t rss0)
   if (sampler.joinable ())
     sampler.join ();
   if (!ok)
-    throw std::runtime_error ("build failed");
+    throw std::runtime_error ("build failed: " + octree.getLastError ());
   const std::size_t hwm = statusKb ("VmHWM") * 1024;
   const auto st = octree.getStatistics ();
   std::size_t nodes = 0;
@@ -558,8 +565,15 @@ runOurs (const Cloud::ConstPtr& cloud, const Config& c, std::size_t rss0)
                          {"front_items_last", double (last_items)}});
   }
   if (c.budget)
+  {
     m.insert (m.end (), {{"budget_mb", c.budget / 1048576.0},
-                         {"peak_over_budget", double (hwm > rss0 ? hwm - rss0 : 0) / double (c.budget)}});
+                         {"peak_over_budget", double (hwm > rss0 ? hwm - rss0 : 0) / double (c.budget)},
+                         {"accounted_peak_mb", st.accounted_peak_bytes / 1048576.0},
+                         {"planned_peak_mb", st.planned_peak_bytes / 1048576.0},
+                         {"spill_level", double (st.spill_level)},
+                         {"spilled_nodes", double (st.spilled_nodes)}});
+    fs::remove_all (c.out_dir);
+  }
   std::vector<Row> rows{{c.front ? "omicron_front" : "omicron", c.params (), total, m}};
   if (c.completion)
   {
@@ -802,7 +816,7 @@ main (int argc, char** argv)
   std::vector<std::size_t> sizes{2000000, 5000000, 10000000};
   std::vector<std::size_t> other_sizes;
   std::vector<std::string> inputs{"scene", "bunny", "fertility", "lattice", "duplicates"};
-  bool quick = false, full = false, no_outofcore = false, no_sweeps = false;
+  bool quick = false, full = false, no_outofcore = false, no_sweeps = false, budget_only = false;
   int threads = int (std::max (1u, std::thread::hardware_concurrency ())), depth = 7;
   std::size_t sweep_max = 0;
   std::string outofcore_dir = fs::is_directory ("/dev/shm") ? "/dev/shm/pclx_omicron_outofcore" : "";
@@ -835,6 +849,8 @@ main (int argc, char** argv)
   app.add_flag ("--outofcore-disk", outofcore_disk,
                 "also run pcl_outofcore_process into the work dir (disk) on the scene at the smallest size");
   app.add_flag ("--no-sweeps", no_sweeps, "only the main rows (ours default, front, peers)");
+  app.add_flag ("--budget-only", budget_only,
+                "only the reads and the memory-budget rows (budget = 1/4 of the cloud, and in memory)");
   CLI11_PARSE (app, argc, argv);
   if (quick)
   {
@@ -971,8 +987,27 @@ main (int argc, char** argv)
         return rows.empty () ? Row{} : rows[0];
       };
 
-      // Main rows: ours with the defaults (ratio 0.2, collapse), front off and on; completion curves.
       Config base;
+      // A budget of a quarter of the cloud (PointXYZ, 16 B/pt), input streamed from the file;
+      // the in-memory reference is load + build (front off) of the same run.
+      auto budgetRows = [&] {
+        Config c = base;
+        c.sweep = "budget";
+        c.budget = n * sizeof (pcl::PointXYZ) / 4;
+        c.file = path;
+        c.out_dir = work + "/budget_" + name + "_" + label;
+        ours (c);
+        Config m = base;
+        m.sweep = "budget";
+        ours (m);
+      };
+      if (budget_only)
+      {
+        if (budget_api)
+          budgetRows ();
+        continue;
+      }
+      // Main rows: ours with the defaults (ratio 0.2, collapse), front off and on; completion curves.
       ours (base);
       Config fr = base;
       fr.front = true;
@@ -1099,12 +1134,7 @@ main (int argc, char** argv)
         ours (c);
       }
       if (budget_api)
-      {
-        Config c = base;
-        c.sweep = "budget";
-        c.budget = n * sizeof (pcl::PointXYZ) / 4;  // a quarter of the cloud
-        ours (c);
-      }
+        budgetRows ();
     }
   }
   std::cerr << "[omicron] done in " << fmt (since (t_start)) << " s\n";
