@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The README's test command: installs Debian packages, builds, runs the whole suite,
-# then runs it again under AddressSanitizer + UndefinedBehaviorSanitizer.
+# The README's test command: installs Debian packages, builds, installs the OpenNI2 virtual
+# camera, runs the whole suite, runs it again under AddressSanitizer + UndefinedBehaviorSanitizer,
+# and runs the OMiCroN tests under ThreadSanitizer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install-deps.sh
@@ -22,4 +23,7 @@ cmake --build build-asan -j "$JOBS"
 # Leak checking is off: Embree/TBB and OpenMP keep thread pools alive at exit.
 ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-asan --output-on-failure -j "$JOBS" --timeout 1800
-echo "test.sh: all tests passed (release and ASan+UBSan)"
+# ThreadSanitizer for the module whose correctness is about threads (OMiCroN: sorter, fix
+# workers and a front evaluated during the build); its own small build of one test executable.
+./scripts/tsan-omicron.sh
+echo "test.sh: all tests passed (release, ASan+UBSan, and TSan for omicron)"
