@@ -513,7 +513,7 @@ pcl::ObliqueCut<PointT>::memoryBytes () const
 {
   std::size_t b = 0;
   for (const auto& s : slots_)
-    b += s->nodes.bytes () + s->points.bytes ();
+    b += s->nodes.bytes () + s->points.bytes () + s->scratch_nodes.bytes () + s->scratch_points.bytes ();
   return b;
 }
 
