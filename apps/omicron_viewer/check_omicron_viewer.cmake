@@ -31,6 +31,16 @@ expect("--no-render" "all +[0-9]+ +[0-9]+ +\\(1500000 input points kept")
 expect("--no-render" "peak resident \\(VmHWM\\) [0-9.]+ MB")
 expect("--no-render" "frame time p50 [0-9.]+ ms, p95 [0-9.]+ ms")
 
+# Out of core (memory budget): the octree streams the file and writes the Potree folder.
+run(${VIEWER} ${WORK_DIR}/cloud.pcd --no-render --memory-budget 24 --output ${WORK_DIR}/potree_budget)
+expect("--memory-budget" "memory budget 24.0 MB: accounted peak [0-9.]+ MB")
+expect("--memory-budget" "all +[0-9]+ +[0-9]+ +\\(1500000 input points kept")
+foreach(f metadata.json hierarchy.bin octree.bin)
+  if(NOT EXISTS ${WORK_DIR}/potree_budget/${f})
+    message(FATAL_ERROR "--memory-budget: missing potree_budget/${f}")
+  endif()
+endforeach()
+
 # Uncoloured PLY (PointXYZ path, options) and an XYZ text file (the kit's loader).
 run(${VIEWER} ${WORK_DIR}/plain.ply --no-render --depth 6 --ratio 0.3 --no-collapse --worklist 8 --chunks 4 --threads 1
     --threshold 0.1)

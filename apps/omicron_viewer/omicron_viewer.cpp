@@ -63,7 +63,7 @@ struct Options
   std::vector<float> multipliers;
   bool collapse = true, no_render = false, orbit = false;
   std::size_t worklist = 32, chunks = 16;
-  double orbit_seconds = 8;
+  double orbit_seconds = 8, budget_mb = 0;
   std::vector<float> view_dir{1.f, -1.4f, 0.9f}, up{0.f, 0.f, 1.f};
 };
 
@@ -74,6 +74,7 @@ struct Input
   typename pcl::PointCloud<PointT>::Ptr cloud{new pcl::PointCloud<PointT>};
   Eigen::Vector3f lo = Eigen::Vector3f::Constant (std::numeric_limits<float>::max ()), hi = -lo;
   bool color = false;
+  std::string file;  // memory budget: the octree streams this file itself (cloud left empty)
   std::string summary;
   double seconds = 0;
 };
@@ -250,13 +251,15 @@ public:
   {
     if (octree_.isFinished ())
       return 100;
+    if (cloud_.empty ())
+      return -1;
     // The cut exists once the first leaf reached the front (it is not replaced meanwhile).
     if (octree_.getFront ().secondsToFirstLeaf () < 0)
-      return 0;
+      return -1;
     if (!sample_.valid ())
       sample_ = std::async (std::launch::async, [this] { return sortedSample (); });
     // The first time, wait a little: a fresh front should not be labelled 0 %.
-    if (sample_.wait_for (std::chrono::milliseconds (codes_.empty () && last_ == 0 ? 50 : 0)) != std::future_status::ready)
+    if (sample_.wait_for (std::chrono::milliseconds (codes_.empty () ? 50 : 0)) != std::future_status::ready)
       return last_;
     if (codes_.empty ())
       codes_ = sample_.get ();
@@ -294,19 +297,31 @@ private:
   const pcl::PointCloud<PointT>& cloud_;
   std::future<std::vector<std::uint64_t>> sample_;
   std::vector<std::uint64_t> codes_;
-  double last_ = 0;
+  double last_ = -1;  // < 0: not known yet
 };
 
-// Colour of a splat: the cloud's rgb, the node's level, or the height (z) over the bounds.
+// Colour of a splat: the cloud's rgb, the node's level, or the height (along the camera's up
+// direction) over the bounds.
 struct Colouring
 {
   enum Mode { RGB, LEVEL, HEIGHT } mode = HEIGHT;
+  Eigen::Vector3f up = Eigen::Vector3f::UnitZ ();
   float z0 = 0, inv_dz = 1;
   std::array<std::array<std::uint8_t, 3>, 256> ramp{};
   std::array<std::array<std::uint8_t, 3>, 22> level{};
 
-  Colouring (Mode m, float zlo, float zhi) : mode (m), z0 (zlo), inv_dz (zhi > zlo ? 255.f / (zhi - zlo) : 0.f)
+  Colouring (Mode m, const Eigen::Vector3f& up_dir, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi)
+    : mode (m), up (up_dir.normalized ())
   {
+    float zlo = std::numeric_limits<float>::max (), zhi = -zlo;
+    for (int i = 0; i < 8; ++i)
+    {
+      const float z = up.dot (Eigen::Vector3f (i & 1 ? hi.x () : lo.x (), i & 2 ? hi.y () : lo.y (), i & 4 ? hi.z () : lo.z ()));
+      zlo = std::min (zlo, z);
+      zhi = std::max (zhi, z);
+    }
+    z0 = zlo;
+    inv_dz = zhi > zlo ? 255.f / (zhi - zlo) : 0.f;
     // Height: deep blue -> teal -> sand -> white (readable on the dark background).
     const Eigen::Vector3f stops[4] = {{0.18f, 0.30f, 0.75f}, {0.15f, 0.70f, 0.65f}, {0.92f, 0.80f, 0.45f}, {1.f, 0.97f, 0.92f}};
     for (int i = 0; i < 256; ++i)
@@ -338,7 +353,7 @@ struct Colouring
         return;
       }
     const std::uint8_t* c = mode == LEVEL ? level[node_level].data ()
-                                          : ramp[static_cast<int> (std::clamp ((p.z - z0) * inv_dz, 0.f, 255.f))].data ();
+                                          : ramp[static_cast<int> (std::clamp ((up.dot (p.getVector3fMap ()) - z0) * inv_dz, 0.f, 255.f))].data ();
     out[0] = c[0];
     out[1] = c[1];
     out[2] = c[2];
@@ -533,12 +548,25 @@ int
 run (const Options& opt, Input<PointT> in)
 {
   using Octree = pcl::ObliqueCutOctree<PointT>;
-  std::printf ("%s, read in %.2f s\n", in.summary.c_str (), in.seconds);
+  if (in.file.empty ())
+    std::printf ("%s, read in %.2f s\n", in.summary.c_str (), in.seconds);
+  else
+    std::printf ("%s\n", in.summary.c_str ());
   const bool offscreen = !opt.screenshot.empty () || opt.screenshot_every > 0;
   const int threads = opt.threads > 0 ? opt.threads : std::max (1, int (std::thread::hardware_concurrency ()));
 
   Octree octree;
-  octree.setInputCloud (in.cloud);
+  if (in.file.empty ())
+    octree.setInputCloud (in.cloud);
+  else
+  {
+    // Out of core: the octree reads the file in blocks, subtrees below its spill level go to
+    // the Potree folder as they are finished (the front stops at that level).
+    octree.setInputFile (in.file);
+    octree.setMemoryBudget (static_cast<std::size_t> (opt.budget_mb * 1048576.0));
+    if (!opt.output.empty ())
+      octree.setOutputDirectory (opt.output);
+  }
   octree.setMaxDepth (opt.depth);
   octree.setParentPointRatio (opt.ratio);
   octree.setLeafCollapse (opt.collapse);
@@ -564,7 +592,16 @@ run (const Options& opt, Input<PointT> in)
     std::cerr << "omicron_viewer: the cloud has no colour; colouring by height\n";
     mode = Colouring::HEIGHT;
   }
-  const Colouring colour (mode, in.lo.z (), in.hi.z ());
+  const Eigen::Vector3f up_f (opt.up[0], opt.up[1], opt.up[2]);
+  if (!(up_f.norm () > 0) || !up_f.allFinite ())
+    throw std::invalid_argument ("--up must be a non-zero direction");
+  // Bounds: from the loaded cloud, or (budgeted build) the root cube once the octree has read
+  // the file; camera framing and height colours wait for them.
+  Eigen::Vector3f lo = in.lo, hi = in.hi;
+  bool framed = (lo.array () <= hi.array ()).all ();
+  if (!framed)
+    lo = hi = Eigen::Vector3f::Zero ();
+  Colouring colour (mode, up_f, lo, hi);
 
   // The window (or none) and the camera, framed on the data bounds.
   pcl::visualization::PCLVisualizer::Ptr viewer;
@@ -582,11 +619,15 @@ run (const Options& opt, Input<PointT> in)
     camera = vtkSmartPointer<vtkCamera>::New ();
   const Eigen::Vector3d view_dir = Eigen::Vector3f (opt.view_dir[0], opt.view_dir[1], opt.view_dir[2]).cast<double> ();
   const Eigen::Vector3d up = Eigen::Vector3f (opt.up[0], opt.up[1], opt.up[2]).cast<double> ();
-  frameBounds (camera, double (opt.width) / opt.height, in.lo, in.hi, view_dir, up);
-  clipToBounds (camera, in.lo, in.hi);
   Eigen::Vector3d centre, start_eye;
-  camera->GetFocalPoint (centre.data ());
-  camera->GetPosition (start_eye.data ());
+  const auto frame_camera = [&] {
+    frameBounds (camera, double (opt.width) / opt.height, lo, hi, view_dir, up);
+    clipToBounds (camera, lo, hi);
+    camera->GetFocalPoint (centre.data ());
+    camera->GetPosition (start_eye.data ());
+  };
+  if (framed)
+    frame_camera ();
 
   SplatRenderer<PointT> splats (renderer, colour, opt.draw == "nodes");
   const bool frames_run = !opt.no_render || opt.orbit;  // a render loop, real or simulated
@@ -628,10 +669,10 @@ run (const Options& opt, Input<PointT> in)
   {
     const bool building = !octree.isFinished ();
     if (building)
-      progress.update (static_cast<std::size_t> (completion.percent ()));
+      progress.update (static_cast<std::size_t> (std::max (0.0, completion.percent ())));
     else if (build_s < 0)
     {
-      build_s = secondsSince (t0);
+      build_s = octree.getStatistics ().seconds_total;
       progress.done ();
     }
     if (!frames_run)
@@ -641,11 +682,20 @@ run (const Options& opt, Input<PointT> in)
       std::this_thread::sleep_for (std::chrono::milliseconds (20));
       continue;
     }
+    if (!framed && octree.getFront ().secondsToFirstLeaf () >= 0)
+    {
+      const Eigen::Vector3d o = octree.getRootOrigin ();
+      lo = o.cast<float> ();
+      hi = lo + Eigen::Vector3f::Constant (static_cast<float> (octree.getRootEdge ()));
+      colour = Colouring (mode, up_f, lo, hi);
+      frame_camera ();
+      framed = true;
+    }
     // One frame: camera -> front -> splats -> picture.
     const auto f0 = Clock::now ();
-    if (opt.orbit)
+    if (opt.orbit && building)  // then the front settles for the final picture
       orbit (camera, centre, start_eye, up, secondsSince (t0), opt.orbit_seconds);
-    clipToBounds (camera, in.lo, in.hi);
+    clipToBounds (camera, lo, hi);
     octree.evaluate (frontCamera<typename Octree::Camera> (camera, opt.width, opt.height), items);
     const double e_ms = 1e3 * secondsSince (f0);
     const bool changed = splats.update (items);
@@ -653,11 +703,15 @@ run (const Options& opt, Input<PointT> in)
     {
       const double pct = building ? completion.percent () : 100.0;
       char text[160];
-      if (building)
+      if (building && !in.file.empty ())
+        std::snprintf (text, sizeof text, "building out of core: front %zu nodes", items.size ());
+      else if (building && pct < 0)
+        std::snprintf (text, sizeof text, "building: front %zu nodes", items.size ());
+      else if (building)
         std::snprintf (text, sizeof text, "building: %.0f %% of points in the hierarchy, front %zu nodes", pct, items.size ());
       else
-        std::snprintf (text, sizeof text, "built: %zu points in %.2f s, front %zu nodes", in.cloud->size (), build_s,
-                       items.size ());
+        std::snprintf (text, sizeof text, "built: %zu points in %.2f s, front %zu nodes",
+                     octree.getStatistics ().kept_points, build_s, items.size ());
       if (label != text)
       {
         label = text;
@@ -696,7 +750,7 @@ run (const Options& opt, Input<PointT> in)
     if (!building)
     {
       stable = changed ? 0 : stable + 1;
-      if ((offscreen || opt.no_render) && (stable >= 2 || frame > 400))
+      if ((offscreen || opt.no_render) && (stable >= 1 || frame > 400))
         break;
       if (!offscreen && !opt.no_render && !changed)
         std::this_thread::sleep_for (std::chrono::milliseconds (10));
@@ -705,14 +759,18 @@ run (const Options& opt, Input<PointT> in)
       std::this_thread::sleep_for (std::chrono::duration<double, std::milli> (16.7 - f_ms));
   }
   if (!octree.wait ())
-    throw std::runtime_error ("the build failed");
+    throw std::runtime_error (octree.getLastError ().empty () ? "the build failed" : octree.getLastError ());
   if (build_s < 0)
     build_s = secondsSince (t0);
 
   // What the build did.
   const auto st = octree.getStatistics ();
-  std::printf ("read: file %.2f s, octree bounds and bucket passes %.3f s; first chunk sorted in %.3f s (%zu chunks)\n",
-               in.seconds, st.seconds_read, st.seconds_to_first_chunk - st.seconds_read, st.chunks);
+  if (in.file.empty ())
+    std::printf ("read: file %.2f s, ", in.seconds);
+  else
+    std::printf ("read (streamed by the octree): ");
+  std::printf ("octree bounds and bucket passes %.3f s; first chunk sorted in %.3f s (%zu chunks)\n", st.seconds_read,
+               st.seconds_to_first_chunk - st.seconds_read, st.chunks);
   std::printf ("first renderable front: %.3f s after the build started", st.seconds_to_first_front);
   if (first_items_s >= 0 && frames_run)
     std::printf (" (first splats drawn at %.3f s)", first_items_s);
@@ -731,6 +789,12 @@ run (const Options& opt, Input<PointT> in)
                st.dropped_invalid);
   std::printf ("memory: sorted points %s, hierarchy %s; peak resident (VmHWM) %s\n", fmtMb (st.sorted_bytes).c_str (),
                fmtMb (st.hierarchy_bytes).c_str (), fmtMb (statusKb ("VmHWM") * 1024).c_str ());
+  if (st.memory_budget)
+    std::printf ("memory budget %s: accounted peak %s (planned %s); spill level %d, %zu nodes / %zu points written out "
+                 "and dropped; chunk file pass %.2f s\n",
+                 fmtMb (st.memory_budget).c_str (), fmtMb (st.accounted_peak_bytes).c_str (),
+                 fmtMb (st.planned_peak_bytes).c_str (), st.spill_level, st.spilled_nodes, st.spilled_points,
+                 st.seconds_chunks);
   if (frames_run)
   {
     const Percentiles f = percentiles (frame_ms), e = percentiles (eval_ms);
@@ -750,7 +814,10 @@ run (const Options& opt, Input<PointT> in)
       shot (shotName (shots++));
     std::printf ("wrote %d growth pictures %s ... %s\n", shots, shotName (0).c_str (), shotName (shots - 1).c_str ());
   }
-  if (!opt.output.empty ())
+  if (!in.file.empty ())
+    std::printf ("Potree 2.0 files written by the build to %s%s\n", octree.getOutputDirectory ().c_str (),
+                 opt.output.empty () ? " (temporary: removed on exit; give --output to keep them)" : "");
+  else if (!opt.output.empty ())
   {
     const auto w0 = Clock::now ();
     pcl::PotreeWriter<PointT> writer;
@@ -811,6 +878,10 @@ main (int argc, char** argv)
   app.add_option ("--growth-prefix", o.growth_prefix,
                   "file prefix of --screenshot-every (default: --screenshot without .png, else omicron_growth)");
   app.add_option ("-o,--output", o.output, "write the hierarchy as Potree 2.0 files to this folder after the build");
+  app.add_option ("--memory-budget", o.budget_mb,
+                  "MB for the build's buffers: out-of-core build streaming the file (PCD/PLY/XYZ), subtrees below "
+                  "the spill level written to --output as they finish (0: in memory)")
+      ->capture_default_str ();
   auto* headless = app.add_flag ("--no-render", o.no_render, "no window: build, print timings and statistics");
   headless->excludes (shot)->excludes (every);
   app.add_flag ("--camera-orbit", o.orbit,
@@ -836,6 +907,20 @@ main (int argc, char** argv)
     bool color = false;
     if (check.format != pclx::apps::CloudFormat::XYZ)
       color = pcl::PointStreamReader (o.input).hasColor ();
+    if (o.budget_mb > 0)
+    {
+      // The octree streams the file; nothing is loaded here.
+      pcl::PointStreamReader reader (o.input);
+      const auto summary = o.input + ": " + std::to_string (reader.getDeclaredPoints ()) + " points declared (xyz" +
+                           (reader.hasColor () ? " rgb" : "") + "), streamed by the octree (memory budget " +
+                           fmtMb (static_cast<std::size_t> (o.budget_mb * 1048576.0)) + ")";
+      Input<pcl::PointXYZRGB> rgb;
+      Input<pcl::PointXYZ> xyz;
+      rgb.file = xyz.file = o.input;
+      rgb.summary = xyz.summary = summary;
+      rgb.color = true;
+      return reader.hasColor () ? run (o, rgb) : run (o, xyz);
+    }
     // Colour only when the file has it: PointXYZ halves the input and sorted-array memory.
     return color ? run (o, readInput<pcl::PointXYZRGB> (o.input, check))
                  : run (o, readInput<pcl::PointXYZ> (o.input, check));
