@@ -512,12 +512,6 @@ public:
     return true;
   }
 
-  std::size_t
-  points () const
-  {
-    return per_node_ ? 0 : static_cast<std::size_t> (data_->GetNumberOfPoints ());
-  }
-
 private:
   struct Cached
   {
@@ -726,9 +720,6 @@ run (const Options& opt, Input<PointT> in)
       }
     }
     const double f_ms = 1e3 * secondsSince (f0);
-    if (std::getenv ("OMICRON_VIEWER_TRACE"))
-      std::fprintf (stderr, "frame %d %s: %zu nodes %zu points, evaluate %.2f ms, frame %.1f ms%s\n", frame,
-                    building ? "building" : "built", items.size (), splats.points (), e_ms, f_ms, changed ? " (changed)" : "");
     if (!items.empty () && first_items_s < 0)
       first_items_s = secondsSince (t0);
     if (building && first_items_s >= 0)
