@@ -1,0 +1,158 @@
+#pragma once
+// RBFPOUReconstruction: implicit surface from oriented points (seed 002 ch. 4).
+//   §4.2  Carr et al. 2001: every point is a zero constraint; off-surface constraints at
+//         p ± ε·n carry the values ±ε, with ε halved per point until the created point's
+//         nearest input point is its origin.
+//   §4.3  Tobor, Reuter and Schlick 2004: an octree splits the constraints until every
+//         subdomain (an octree cell enlarged by the overlap factor d) holds at most Tmax;
+//         leaves with fewer than Tmin grow (and shrink back) until Tmin ≤ n ≤ Tmax (§4.3.2).
+//         Each subdomain gets a local RBF fit f_i (polyharmonic r³ + linear polynomial);
+//         F = Σ W_i f_i / Σ W_i with W_i = V ∘ D_i (Eqs. 4.4–4.6).
+// The zero set of F − iso is polygonised by marching cubes (PCL's tables) on a sparse grid:
+// only the cells within a band of the input points, so no sheets appear far from the data.
+// F is undefined where no subdomain covers a corner; such cells are skipped.
+//
+// Bad input and parameters give PCL_ERROR, an empty mesh and getLastError () (no exceptions,
+// as PCL's own reconstructions). NaN / Inf points and zero normals are dropped and counted.
+#include <pcl/surface/reconstruction.h>
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace pcl {
+
+template <typename PointNT>
+class RBFPOUReconstruction : public SurfaceReconstruction<PointNT>
+{
+public:
+  using Ptr = shared_ptr<RBFPOUReconstruction<PointNT>>;
+  using ConstPtr = shared_ptr<const RBFPOUReconstruction<PointNT>>;
+  using SurfaceReconstruction<PointNT>::input_;
+  using SurfaceReconstruction<PointNT>::indices_;
+  using SurfaceReconstruction<PointNT>::check_tree_;
+
+  // Decay V of Eq. 4.6: LINEAR is the seed's V(d) = 1 − d (W continuous, not smooth at
+  // a subdomain border); CUBIC is Tobor et al.'s 2d³ − 3d² + 1 (W smooth).
+  enum class Decay { LINEAR, CUBIC };
+
+  // Per-stage wall times (seconds) and counts of the last reconstruction.
+  struct Stats
+  {
+    double t_prepare = 0, t_off_surface = 0, t_octree = 0, t_fits = 0, t_extraction = 0;
+    std::size_t input_points = 0, dropped_points = 0, zero_normals = 0;
+    std::size_t normals_voted = 0, normals_oriented = 0;  // flipped by the vote / by MST
+    std::size_t off_surface_points = 0, eps_halved = 0, off_surface_dropped = 0;
+    std::size_t subdomains = 0, grown = 0, over_tmax = 0, fit_fallbacks = 0;
+    std::size_t active_cells = 0, corners = 0, uncovered_corners = 0;
+    std::size_t vertices = 0, triangles = 0;
+    double mean_spacing = 0, grid_resolution = 0, epsilon = 0;
+  };
+
+  // An off-surface constraint: position, value (±ε) and the input point that made it
+  // (index into the filtered cloud, see getFilteredCloud ()).
+  struct Constraint
+  {
+    Eigen::Vector3f p;
+    float value;
+    int origin;
+  };
+
+  RBFPOUReconstruction () { check_tree_ = false; }  // own kd-tree over the valid points
+
+  // Tmax / Tmin: constraints (input and off-surface points) per subdomain. Tmin ≥ 10,
+  // Tmin ≤ Tmax. Defaults 150 / 50 (≈ 50 / 17 input points): systems of ≤ 154 unknowns.
+  void setMaxPointsPerSubdomain (int t) { t_max_ = t; }
+  int getMaxPointsPerSubdomain () const { return t_max_; }
+  void setMinPointsPerSubdomain (int t) { t_min_ = t; }
+  int getMinPointsPerSubdomain () const { return t_min_; }
+  // Overlap factor d (> 1, default 1.5): a subdomain is its octree cell scaled by d about
+  // its centre (d = 1 would leave F discontinuous across cell faces).
+  void setOverlap (double d) { overlap_ = d; }
+  double getOverlap () const { return overlap_; }
+  // Marching-cubes cell size (> 0). Until set: 1.5 × the mean nearest-neighbour spacing.
+  void setGridResolution (double h) { grid_resolution_ = h; grid_auto_ = false; }
+  double getGridResolution () const { return grid_resolution_; }
+  // Cells within `cells` (Chebyshev) of a cell holding an input point are polygonised (≥ 1,
+  // default 2).
+  void setBandWidth (int cells) { band_ = cells; }
+  int getBandWidth () const { return band_; }
+  void setIsoLevel (double iso) { iso_ = iso; }
+  double getIsoLevel () const { return iso_; }
+  // Initial ε of the off-surface points (> 0). Until set: the mean spacing.
+  void setOffSurfaceEpsilon (double eps) { epsilon_ = eps; epsilon_auto_ = false; }
+  void setDecay (Decay v) { decay_ = v; }
+  Decay getDecay () const { return decay_; }
+  // Orient the normals with pclx::normals' MSTNormalOrientation first (default off): for
+  // unoriented normals (PCA, PlanarOctreeNormalEstimation). Without it, unoriented input
+  // gives a wrong F (a warning is printed when the vote below flips more than 10 %).
+  void setOrientNormals (bool on) { orient_normals_ = on; }
+  // Neighbour vote (default on): a normal opposed to ≥ 6 of its 8 nearest neighbours'
+  // normals is flipped. Isolated flipped normals then cost nothing; thin sheets (whose
+  // other side is among the neighbours) are left alone.
+  void setNormalVote (bool on) { normal_vote_ = on; }
+  void setNumberOfThreads (unsigned int threads) { threads_ = threads; }
+
+  const Stats& getStats () const { return stats_; }
+  const std::string& getLastError () const { return error_; }
+
+  // After a reconstruction: the implicit function, NaN where no subdomain covers p.
+  // `weight_sum` receives Σ_i W_i(p) (0: uncovered).
+  double evaluate (const Eigen::Vector3f& p, double* weight_sum = nullptr) const;
+  // Normalised weights w_i(p) (Eq. 4.4) of the subdomains covering p.
+  std::vector<double> weightsAt (const Eigen::Vector3f& p) const;
+  const std::vector<Constraint>& getOffSurfaceConstraints () const { return off_; }
+  // Valid input points (positions + unit normals after vote / orientation).
+  const std::vector<Eigen::Vector3f>& getFilteredPoints () const { return pts_; }
+  const std::vector<Eigen::Vector3f>& getFilteredNormals () const { return nrm_; }
+  std::size_t getNumberOfSubdomains () const { return subs_.size (); }
+
+protected:
+  std::string getClassName () const override { return "RBFPOUReconstruction"; }
+  void performReconstruction (PolygonMesh& output) override;
+  void performReconstruction (PointCloud<PointNT>& points, std::vector<Vertices>& polygons) override;
+
+private:
+  struct Subdomain
+  {
+    Eigen::Vector3d lo, hi;     // the box Ω_i
+    Eigen::Vector3d centre;     // local frame: q = (p − centre) / scale
+    double scale;
+    Eigen::Vector4d poly;       // linear polynomial in q
+    std::uint32_t first, count; // range in sub_centres_ / sub_lambda_
+  };
+
+  bool fail (const std::string& msg);
+  bool build ();  // filtering, off-surface points, octree, fits
+  void extract (PointCloud<PointNT>& points, std::vector<Vertices>& polygons);
+  double weight (const Subdomain& s, const Eigen::Vector3d& p) const;
+  double local (const Subdomain& s, const Eigen::Vector3d& p) const;
+  template <typename F> void forCovering (const Eigen::Vector3d& p, F&& f) const;
+
+  int t_max_ = 150, t_min_ = 50, band_ = 2;
+  double overlap_ = 1.5, grid_resolution_ = 0, iso_ = 0, epsilon_ = 0;
+  bool grid_auto_ = true, epsilon_auto_ = true, orient_normals_ = false, normal_vote_ = true;
+  Decay decay_ = Decay::LINEAR;
+  unsigned int threads_ = 0;
+
+  Stats stats_;
+  std::string error_;
+  std::vector<Eigen::Vector3f> pts_, nrm_;
+  std::vector<int> src_;  // input index of every filtered point
+  std::vector<Constraint> off_;
+  std::vector<Subdomain> subs_;
+  std::vector<std::uint32_t> sub_centres_;  // constraint ids: < pts_.size () input, else off_
+  std::vector<double> sub_lambda_;
+  // Subdomain lookup: (bucket key, subdomain) sorted by key.
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> buckets_;
+  Eigen::Vector3d bucket_origin_ = Eigen::Vector3d::Zero ();
+  double bucket_size_ = 1;
+};
+
+}  // namespace pcl
+
+#ifdef PCL_NO_PRECOMPILE
+#include <pclx/surface/impl/rbf_pou_reconstruction.hpp>
+#endif

@@ -1,0 +1,438 @@
+// RBFPOUReconstruction: accuracy and topology on closed shapes, the partition of unity,
+// the off-surface constraints, threads, bad input.
+#include <pclx/surface/rbf_pou_reconstruction.h>
+#include <pclx/testing/degradation.h>
+#include <pclx/testing/mesh_distance.h>
+#include <pclx/testing/mesh_sampling.h>
+#include <pclx/testing/shapes.h>
+
+#include <pcl/common/io.h>
+#include <pcl/conversions.h>
+#include <pcl/features/normal_3d.h>
+#include <pcl/kdtree/kdtree_flann.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <random>
+#include <thread>
+
+namespace {
+
+using Cloud = pcl::PointCloud<pcl::PointNormal>;
+using Recon = pcl::RBFPOUReconstruction<pcl::PointNormal>;
+
+struct MeshReport
+{
+  std::size_t vertices = 0, triangles = 0, boundary_edges = 0, nonmanifold_edges = 0;
+  std::size_t misoriented_edges = 0;  // a directed edge used twice
+  long euler = 0;
+  double mean_dist = 0, max_dist = 0, signed_volume = 0;
+};
+
+MeshReport
+inspect (const pcl::PolygonMesh& mesh, const pclx::testing::TriangleMesh* truth)
+{
+  MeshReport r;
+  pcl::PointCloud<pcl::PointXYZ> v;
+  pcl::fromPCLPointCloud2 (mesh.cloud, v);
+  r.vertices = v.size ();
+  r.triangles = mesh.polygons.size ();
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> undirected, directed;
+  for (const auto& p : mesh.polygons)
+  {
+    for (int j = 0; j < 3; ++j)
+    {
+      const std::uint32_t a = p.vertices[j], b = p.vertices[(j + 1) % 3];
+      ++undirected[{std::min (a, b), std::max (a, b)}];
+      ++directed[{a, b}];
+    }
+    const Eigen::Vector3d a = v[p.vertices[0]].getVector3fMap ().cast<double> ();
+    const Eigen::Vector3d b = v[p.vertices[1]].getVector3fMap ().cast<double> ();
+    const Eigen::Vector3d c = v[p.vertices[2]].getVector3fMap ().cast<double> ();
+    r.signed_volume += a.dot (b.cross (c)) / 6;
+  }
+  for (const auto& [e, n] : undirected)
+  {
+    r.boundary_edges += n == 1;
+    r.nonmanifold_edges += n > 2;
+  }
+  for (const auto& [e, n] : directed)
+    r.misoriented_edges += n > 1;
+  r.euler = long (r.vertices) - long (undirected.size ()) + long (r.triangles);
+  if (truth && r.vertices)
+  {
+    pclx::testing::MeshDistance md (*truth);
+    for (const auto& p : v)
+    {
+      const double d = md.distance (p.getVector3fMap ());
+      r.mean_dist += d;
+      r.max_dist = std::max (r.max_dist, d);
+    }
+    r.mean_dist /= double (r.vertices);
+  }
+  return r;
+}
+
+double
+meanSpacing (double area, std::size_t n)
+{
+  return std::sqrt (area / double (n));
+}
+
+void
+expectClosed (const MeshReport& r, long euler, const char* what)
+{
+  EXPECT_GT (r.triangles, 100u) << what;
+  EXPECT_EQ (r.boundary_edges, 0u) << what;
+  EXPECT_EQ (r.nonmanifold_edges, 0u) << what;
+  EXPECT_EQ (r.misoriented_edges, 0u) << what;
+  EXPECT_EQ (r.euler, euler) << what;
+  EXPECT_GT (r.signed_volume, 0) << what << ": triangles must face outwards";
+}
+
+pcl::PolygonMesh
+run (Recon& rec, const Cloud::Ptr& cloud)
+{
+  rec.setInputCloud (cloud);
+  pcl::PolygonMesh mesh;
+  rec.reconstruct (mesh);
+  return mesh;
+}
+
+const pclx::testing::TriangleMesh&
+sphereMesh ()
+{
+  static const auto m = pclx::testing::makeSphere (1.f, 5);
+  return m;
+}
+
+const pclx::testing::TriangleMesh&
+torusMesh ()
+{
+  static const auto m = pclx::testing::makeTorus (1.f, 0.3f, 128, 48);
+  return m;
+}
+
+Cloud::Ptr
+sample (const pclx::testing::TriangleMesh& m, std::size_t n, std::uint32_t seed = 1)
+{
+  return Cloud::Ptr (new Cloud (pclx::testing::sampleUniform (m, n, seed).cloud));
+}
+
+}  // namespace
+
+TEST (RBFPOUReconstruction, SphereClosedGenusZeroWithinBound)
+{
+  const std::size_t n = 8000;
+  const auto cloud = sample (sphereMesh (), n);
+  Recon rec;
+  const auto r = inspect (run (rec, cloud), &sphereMesh ());
+  const double s = meanSpacing (sphereMesh ().totalArea (), n);
+  expectClosed (r, 2, "sphere");
+  EXPECT_LT (r.mean_dist, 0.05 * s);
+  EXPECT_LT (r.max_dist, 0.5 * s);
+  std::printf ("sphere: %zu vertices, %zu triangles, mean %.2e max %.2e (spacing %.3f), %zu subdomains\n",
+               r.vertices, r.triangles, r.mean_dist, r.max_dist, s, rec.getNumberOfSubdomains ());
+}
+
+TEST (RBFPOUReconstruction, TorusClosedGenusOneWithinBound)
+{
+  const std::size_t n = 12000;
+  const auto cloud = sample (torusMesh (), n);
+  Recon rec;
+  const auto r = inspect (run (rec, cloud), &torusMesh ());
+  const double s = meanSpacing (torusMesh ().totalArea (), n);
+  expectClosed (r, 0, "torus");
+  EXPECT_LT (r.mean_dist, 0.05 * s);
+  EXPECT_LT (r.max_dist, 0.5 * s);
+  std::printf ("torus: %zu vertices, mean %.2e max %.2e (spacing %.3f)\n", r.vertices, r.mean_dist,
+               r.max_dist, s);
+}
+
+TEST (RBFPOUReconstruction, PartitionOfUnityCoversAndSumsToOne)
+{
+  const auto cloud = sample (torusMesh (), 6000);
+  for (const auto decay : {Recon::Decay::LINEAR, Recon::Decay::CUBIC})
+  {
+    Recon rec;
+    rec.setDecay (decay);
+    ASSERT_GT (run (rec, cloud).polygons.size (), 0u);
+    const double s = rec.getStats ().mean_spacing;
+    std::mt19937 rng (5);
+    std::uniform_real_distribution<float> u (-1.f, 1.f);
+    std::uniform_int_distribution<std::size_t> pick (0, cloud->size () - 1);
+    for (int i = 0; i < 2000; ++i)
+    {
+      // Within 3 spacings of a data point: the band the mesh is extracted from.
+      const Eigen::Vector3f p = (*cloud)[pick (rng)].getVector3fMap () +
+                                float (3 * s) * Eigen::Vector3f (u (rng), u (rng), u (rng));
+      const auto w = rec.weightsAt (p);
+      ASSERT_FALSE (w.empty ()) << "uncovered point near the data";
+      double sum = 0;
+      for (const double x : w)
+      {
+        EXPECT_GE (x, 0.0);
+        sum += x;
+      }
+      EXPECT_NEAR (sum, 1.0, 1e-12);
+      EXPECT_TRUE (std::isfinite (rec.evaluate (p)));
+    }
+    // Far from the data F is undefined rather than extrapolated.
+    EXPECT_TRUE (std::isnan (rec.evaluate (Eigen::Vector3f (50.f, 50.f, 50.f))));
+  }
+}
+
+TEST (RBFPOUReconstruction, OffSurfacePointsKeepTheirOriginNearest)
+{
+  // Two sheets 0.02 apart; ε = 0.05 forces halving for the points between the sheets.
+  const auto sheets = pclx::testing::makeParallelSheets (1.f, 0.02f, 16);
+  const auto cloud = sample (sheets, 6000, 3);
+  Recon rec;
+  rec.setOffSurfaceEpsilon (0.05);
+  run (rec, cloud);
+  const auto& pts = rec.getFilteredPoints ();
+  const auto& off = rec.getOffSurfaceConstraints ();
+  ASSERT_EQ (pts.size (), cloud->size ());
+  EXPECT_GT (rec.getStats ().eps_halved, 0u);
+  EXPECT_GT (off.size (), pts.size ());
+  pcl::PointCloud<pcl::PointXYZ>::Ptr xyz (new pcl::PointCloud<pcl::PointXYZ>);
+  for (const auto& p : pts)
+  {
+    pcl::PointXYZ q;
+    q.getVector3fMap () = p;
+    xyz->push_back (q);
+  }
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  tree.setInputCloud (xyz);
+  std::size_t inner = 0;
+  for (const auto& c : off)
+  {
+    pcl::PointXYZ q;
+    q.getVector3fMap () = c.p;
+    pcl::Indices k;
+    std::vector<float> d;
+    ASSERT_EQ (tree.nearestKSearch (q, 1, k, d), 1);
+    const float to_origin = (c.p - pts[c.origin]).squaredNorm ();
+    ASSERT_TRUE (k[0] == c.origin || d[0] >= to_origin) << "constraint of point " << c.origin;
+    EXPECT_NEAR (std::abs (c.value), std::sqrt (to_origin), 1e-6f);
+    inner += std::abs (c.p.z ()) < 0.01f;
+  }
+  EXPECT_GT (inner, 0u);  // halved points between the sheets exist
+}
+
+TEST (RBFPOUReconstruction, ParallelInstancesMatchSequentialRuns)
+{
+  const auto a = sample (sphereMesh (), 5000, 7);
+  const auto b = sample (torusMesh (), 6000, 8);
+  auto once = [] (const Cloud::Ptr& c) {
+    Recon rec;
+    return run (rec, c);
+  };
+  const auto seq_a = once (a), seq_b = once (b);
+  pcl::PolygonMesh par_a, par_b;
+  std::thread ta ([&] { par_a = once (a); });
+  std::thread tb ([&] { par_b = once (b); });
+  ta.join ();
+  tb.join ();
+  for (const auto& [s, p] : {std::make_pair (&seq_a, &par_a), std::make_pair (&seq_b, &par_b)})
+  {
+    ASSERT_GT (s->polygons.size (), 0u);
+    EXPECT_EQ (s->cloud.data, p->cloud.data);
+    ASSERT_EQ (s->polygons.size (), p->polygons.size ());
+    for (std::size_t i = 0; i < s->polygons.size (); ++i)
+      ASSERT_EQ (s->polygons[i].vertices, p->polygons[i].vertices);
+  }
+}
+
+TEST (RBFPOUReconstruction, FlippedNormalsStillGiveAClosedSurface)
+{
+  const std::size_t n = 8000;
+  const double s = meanSpacing (sphereMesh ().totalArea (), n);
+  for (const double share : {0.01, 0.05})
+  {
+    auto cloud = sample (sphereMesh (), n, 11);
+    std::mt19937 rng (13);
+    std::uniform_real_distribution<double> u (0, 1);
+    for (auto& p : *cloud)
+      if (u (rng) < share)
+        p.getNormalVector3fMap () *= -1.f;
+    Recon rec;
+    const auto r = inspect (run (rec, cloud), &sphereMesh ());
+    const auto& st = rec.getStats ();
+    std::size_t wrong = 0;
+    for (std::size_t i = 0; i < rec.getFilteredPoints ().size (); ++i)
+      wrong += rec.getFilteredNormals ()[i].dot (rec.getFilteredPoints ()[i]) < 0;
+    std::printf ("wrong after vote: %zu\n", wrong);
+    std::printf ("%.0f %% flipped: voted %zu, mean %.2e max %.2e, t %.2f %.2f %.2f %.2f %.2f\n", 100 * share,
+                 st.normals_voted, r.mean_dist, r.max_dist, st.t_prepare, st.t_off_surface, st.t_octree,
+                 st.t_fits, st.t_extraction);
+    expectClosed (r, 2, share < 0.02 ? "1 % flipped" : "5 % flipped");
+    EXPECT_LT (r.mean_dist, 0.05 * s);
+    EXPECT_LT (r.max_dist, 0.5 * s);
+    EXPECT_GT (rec.getStats ().normals_voted, 0u);
+  }
+}
+
+TEST (RBFPOUReconstruction, UnorientedNormalsWithMstOrientation)
+{
+  // PCL's PCA normals have an arbitrary sign; setOrientNormals (true) fixes them.
+  const std::size_t n = 6000;
+  const auto truth = sample (torusMesh (), n, 17);
+  pcl::PointCloud<pcl::PointXYZ>::Ptr xyz (new pcl::PointCloud<pcl::PointXYZ>);
+  pcl::copyPointCloud (*truth, *xyz);
+  pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
+  ne.setInputCloud (xyz);
+  ne.setKSearch (12);
+  pcl::PointCloud<pcl::Normal> normals;
+  ne.compute (normals);
+  Cloud::Ptr cloud (new Cloud);
+  pcl::concatenateFields (*xyz, normals, *cloud);
+  std::mt19937 rng (3);
+  for (auto& p : *cloud)
+    if (rng () & 1)
+      p.getNormalVector3fMap () *= -1.f;
+  Recon rec;
+  rec.setOrientNormals (true);
+  const auto r = inspect (run (rec, cloud), &torusMesh ());
+  expectClosed (r, 0, "MST-oriented PCA normals");
+  EXPECT_LT (r.mean_dist, 0.1 * meanSpacing (torusMesh ().totalArea (), n));
+}
+
+TEST (RBFPOUReconstruction, NonFiniteAndZeroNormalPointsAreDroppedAndCounted)
+{
+  auto cloud = sample (sphereMesh (), 6000, 19);
+  const float nan = std::numeric_limits<float>::quiet_NaN ();
+  const float inf = std::numeric_limits<float>::infinity ();
+  for (int i = 0; i < 30; ++i)
+  {
+    (*cloud)[i * 7].x = i % 2 ? nan : inf;
+    (*cloud)[i * 7 + 1].getNormalVector3fMap ().setZero ();
+  }
+  cloud->is_dense = false;
+  Recon rec;
+  const auto r = inspect (run (rec, cloud), &sphereMesh ());
+  EXPECT_EQ (rec.getStats ().dropped_points, 30u);
+  EXPECT_EQ (rec.getStats ().zero_normals, 30u);
+  expectClosed (r, 2, "with NaN/Inf points");
+  EXPECT_TRUE (rec.getLastError ().empty ());
+}
+
+TEST (RBFPOUReconstruction, BadInputGivesEmptyMeshAndError)
+{
+  const auto good = sample (sphereMesh (), 3000, 23);
+  auto expectError = [] (Recon& rec, const Cloud::Ptr& c, const std::string& word) {
+    const auto mesh = run (rec, c);
+    EXPECT_TRUE (mesh.polygons.empty ()) << word;
+    EXPECT_EQ (mesh.cloud.width * mesh.cloud.height, 0u) << word;
+    EXPECT_NE (rec.getLastError ().find (word), std::string::npos) << rec.getLastError ();
+  };
+  {
+    Cloud::Ptr c (new Cloud (*good));
+    for (auto& p : *c)
+      p.getNormalVector3fMap ().setZero ();
+    Recon rec;
+    expectError (rec, c, "normals");
+  }
+  {
+    Cloud::Ptr c (new Cloud (*good));
+    c->resize (12);
+    Recon rec;
+    expectError (rec, c, "Tmin");
+  }
+  {
+    Recon rec;
+    rec.setMinPointsPerSubdomain (200);
+    rec.setMaxPointsPerSubdomain (100);
+    expectError (rec, good, "Tmax");
+  }
+  for (const double d : {0.0, -1.0, 1.0})
+  {
+    Recon rec;
+    rec.setOverlap (d);
+    expectError (rec, good, "overlap");
+  }
+  for (const double h : {0.0, -0.1})
+  {
+    Recon rec;
+    rec.setGridResolution (h);
+    expectError (rec, good, "grid resolution");
+  }
+  {
+    Recon rec;
+    rec.setOffSurfaceEpsilon (0);
+    expectError (rec, good, "epsilon");
+  }
+  {
+    Recon rec;
+    rec.setBandWidth (0);
+    expectError (rec, good, "band");
+  }
+  {
+    Recon rec;  // a good run after a failed one on the same instance works again
+    rec.setOverlap (0.5);
+    expectError (rec, good, "overlap");
+    rec.setOverlap (1.5);
+    EXPECT_GT (run (rec, good).polygons.size (), 0u);
+    EXPECT_TRUE (rec.getLastError ().empty ());
+  }
+}
+
+TEST (RBFPOUReconstruction, CoplanarPointsGiveAPlanePatch)
+{
+  // Documented behaviour: an open plane patch over the data (plus the band), not an error.
+  Cloud::Ptr c (new Cloud);
+  std::mt19937 rng (29);
+  std::uniform_real_distribution<float> u (-0.5f, 0.5f);
+  for (int i = 0; i < 3000; ++i)
+  {
+    pcl::PointNormal p;
+    p.x = u (rng);
+    p.y = u (rng);
+    p.z = 0.f;
+    p.normal_x = p.normal_y = 0.f;
+    p.normal_z = 1.f;
+    c->push_back (p);
+  }
+  Recon rec;
+  const auto mesh = run (rec, c);
+  const auto r = inspect (mesh, nullptr);
+  EXPECT_GT (r.triangles, 100u);
+  EXPECT_GT (r.boundary_edges, 0u);  // open
+  EXPECT_EQ (r.nonmanifold_edges, 0u);
+  EXPECT_EQ (r.euler, 1);            // a disc
+  pcl::PointCloud<pcl::PointXYZ> v;
+  pcl::fromPCLPointCloud2 (mesh.cloud, v);
+  for (const auto& p : v)
+    ASSERT_LT (std::abs (p.z), 1e-3f);
+}
+
+TEST (RBFPOUReconstruction, OtherPointTypesKeepAttributes)
+{
+  const auto s = pclx::testing::sampleUniform (sphereMesh (), 4000, 31);
+  pcl::PointCloud<pcl::PointXYZRGBNormal>::Ptr c (new pcl::PointCloud<pcl::PointXYZRGBNormal>);
+  pcl::copyPointCloud (s.cloud, *c);
+  for (auto& p : *c)
+  {
+    p.r = 200;
+    p.g = 10;
+    p.b = 20;
+  }
+  pcl::RBFPOUReconstruction<pcl::PointXYZRGBNormal> rec;
+  rec.setInputCloud (c);
+  pcl::PointCloud<pcl::PointXYZRGBNormal> points;
+  std::vector<pcl::Vertices> polygons;
+  rec.reconstruct (points, polygons);
+  ASSERT_GT (polygons.size (), 100u);
+  for (const auto& p : points)
+  {
+    ASSERT_EQ (p.r, 200);
+    ASSERT_NEAR (p.getNormalVector3fMap ().norm (), 1.f, 1e-4f);
+    // Outward normals on a sphere centred at the origin.
+    ASSERT_GT (p.getNormalVector3fMap ().dot (p.getVector3fMap ().normalized ()), 0.5f);
+  }
+  pcl::RBFPOUReconstruction<pcl::PointXYZINormal> rec_i;  // instantiated too
+  EXPECT_EQ (rec_i.getMaxPointsPerSubdomain (), 150);
+}
