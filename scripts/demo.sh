@@ -2,7 +2,8 @@
 # The README's main job: installs Debian packages, builds (Release), installs the OpenNI2
 # virtual camera, and runs the demo on generated data: hpr_viewer off-screen on a generated
 # cloud, on recorded frames (PCD through pcl::PCDGrabber, 16-bit PNG depth) and live from the
-# virtual camera through pcl::io::OpenNI2Grabber; normals_tool; the benchmarks in their quick
+# virtual camera through pcl::io::OpenNI2Grabber; normals_tool; omicron_viewer growing an LOD
+# octree (growth pictures, Potree output); the benchmarks in their quick
 # mode (peers in the same run) and their charts. Everything lands in ${PCLX_DEMO_OUT:-demo_output}/,
 # listed at the end and on one page in index.html.
 set -euo pipefail
@@ -35,6 +36,12 @@ env -u PCLX_VIRTUAL_CAMERA_DIR xvfb-run -a ./build/apps/hpr_viewer/hpr_viewer --
 echo "== normals_tool (off-screen) on the cloud"
 xvfb-run -a ./build/apps/normals_tool/normals_tool --input "$OUT/scene.ply" --output "$OUT/scene_normals.pcd" \
   --orient mst --view --color region --screenshot "$OUT/normals_scene.png"
+
+echo "== omicron_viewer (off-screen): a 2M-point cloud drawn while its LOD octree is built"
+rm -rf "$OUT/omicron_growth" "$OUT/omicron_potree" && mkdir -p "$OUT/omicron_growth"
+./build/apps/omicron_viewer/make_omicron_cloud --points 2000000 --color --out "$OUT/omicron_cloud.pcd" > /dev/null
+xvfb-run -a ./build/apps/omicron_viewer/omicron_viewer "$OUT/omicron_cloud.pcd" --screenshot-every 2 \
+  --growth-prefix "$OUT/omicron_growth/growth" --screenshot "$OUT/omicron_final.png" --output "$OUT/omicron_potree"
 
 echo "== benchmarks (quick mode; CSV in $OUT)"
 ./build/bench/bench_scenes --sizes 10000 100000 --csv "$OUT/scenes.csv" > /dev/null

@@ -22,6 +22,9 @@ CAPTIONS = {
                       "pcl::io::OpenNI2Grabber (the same path a Kinect or Xtion takes)",
     "normals_scene.png": "normals_tool on the generated cloud: PlanarOctreeNormalEstimation, MST-oriented, "
                          "coloured by planar region",
+    "omicron_growth": "omicron_viewer growth pictures: the front every 2 rendered frames while the octree is built",
+    "omicron_final.png": "omicron_viewer: the OMiCroN front drawn as splats once the octree is built "
+                         "(2M points, coloured by normal)",
     "scene.ply": "the generated scene cloud (torus and sphere on a plate)",
     "hpr_scene_visible.pcd": "the points hpr_viewer found visible in the scene cloud",
     "scene_normals.pcd": "the scene cloud with normals from normals_tool",
@@ -31,6 +34,8 @@ CAPTIONS = {
     "omicron.csv": "OMiCroN benchmark rows (quick mode): ours against pcl_outofcore_process, a top-down "
                    "octree and PCL's octree, same run",
     "frames": "three Kinect-like depth frames as organized PCD (pcl::PCDGrabber input)",
+    "omicron_cloud.pcd": "the 2M-point cloud omicron_viewer builds",
+    "omicron_potree": "the OMiCroN hierarchy as Potree 2.0 files (metadata.json, hierarchy.bin, octree.bin)",
     "depth_frames": "the same frames as 16-bit PNG depth in millimetres (7-Scenes layout)",
 }
 
@@ -66,6 +71,11 @@ def main():
             for c in sorted(os.listdir(path)):
                 if c.endswith(".png"):
                     charts.append(("charts/" + c, titles.get(c, c[:-4].replace("_", " "))))
+        elif name.endswith("_growth") and os.path.isdir(path):
+            # A series of pictures (e.g. a hierarchy growing): shown in order, one caption each.
+            frames = sorted(f for f in os.listdir(path) if f.endswith(".png"))
+            for i, f in enumerate(frames):
+                pictures.append((f"{name}/{f}", f"{CAPTIONS.get(name, name)} ({i + 1} of {len(frames)})"))
         elif name.endswith(".png"):
             pictures.append((name, CAPTIONS.get(name, name)))
         else:
@@ -73,7 +83,7 @@ def main():
 
     # Known outputs in the order the demo makes them, then anything else by name.
     order = {name: i for i, name in enumerate(CAPTIONS)}
-    pictures.sort(key=lambda item: (order.get(item[0], len(order)), item[0]))
+    pictures.sort(key=lambda item: (order.get(item[0].split("/")[0], len(order)), item[0]))
     data.sort(key=lambda item: (order.get(item[0].rstrip("/"), len(order)), item[0]))
 
     print(f"demo.sh wrote to {out}/ (open {out}/index.html to see everything on one page):")
