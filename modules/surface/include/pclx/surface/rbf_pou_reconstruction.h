@@ -121,7 +121,7 @@ private:
     Eigen::Vector3d centre;     // local frame: q = (p − centre) / scale
     double scale;
     Eigen::Vector4d poly;       // linear polynomial in q
-    std::uint32_t first, count; // range in sub_centres_ / sub_lambda_
+    std::uint32_t first, count; // range in sub_lambda_ (and sub_q_ / 3)
   };
 
   bool fail (const std::string& msg);
@@ -143,7 +143,8 @@ private:
   std::vector<int> src_;  // input index of every filtered point
   std::vector<Constraint> off_;
   std::vector<Subdomain> subs_;
-  std::vector<std::uint32_t> sub_centres_;  // constraint ids: < pts_.size () input, else off_
+  // Per subdomain: its centres in the local frame (x, y, z floats) and their RBF weights λ.
+  std::vector<float> sub_q_;
   std::vector<double> sub_lambda_;
   // Subdomain lookup: (bucket key, subdomain) sorted by key.
   std::vector<std::pair<std::uint64_t, std::uint32_t>> buckets_;

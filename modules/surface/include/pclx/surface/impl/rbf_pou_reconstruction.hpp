@@ -102,14 +102,14 @@ template <typename PointNT> double
 RBFPOUReconstruction<PointNT>::local (const Subdomain& s, const Eigen::Vector3d& p) const
 {
   const Eigen::Vector3d q = (p - s.centre) / s.scale;
-  const std::size_t n = pts_.size ();
   double f = s.poly[0] + s.poly.template tail<3> ().dot (q);
+  const float* c = sub_q_.data () + 3 * std::size_t (s.first);
+  const double* lambda = sub_lambda_.data () + s.first;
   for (std::uint32_t j = 0; j < s.count; ++j)
   {
-    const std::uint32_t c = sub_centres_[s.first + j];
-    const Eigen::Vector3f& cp = c < n ? pts_[c] : off_[c - n].p;
-    const double r = (q - (cp.cast<double> () - s.centre) / s.scale).norm ();
-    f += sub_lambda_[s.first + j] * r * r * r;
+    const double dx = q[0] - c[3 * j], dy = q[1] - c[3 * j + 1], dz = q[2] - c[3 * j + 2];
+    const double r2 = dx * dx + dy * dy + dz * dz;
+    f += lambda[j] * r2 * std::sqrt (r2);
   }
   return f;
 }
@@ -173,7 +173,7 @@ RBFPOUReconstruction<PointNT>::build ()
   stats_ = Stats ();
   error_.clear ();
   pts_.clear (); nrm_.clear (); src_.clear (); off_.clear (); subs_.clear ();
-  sub_centres_.clear (); sub_lambda_.clear (); buckets_.clear ();
+  sub_q_.clear (); sub_lambda_.clear (); buckets_.clear ();
 
   if (t_min_ < 10)
     return fail ("Tmin must be >= 10 (got " + std::to_string (t_min_) + ")");
@@ -420,6 +420,7 @@ RBFPOUReconstruction<PointNT>::build ()
   pcl::KdTreeFLANN<pcl::PointXYZ> ctree (false);
   ctree.setInputCloud (cxyz);
   std::vector<char> keep (leaves.size (), 1);
+  std::vector<std::uint32_t> sub_centres;  // constraint ids of every subdomain, until fitted
   std::vector<double> scale (leaves.size (), 1.0);
   std::size_t grown = 0;
 #pragma omp parallel for num_threads(nt) reduction(+ : grown) schedule(dynamic, 16)
@@ -489,10 +490,10 @@ RBFPOUReconstruction<PointNT>::build ()
     s.hi = s.centre.array () + h;
     s.scale = h;
     s.poly.setZero ();
-    s.first = std::uint32_t (sub_centres_.size ());
+    s.first = std::uint32_t (sub_centres.size ());
     s.count = std::uint32_t (leaves[l].ids.size ());
     stats_.over_tmax += leaves[l].ids.size () > std::size_t (t_max_) && scale[l] > 1;
-    sub_centres_.insert (sub_centres_.end (), leaves[l].ids.begin (), leaves[l].ids.end ());
+    sub_centres.insert (sub_centres.end (), leaves[l].ids.begin (), leaves[l].ids.end ());
     subs_.push_back (s);
   }
   leaves.clear ();
@@ -528,7 +529,8 @@ RBFPOUReconstruction<PointNT>::build ()
 
   // --- local fits: [A P; Pᵀ 0] [λ; c] = [h; 0], A_jk = |q_j − q_k|³ -------------------
   t0 = Clock::now ();
-  sub_lambda_.assign (sub_centres_.size (), 0.0);
+  sub_lambda_.assign (sub_centres.size (), 0.0);
+  sub_q_.assign (3 * sub_centres.size (), 0.f);
   std::size_t fallbacks = 0;
 #pragma omp parallel for num_threads(nt) reduction(+ : fallbacks) schedule(dynamic, 4)
   for (std::ptrdiff_t si = 0; si < std::ptrdiff_t (subs_.size ()); ++si)
@@ -539,8 +541,11 @@ RBFPOUReconstruction<PointNT>::build ()
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero (m + 4);
     for (int j = 0; j < m; ++j)
     {
-      const std::uint32_t c = sub_centres_[s.first + j];
+      const std::uint32_t c = sub_centres[s.first + j];
       q.col (j) = (centre_of (c).template cast<double> () - s.centre) / s.scale;  // conditioning
+      for (int r = 0; r < 3; ++r)
+        sub_q_[3 * (std::size_t (s.first) + j) + r] = float (q (r, j));
+      q.col (j) = Eigen::Vector3f (&sub_q_[3 * (std::size_t (s.first) + j)]).template cast<double> ();
       rhs[j] = c < n ? 0.0 : double (off_[c - n].value);
     }
     Eigen::MatrixXd a = Eigen::MatrixXd::Zero (m + 4, m + 4);
