@@ -1,5 +1,6 @@
 // RBFPOUReconstruction: accuracy and topology on closed shapes, the partition of unity,
 // the off-surface constraints, threads, bad input.
+#include <pclx/normals/planar_octree_normal_estimation.h>
 #include <pclx/surface/rbf_pou_reconstruction.h>
 #include <pclx/testing/degradation.h>
 #include <pclx/testing/mesh_distance.h>
@@ -299,6 +300,26 @@ TEST (RBFPOUReconstruction, UnorientedNormalsWithMstOrientation)
   const auto r = inspect (run (rec, cloud), &torusMesh ());
   expectClosed (r, 0, "MST-oriented PCA normals");
   EXPECT_LT (r.mean_dist, 0.1 * meanSpacing (torusMesh ().totalArea (), n));
+}
+
+TEST (RBFPOUReconstruction, PlanarOctreeNormalsWithMstOrientation)
+{
+  // pclx::normals' estimator (unoriented output) + the built-in MST orientation.
+  const std::size_t n = 6000;
+  const auto truth = sample (sphereMesh (), n, 37);
+  pcl::PointCloud<pcl::PointXYZ>::Ptr xyz (new pcl::PointCloud<pcl::PointXYZ>);
+  pcl::copyPointCloud (*truth, *xyz);
+  pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
+  ne.setInputCloud (xyz);
+  pcl::PointCloud<pcl::Normal> normals;
+  ne.compute (normals);
+  Cloud::Ptr cloud (new Cloud);
+  pcl::concatenateFields (*xyz, normals, *cloud);
+  Recon rec;
+  rec.setOrientNormals (true);
+  const auto r = inspect (run (rec, cloud), &sphereMesh ());
+  expectClosed (r, 2, "PlanarOctreeNormalEstimation + MST");
+  EXPECT_LT (r.mean_dist, 0.1 * meanSpacing (sphereMesh ().totalArea (), n));
 }
 
 TEST (RBFPOUReconstruction, NonFiniteAndZeroNormalPointsAreDroppedAndCounted)
