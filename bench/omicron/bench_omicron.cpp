@@ -7,6 +7,7 @@
 //   omicron         our build (front off / on with an orbiting camera thread), sweeps of
 //                   ratio × leaf collapse, worklist size, sort chunks, a memory budget (when the
 //                   API has one), hierarchy completion over time (thesis Fig. 4.4)
+//                   (also from the file: setInputFile without budget, read in blocks by the build)
 //   topdown_10k     a top-down octree split at 10,000 points with a ratio LOD sample per inner node
 //   pcl_octree      pcl::octree::OctreePointCloudPointVector at the depth-7 leaf cell (no LOD)
 //   pcl_outofcore   pcl_outofcore_process -depth 7 -gen_lod (subprocess, /usr/bin/time -v)
@@ -363,6 +364,7 @@ struct Config
   std::size_t budget = 0;   // setMemoryBudget (bytes), 0 = none
   std::string curve;        // completion curve label
   std::string file, out_dir;  // budgeted builds read the PCD and write Potree output here
+  bool from_file = false;     // in-memory build from the file path (setInputFile, no budget)
 
   std::string
   params () const
@@ -372,6 +374,8 @@ struct Config
                     ";threads=" + std::to_string (threads) + ";front=" + (front ? "1" : "0");
     if (budget)
       p += ";budget_mb=" + fmt (budget / 1048576.0);
+    if (from_file)
+      p += ";input=file";
     if (!curve.empty ())
       p += ";curve=" + curve;
     return p;
@@ -475,6 +479,8 @@ runOurs (const Cloud::ConstPtr& cloud, const Config& c, std::size_t rss0)
     octree.setInputFile (c.file);
     octree.setOutputDirectory (c.out_dir);
   }
+  else if (c.from_file)
+    octree.setInputFile (c.file);  // read in blocks by the build itself (file to tree)
 
   std::vector<double> frames;
   std::vector<std::pair<double, std::size_t>> samples;  // (s, finished nodes)
@@ -1012,6 +1018,15 @@ main (int argc, char** argv)
       Config fr = base;
       fr.front = true;
       ours (fr);
+      // From the file (the build reads it in blocks): file to tree, against pcl_load + ours.
+      for (bool front : {false, true})
+      {
+        Config ff = base;
+        ff.from_file = true;
+        ff.file = path;
+        ff.front = front;
+        ours (ff);
+      }
       for (bool collapse : {false, true})
       {
         if (name != "scene" && !collapse)

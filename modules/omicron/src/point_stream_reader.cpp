@@ -472,6 +472,10 @@ pcl::PointStreamReader::readBinary (std::size_t max_points, pcl::PointCloud<pcl:
       v = v <= 1.0 ? v * 255.0 : v;
     return static_cast<std::uint8_t> (std::min (255.0, std::max (0.0, std::round (v))));
   };
+  // Little-endian float x/y/z records (the common PCD/PLY case): the coordinates are copied,
+  // not converted through double field by field.
+  const bool float_xyz = !compressed_ && !big_endian_ && x_.type == F32 && y_.type == F32 && z_.type == F32;
+  out.points.reserve (out.points.size () + static_cast<std::size_t> (std::min<std::uint64_t> (max_points, declared_ - consumed_)));
   std::size_t n = 0;
   while (n < max_points && consumed_ < declared_)
   {
@@ -493,9 +497,19 @@ pcl::PointStreamReader::readBinary (std::size_t max_points, pcl::PointCloud<pcl:
                            : base + i * record_bytes_ + f.index;
       };
       pcl::PointXYZRGB p;
-      p.x = static_cast<float> (value (at (x_), x_.type));
-      p.y = static_cast<float> (value (at (y_), y_.type));
-      p.z = static_cast<float> (value (at (z_), z_.type));
+      if (float_xyz)
+      {
+        const std::uint8_t* r = base + i * record_bytes_;
+        std::memcpy (&p.x, r + x_.index, sizeof (float));
+        std::memcpy (&p.y, r + y_.index, sizeof (float));
+        std::memcpy (&p.z, r + z_.index, sizeof (float));
+      }
+      else
+      {
+        p.x = static_cast<float> (value (at (x_), x_.type));
+        p.y = static_cast<float> (value (at (y_), y_.type));
+        p.z = static_cast<float> (value (at (z_), z_.type));
+      }
       p.rgba = 0xff000000u;
       if (packed_rgb_)
         p.rgba = load<std::uint32_t> (at (rgb_), false) | 0xff000000u;

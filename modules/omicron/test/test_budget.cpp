@@ -396,3 +396,65 @@ TEST (ObliqueCutOctreeBudget, PlannerBoundsAndFitsTheBudget)
   EXPECT_LT (none.spill_level, 0);
   EXPECT_NE (none.error.find ("5000 points"), std::string::npos) << none.error;
 }
+
+// The in-memory build from a file (read in blocks on a reader thread, bounds gathered as the
+// blocks arrive) equals the build from the loaded cloud: same root cube, same sorted array,
+// same hierarchy. 1.3M points: two blocks of the reader.
+TEST (ObliqueCutOctreeBudget, FileWithoutBudgetEqualsTheCloudBuild)
+{
+  TempDir tmp;
+  const auto cloud = mixedCloud (1300000, 11);
+  (*cloud)[7].z = std::numeric_limits<float>::infinity ();  // dropped and counted on both paths
+  const std::string pcd = (tmp.path / "in.pcd").string ();
+  ASSERT_EQ (pcl::io::savePCDFileBinary (pcd, *cloud), 0);
+  for (bool collapse : {false, true})
+  {
+    Octree from_cloud, from_file;
+    from_cloud.setInputCloud (cloud);
+    from_file.setInputFile (pcd);
+    configure (from_cloud, 7, collapse);
+    configure (from_file, 7, collapse);
+    ASSERT_TRUE (from_cloud.build ()) << from_cloud.getLastError ();
+    ASSERT_TRUE (from_file.build ()) << from_file.getLastError ();
+    EXPECT_EQ (from_file.getRootOrigin (), from_cloud.getRootOrigin ());
+    EXPECT_EQ (from_file.getRootEdge (), from_cloud.getRootEdge ());
+    const auto sc = from_cloud.getStatistics (), sf = from_file.getStatistics ();
+    EXPECT_EQ (sf.input_points, sc.input_points);
+    EXPECT_EQ (sf.kept_points, sc.kept_points);
+    EXPECT_EQ (sf.dropped_invalid, 1u);
+    EXPECT_EQ (sc.dropped_invalid, 1u);
+    EXPECT_EQ (sf.nodes_per_level, sc.nodes_per_level);
+    EXPECT_EQ (sf.points_per_level, sc.points_per_level);
+    const auto& a = from_cloud.getSortedPoints ();
+    const auto& b = from_file.getSortedPoints ();
+    ASSERT_EQ (a.size (), b.size ());
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < a.size (); ++i)
+      differ += (a[i].x != b[i].x || a[i].y != b[i].y || a[i].z != b[i].z) ? 1 : 0;
+    EXPECT_EQ (differ, 0u);
+    pcl::PotreeWriter<pcl::PointXYZ> writer;
+    const std::string dc = (tmp.path / ("cloud" + std::to_string (collapse))).string ();
+    const std::string df = (tmp.path / ("file" + std::to_string (collapse))).string ();
+    writer.write (from_cloud, dc);
+    writer.write (from_file, df);
+    EXPECT_EQ (comparePotree (dc, df), "");
+  }
+}
+
+// A file that fails while it is read (truncated text) is a clear error of the build.
+TEST (ObliqueCutOctreeBudget, FileReadErrorsFailTheInMemoryBuild)
+{
+  TempDir tmp;
+  const std::string xyz = (tmp.path / "bad.xyz").string ();
+  {
+    std::ofstream f (xyz);
+    for (int i = 0; i < 3000; ++i)
+      f << i * 0.001 << " " << i * 0.002 << " 0.5\n";
+    f << "1.0 oops 2.0\n";
+  }
+  Octree o;
+  o.setInputFile (xyz);
+  configure (o, 5, true);
+  EXPECT_FALSE (o.build ());
+  EXPECT_NE (o.getLastError ().find ("bad.xyz"), std::string::npos) << o.getLastError ();
+}

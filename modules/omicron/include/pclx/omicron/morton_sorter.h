@@ -39,6 +39,10 @@ public:
   void setRootCube (const Eigen::Vector3d& origin, double edge);
   void clearRootCube () { user_cube_ = false; }
   void setThreads (int threads) { threads_ = threads < 1 ? 1 : threads; }
+  // The finite points' bounds, when the caller already has them (e.g. gathered while reading
+  // the file): the next prepare () skips its bounds pass and makes the same cube from them.
+  // Ignored with a root cube; used by one prepare () only.
+  void setKnownBounds (const Eigen::Array3f& lo, const Eigen::Array3f& hi);
 
   // Reads `cloud` into `sorted` (resized to the kept points, bucketed). Returns the kept count.
   std::size_t prepare (const PointCloud<PointT>& cloud, PointVector& sorted);
@@ -85,11 +89,14 @@ private:
     std::uint32_t index;
   };
   void radixSort (std::size_t n);
+  void setCubeFromBounds (const Eigen::Array3f& lo, const Eigen::Array3f& hi);
 
   int max_depth_ = 7;
   std::size_t chunks_ = 16;
   int threads_ = 1;
   bool user_cube_ = false;
+  bool known_bounds_ = false;
+  Eigen::Array3f known_lo_ = Eigen::Array3f::Zero (), known_hi_ = Eigen::Array3f::Zero ();
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero ();
   double edge_ = 1.0;
   int bucket_bits_ = 0;

@@ -29,6 +29,7 @@
 #include <pclx/omicron/morton_sorter.h>
 #include <pclx/omicron/oblique_cut.h>
 #include <pclx/omicron/oblique_cut_front.h>
+#include <pclx/omicron/point_stream_reader.h>
 
 #include <pcl/point_cloud.h>
 
@@ -81,7 +82,9 @@ public:
   ObliqueCutOctree& operator= (const ObliqueCutOctree&) = delete;
 
   // The input: a cloud, or a file (PCD/PLY/XYZ, read through pcl::PointStreamReader; without a
-  // memory budget it is read whole into memory first). Each replaces the other.
+  // memory budget it is read into memory in blocks, on a reader thread, with the bounds folded
+  // in as the blocks arrive, so the sorter skips its bounds pass: one pass over the bytes; the
+  // result equals the build from the loaded cloud). Each replaces the other.
   void setInputCloud (const PointCloudConstPtr& cloud) { checkIdle (); input_ = cloud; input_file_.clear (); }
   void setInputFile (const std::string& path) { checkIdle (); input_file_ = path; input_.reset (); }
   const std::string& getInputFile () const { return input_file_; }
@@ -147,6 +150,9 @@ public:
 private:
   bool run ();
   bool runBudgeted (std::chrono::steady_clock::time_point t0);
+  // Reads the whole file in blocks on a reader thread; on_block (const PointCloud&) runs
+  // here, overlapped with the parsing of the next block. Rethrows the reader's errors.
+  template <typename F> void readFileBlocks (PointStreamReader& reader, F&& on_block);
   bool fail (const std::string& why);
   void removeTempOutput ();
   void checkIdle () const;

@@ -1,4 +1,5 @@
 #pragma once
+#include <pclx/omicron/huge_pages.h>
 #include <pclx/omicron/morton_sorter.h>
 #include <pclx/omicron/worker_pool.h>
 
@@ -34,6 +35,25 @@ pcl::MortonSorter<PointT>::setRootCube (const Eigen::Vector3d& origin, double ed
   user_cube_ = true;
 }
 
+template <typename PointT> void
+pcl::MortonSorter<PointT>::setCubeFromBounds (const Eigen::Array3f& l, const Eigen::Array3f& h)
+{
+  origin_ = l.cast<double> ().matrix ();
+  const double extent = (h.cast<double> () - l.cast<double> ()).maxCoeff ();
+  // All points identical (or none): any positive edge puts them in cell 0.
+  edge_ = extent > 0 && std::isfinite (extent) ? extent : 1.0;
+  if (!(l <= h).all ())
+    origin_.setZero ();
+}
+
+template <typename PointT> void
+pcl::MortonSorter<PointT>::setKnownBounds (const Eigen::Array3f& lo, const Eigen::Array3f& hi)
+{
+  known_lo_ = lo;
+  known_hi_ = hi;
+  known_bounds_ = true;
+}
+
 template <typename PointT> std::size_t
 pcl::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector& sorted)
 {
@@ -52,7 +72,12 @@ pcl::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector
     return std::isfinite (p.x) && std::isfinite (p.y) && std::isfinite (p.z);
   };
 
-  if (!user_cube_)
+  if (known_bounds_ && !user_cube_)
+  {
+    setCubeFromBounds (known_lo_, known_hi_);
+    known_bounds_ = false;
+  }
+  else if (!user_cube_)
   {
     std::vector<Eigen::Array3f> lo (blocks, Eigen::Array3f::Constant (std::numeric_limits<float>::max ()));
     std::vector<Eigen::Array3f> hi (blocks, Eigen::Array3f::Constant (-std::numeric_limits<float>::max ()));
@@ -71,12 +96,7 @@ pcl::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector
       l = l.min (lo[b]);
       h = h.max (hi[b]);
     }
-    origin_ = l.cast<double> ().matrix ();
-    const double extent = (h.cast<double> () - l.cast<double> ()).maxCoeff ();
-    // All points identical (or none): any positive edge puts them in cell 0.
-    edge_ = extent > 0 && std::isfinite (extent) ? extent : 1.0;
-    if (!(l <= h).all ())
-      origin_.setZero ();
+    setCubeFromBounds (l, h);
   }
 
   // Top bits per bucket: enough buckets to cut `chunks_` balanced chunks, but small enough
@@ -138,8 +158,9 @@ pcl::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector
     dropped_invalid_ += bad[b];
     dropped_outside_ += outside[b];
   }
-  sorted.clear ();
-  sorted.shrink_to_fit ();
+  // Fresh storage advised for huge pages before resize () first touches it.
+  PointVector ().swap (sorted);
+  omicron::reserveHuge (sorted, sum);
   sorted.resize (sum);
   pool.parallelFor (blocks, [&] (std::size_t b, int) {
     std::size_t* h = hist.data () + b * nb;
@@ -211,6 +232,9 @@ pcl::MortonSorter<PointT>::sortChunk (std::size_t k, PointVector& sorted, std::v
     std::size_t largest = 0;
     for (std::size_t j = 0; j + 1 < chunk_begin_.size (); ++j)
       largest = std::max (largest, chunk_begin_[j + 1] - chunk_begin_[j]);
+    omicron::reserveHuge (keys_, largest);
+    omicron::reserveHuge (keys_tmp_, largest);
+    omicron::reserveHuge (points_tmp_, largest);
     keys_.resize (largest);
     keys_tmp_.resize (largest);
     points_tmp_.resize (largest);
@@ -224,6 +248,8 @@ pcl::MortonSorter<PointT>::sortChunk (std::size_t k, PointVector& sorted, std::v
     keys_[i].index = static_cast<std::uint32_t> (i);
   }
   radixSort (n);
+  if (codes.capacity () < n)
+    omicron::reserveHuge (codes, keys_.size ());
   codes.resize (n);
   const std::uint64_t prefix = std::uint64_t (1) << (3 * max_depth_);
   for (std::size_t i = 0; i < n; ++i)

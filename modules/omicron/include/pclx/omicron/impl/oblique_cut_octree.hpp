@@ -7,8 +7,13 @@
 
 #include <pcl/console/print.h>
 
+#include <pclx/omicron/huge_pages.h>
+
 #include <chrono>
+#include <condition_variable>
+#include <exception>
 #include <filesystem>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -167,6 +172,76 @@ pcl::ObliqueCutOctree<PointT>::wait ()
   return result_;
 }
 
+template <typename PointT> template <typename F> void
+pcl::ObliqueCutOctree<PointT>::readFileBlocks (PointStreamReader& reader, F&& on_block)
+{
+  // Two blocks in flight: the reader thread fills one while on_block consumes the other.
+  constexpr std::size_t kBlock = std::size_t (1) << 20;
+  PointCloud blocks[2];
+  bool full[2] = {false, false}, done = false;
+  std::exception_ptr error;
+  std::mutex m;
+  std::condition_variable cv;
+  bool stop = false;
+  std::thread producer ([&] {
+    try
+    {
+      for (int k = 0;; k ^= 1)
+      {
+        {
+          std::unique_lock<std::mutex> lock (m);
+          cv.wait (lock, [&] { return !full[k] || stop; });
+          if (stop)
+            break;
+        }
+        const bool more = reader.read (kBlock, blocks[k]);
+        std::lock_guard<std::mutex> lock (m);
+        if (!more)
+          break;
+        full[k] = true;
+        cv.notify_all ();
+      }
+    }
+    catch (...)
+    {
+      std::lock_guard<std::mutex> lock (m);
+      error = std::current_exception ();
+    }
+    std::lock_guard<std::mutex> lock (m);
+    done = true;
+    cv.notify_all ();
+  });
+  try
+  {
+    for (int k = 0;; k ^= 1)
+    {
+      {
+        std::unique_lock<std::mutex> lock (m);
+        cv.wait (lock, [&] { return full[k] || done; });
+        if (!full[k])
+          break;
+      }
+      on_block (blocks[k]);
+      std::lock_guard<std::mutex> lock (m);
+      full[k] = false;
+      cv.notify_all ();
+    }
+  }
+  catch (...)
+  {
+    {
+      std::lock_guard<std::mutex> lock (m);
+      stop = true;
+      cv.notify_all ();
+    }
+    producer.join ();
+    throw;
+  }
+  producer.join ();
+  if (error)
+    std::rethrow_exception (error);
+}
+
 template <typename PointT> bool
 pcl::ObliqueCutOctree<PointT>::run ()
 {
@@ -186,19 +261,37 @@ pcl::ObliqueCutOctree<PointT>::run ()
       return fail (e.what ());
     }
   }
-  // The input: the cloud, or the file read whole (the in-memory build).
+  // The input: the cloud, or the file read whole in blocks (the in-memory build). The file
+  // path is one pass over the bytes: a reader thread parses block k + 1 while this thread
+  // appends block k to the cloud (storage for the declared count) and folds
+  // it into the bounds, so the sorter skips its own bounds pass.
   PointCloudConstPtr input = input_;
+  bool file_bounds = false;
+  Eigen::Array3f file_lo = Eigen::Array3f::Constant (std::numeric_limits<float>::max ());
+  Eigen::Array3f file_hi = Eigen::Array3f::Constant (-std::numeric_limits<float>::max ());
   if (!input_file_.empty ())
   {
     try
     {
       PointStreamReader reader (input_file_);
       typename PointCloud::Ptr all (new PointCloud);
-      PointCloud block;
-      while (reader.read (std::size_t (1) << 20, block))
-        all->insert (all->end (), block.begin (), block.end ());
+      // Storage for the declared count (no regrowth copies). Not on huge pages: measured
+      // +0.6 s of system time at 20M on this VM (the sorted array and chunk buffers are).
+      if (reader.getDeclaredPoints () > 0)
+        all->points.reserve (static_cast<std::size_t> (reader.getDeclaredPoints ()));
+      readFileBlocks (reader, [&] (const PointCloud& block) {
+        for (const PointT& p : block)
+        {
+          file_lo = file_lo.min (p.getArray3fMap ());
+          file_hi = file_hi.max (p.getArray3fMap ());
+        }
+        all->points.insert (all->points.end (), block.begin (), block.end ());
+      });
+      all->width = static_cast<std::uint32_t> (all->points.size ());
+      all->height = 1;
       stats_.dropped_invalid = reader.getDroppedInvalid ();
       input = all;
+      file_bounds = true;
     }
     catch (const std::exception& e)
     {
@@ -214,6 +307,8 @@ pcl::ObliqueCutOctree<PointT>::run ()
   sorter.setThreads (params_.threads);
   if (user_cube_)
     sorter.setRootCube (origin_, edge_);
+  else if (file_bounds)
+    sorter.setKnownBounds (file_lo, file_hi);
   const std::size_t file_dropped = stats_.dropped_invalid;
   stats_.input_points = input->size () + file_dropped;
   const std::size_t kept = sorter.prepare (*input, sorted_);
