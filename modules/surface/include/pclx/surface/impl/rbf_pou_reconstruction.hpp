@@ -63,6 +63,25 @@ sortUnique (std::vector<std::uint64_t>& v)
   v.erase (std::unique (v.begin (), v.end ()), v.end ());
 }
 
+// Union of `keys` shifted by o·stride for o in [lo, hi] (one axis). A shift keeps a sorted
+// array sorted, so this is a chain of merges: peak memory ~3× the result, not (hi − lo + 1)×.
+inline void
+dilate (std::vector<std::uint64_t>& keys, int axis, int lo, int hi)
+{
+  const std::uint64_t stride = std::uint64_t (1) << (kBits * axis);
+  std::vector<std::uint64_t> out, shifted (keys.size ()), merged;
+  for (int o = lo; o <= hi; ++o)
+  {
+    for (std::size_t i = 0; i < keys.size (); ++i)
+      shifted[i] = keys[i] + std::uint64_t (std::int64_t (o)) * stride;
+    merged.clear ();
+    merged.reserve (out.size () + shifted.size ());
+    std::set_union (out.begin (), out.end (), shifted.begin (), shifted.end (), std::back_inserter (merged));
+    out.swap (merged);
+  }
+  keys.swap (out);
+}
+
 // PCL's marching-cubes corner order (MarchingCubes::getNeighborList1D) and edge ends.
 constexpr int kCorner[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 0, 1}, {0, 0, 1},
                                {0, 1, 0}, {1, 1, 0}, {1, 1, 1}, {0, 1, 1}};
@@ -606,33 +625,12 @@ RBFPOUReconstruction<PointNT>::extract (PointCloud<PointNT>& points, std::vector
   }
   sortUnique (cells);
   for (int axis = 0; axis < 3; ++axis)
-  {
-    std::vector<std::uint64_t> next;
-    next.reserve (cells.size () * (2 * band_ + 1));
-    for (const auto key : cells)
-    {
-      Eigen::Array3i c = unpack (key);
-      for (int o = -band_; o <= band_; ++o)
-      {
-        Eigen::Array3i d = c;
-        d[axis] += o;
-        next.push_back (pack (d[0], d[1], d[2]));
-      }
-    }
-    sortUnique (next);
-    cells.swap (next);
-  }
+    dilate (cells, axis, -band_, band_);
   stats_.active_cells = cells.size ();
 
-  std::vector<std::uint64_t> corners;
-  corners.reserve (cells.size () * 2);
-  for (const auto key : cells)
-  {
-    const Eigen::Array3i c = unpack (key);
-    for (const auto& o : kCorner)
-      corners.push_back (pack (c[0] + o[0], c[1] + o[1], c[2] + o[2]));
-  }
-  sortUnique (corners);
+  std::vector<std::uint64_t> corners = cells;  // corners: cells dilated by {0, 1}³
+  for (int axis = 0; axis < 3; ++axis)
+    dilate (corners, axis, 0, 1);
   stats_.corners = corners.size ();
   auto position = [&] (std::uint64_t key) {
     return Eigen::Vector3d (origin + unpack (key).cast<double> ().matrix () * h);
