@@ -733,7 +733,14 @@ RBFPOUReconstruction<PointNT>::extract (PointCloud<PointNT>& points, std::vector
     out.curvature = 0;
     points[i] = out;
   }
-  polygons.resize (tri_count.back ());
+  // The grid is no longer needed: free it before the polygons are allocated (peak memory).
+  const std::size_t n_tri = tri_count.back ();
+  std::vector<std::uint64_t> ().swap (cells);
+  std::vector<std::uint64_t> ().swap (corners);
+  std::vector<double> ().swap (value);
+  std::vector<std::uint8_t> ().swap (cube);
+  std::vector<std::size_t> ().swap (tri_count);
+  polygons.resize (n_tri);
 #pragma omp parallel for num_threads(nt) schedule(static)
   for (std::ptrdiff_t t = 0; t < std::ptrdiff_t (polygons.size ()); ++t)
   {
