@@ -312,6 +312,11 @@ pcl::ObliqueCutOctree<PointT>::run ()
   const std::size_t file_dropped = stats_.dropped_invalid;
   stats_.input_points = input->size () + file_dropped;
   const std::size_t kept = sorter.prepare (*input, sorted_);
+  // The cloud read from the file is not needed after the scatter: freed before the sort and
+  // fix phases (still counted in accounted_peak_bytes, which stays an upper bound).
+  const std::size_t file_cloud_bytes = input_file_.empty () ? 0 : input->size () * sizeof (PointT);
+  if (!input_file_.empty ())
+    input.reset ();
   stats_.seconds_read = since ();
   stats_.kept_points = kept;
   stats_.dropped_invalid = sorter.getDroppedInvalid () + file_dropped;
@@ -397,7 +402,7 @@ pcl::ObliqueCutOctree<PointT>::run ()
                                                                    : stats_.seconds_to_first_chunk + front_.secondsToFirstLeaf ();
   stats_.hierarchy_bytes = cut_->memoryBytes ();
   stats_.accounted_peak_bytes = stats_.sorted_bytes + sort_buffer_bytes + stats_.hierarchy_bytes +
-                                (input_file_.empty () ? 0 : input->size () * sizeof (PointT));
+                                file_cloud_bytes;
   stats_.nodes_per_level.assign (lmax + 1, 0);
   stats_.points_per_level.assign (lmax + 1, 0);
   stats_.leaves_per_level.assign (lmax + 1, 0);
