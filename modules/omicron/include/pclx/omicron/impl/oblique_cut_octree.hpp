@@ -242,6 +242,32 @@ pcl::ObliqueCutOctree<PointT>::readFileBlocks (PointStreamReader& reader, F&& on
     std::rethrow_exception (error);
 }
 
+// The first sorted chunk fixes the automatic leaf splat radius (leaf cell edge over the
+// square root of the mean points per occupied leaf: about the point spacing on a surface);
+// then the per-level radii, the front and the cut start.
+template <typename PointT> void
+pcl::ObliqueCutOctree<PointT>::startCut (const std::vector<MortonCode>& first_chunk_codes,
+                                         const Eigen::Vector3d& origin, double edge)
+{
+  const int lmax = params_.max_depth;
+  float leaf_radius = leaf_radius_;
+  const double cell = edge / static_cast<double> (std::uint64_t (1) << lmax);
+  if (!(leaf_radius > 0.f))
+  {
+    const auto& codes = first_chunk_codes;
+    std::size_t occupied = 0;
+    for (std::size_t i = 0; i < codes.size (); ++i)
+      occupied += (i == 0 || codes[i] != codes[i - 1]) ? 1 : 0;
+    leaf_radius = static_cast<float> (cell / std::sqrt (static_cast<double> (codes.size ()) / occupied));
+  }
+  radii_.assign (lmax + 1, leaf_radius);
+  for (int l = lmax - 1; l >= 0; --l)
+    radii_[l] = radii_[l + 1] * multipliers_[std::min<std::size_t> (lmax - 1 - l, multipliers_.size () - 1)];
+  front_.reset (lmax, origin, edge, radii_);
+  cut_.reset (new ObliqueCut<PointT> (params_));
+  cut_->setFront (&front_);
+}
+
 template <typename PointT> bool
 pcl::ObliqueCutOctree<PointT>::run ()
 {
@@ -346,21 +372,7 @@ pcl::ObliqueCutOctree<PointT>::run ()
   // The first chunk sort allocates the buffers for the largest chunk.
   const std::size_t sort_buffer_bytes = sorter.bufferBytes () + codes.capacity () * sizeof (MortonCode);
   stats_.seconds_to_first_chunk = since ();
-  float leaf_radius = leaf_radius_;
-  const double cell = edge / static_cast<double> (std::uint64_t (1) << lmax);
-  if (!(leaf_radius > 0.f))
-  {
-    std::size_t occupied = 0;
-    for (std::size_t i = 0; i < codes.size (); ++i)
-      occupied += (i == 0 || codes[i] != codes[i - 1]) ? 1 : 0;
-    leaf_radius = static_cast<float> (cell / std::sqrt (static_cast<double> (codes.size ()) / occupied));
-  }
-  radii_.assign (lmax + 1, leaf_radius);
-  for (int l = lmax - 1; l >= 0; --l)
-    radii_[l] = radii_[l + 1] * multipliers_[std::min<std::size_t> (lmax - 1 - l, multipliers_.size () - 1)];
-  front_.reset (lmax, origin, edge, radii_);
-  cut_.reset (new ObliqueCut<PointT> (params_));
-  cut_->setFront (&front_);
+  startCut (codes, origin, edge);
 
   // Sorter thread (Algorithm 1): leaves of each sorted chunk, in worklists, concatenated.
   std::thread sorter_thread ([&] {

@@ -423,21 +423,7 @@ pcl::ObliqueCutOctree<PointT>::runBudgeted (std::chrono::steady_clock::time_poin
         // The first sorted piece fixes the automatic leaf splat radius; then the front and
         // the cut start.
         stats_.seconds_to_first_chunk = since ();
-        float leaf_radius = leaf_radius_;
-        const double cell = edge / static_cast<double> (std::uint64_t (1) << lmax);
-        if (!(leaf_radius > 0.f))
-        {
-          std::size_t occupied = 0;
-          for (std::size_t i = 0; i < codes.size (); ++i)
-            occupied += (i == 0 || codes[i] != codes[i - 1]) ? 1 : 0;
-          leaf_radius = static_cast<float> (cell / std::sqrt (static_cast<double> (codes.size ()) / occupied));
-        }
-        radii_.assign (lmax + 1, leaf_radius);
-        for (int l = lmax - 1; l >= 0; --l)
-          radii_[l] = radii_[l + 1] * multipliers_[std::min<std::size_t> (lmax - 1 - l, multipliers_.size () - 1)];
-        front_.reset (lmax, origin, edge, radii_);
-        cut_.reset (new ObliqueCut<PointT> (params_));
-        cut_->setFront (&front_);
+        startCut (codes, origin, edge);
         cut_->setSpill (S, sink);
         spill_level_ = S;
       }
