@@ -2,7 +2,8 @@
 # The README's main job: installs Debian packages, builds (Release), installs the OpenNI2
 # virtual camera, and runs the demo on generated data: hpr_viewer off-screen on a generated
 # cloud, on recorded frames (PCD through pcl::PCDGrabber, 16-bit PNG depth) and live from the
-# virtual camera through pcl::io::OpenNI2Grabber; normals_tool; omicron_viewer growing an LOD
+# virtual camera through pcl::io::OpenNI2Grabber; normals_tool; rbf_reconstruct (normals, MST,
+# RBF partition of unity, mesh); omicron_viewer growing an LOD
 # octree (growth pictures, Potree output); the benchmarks in their quick
 # mode (peers in the same run) and their charts. Everything lands in ${PCLX_DEMO_OUT:-demo_output}/,
 # listed at the end and on one page in index.html.
@@ -36,6 +37,10 @@ env -u PCLX_VIRTUAL_CAMERA_DIR xvfb-run -a ./build/apps/hpr_viewer/hpr_viewer --
 echo "== normals_tool (off-screen) on the cloud"
 xvfb-run -a ./build/apps/normals_tool/normals_tool --input "$OUT/scene.ply" --output "$OUT/scene_normals.pcd" \
   --orient mst --view --color region --screenshot "$OUT/normals_scene.png"
+
+echo "== rbf_reconstruct (off-screen): our normals + MST, then the RBF partition of unity, on the cloud"
+xvfb-run -a ./build/apps/rbf_reconstruct/rbf_reconstruct "$OUT/scene.ply" --output "$OUT/scene_mesh.ply" \
+  --screenshot "$OUT/rbf_scene.png"
 
 echo "== omicron_viewer (off-screen): a 2M-point cloud drawn while its LOD octree is built"
 rm -rf "$OUT/omicron_growth" "$OUT/omicron_potree" && mkdir -p "$OUT/omicron_growth"

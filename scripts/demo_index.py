@@ -22,11 +22,14 @@ CAPTIONS = {
                       "pcl::io::OpenNI2Grabber (the same path a Kinect or Xtion takes)",
     "normals_scene.png": "normals_tool on the generated cloud: PlanarOctreeNormalEstimation, MST-oriented, "
                          "coloured by planar region",
+    "rbf_scene.png": "rbf_reconstruct on the generated cloud: our normals and MST orientation, then "
+                     "RBFPOUReconstruction (partition of unity of local RBF fits, sparse-band marching cubes)",
     "omicron_growth": "omicron_viewer growth pictures: the front every 2 rendered frames while the octree is built",
     "omicron_final.png": "omicron_viewer: the OMiCroN front drawn as splats once the octree is built "
                          "(2M points, coloured by normal)",
     "scene.ply": "the generated scene cloud (torus and sphere on a plate)",
     "hpr_scene_visible.pcd": "the points hpr_viewer found visible in the scene cloud",
+    "scene_mesh.ply": "the mesh rbf_reconstruct made from the generated cloud",
     "scene_normals.pcd": "the scene cloud with normals from normals_tool",
     "scenes.csv": "ground-truth throughput (sampling, ray casting, distances)",
     "hpr.csv": "HPR benchmark rows (quick mode): ours against Open3D's HiddenPointRemoval, same run",
