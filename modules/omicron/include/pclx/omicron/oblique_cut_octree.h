@@ -151,6 +151,7 @@ private:
   bool run ();
   bool runBudgeted (std::chrono::steady_clock::time_point t0);
   void startCut (const std::vector<MortonCode>& first_chunk_codes, const Eigen::Vector3d& origin, double edge);
+  std::size_t concatenateLeaves (const std::vector<MortonCode>& codes, PointT* first);
   // Reads the whole file in blocks on a reader thread; on_block (const PointCloud&) runs
   // here, overlapped with the parsing of the next block. Rethrows the reader's errors.
   template <typename F> void readFileBlocks (PointStreamReader& reader, F&& on_block);

@@ -268,6 +268,35 @@ pcl::ObliqueCutOctree<PointT>::startCut (const std::vector<MortonCode>& first_ch
   cut_->setFront (&front_);
 }
 
+// Algorithm 1's inner loop: one leaf per run of equal codes in a sorted chunk (its points
+// start at `first`), concatenated in worklists of the configured size. Returns the leaves.
+template <typename PointT> std::size_t
+pcl::ObliqueCutOctree<PointT>::concatenateLeaves (const std::vector<MortonCode>& codes, PointT* first)
+{
+  using Worklist = typename ObliqueCut<PointT>::Worklist;
+  std::size_t leaves = 0;
+  Worklist w;
+  w.reserve (params_.worklist_size);
+  for (std::size_t i = 0; i < codes.size ();)
+  {
+    std::size_t j = i + 1;
+    while (j < codes.size () && codes[j] == codes[i])
+      ++j;
+    w.push_back (omicron::CutNode<PointT>::leaf (codes[i], first + i, static_cast<std::uint32_t> (j - i)));
+    ++leaves;
+    if (w.size () >= params_.worklist_size)
+    {
+      cut_->concatenate (std::move (w));
+      w = Worklist ();
+      w.reserve (params_.worklist_size);
+    }
+    i = j;
+  }
+  if (!w.empty ())
+    cut_->concatenate (std::move (w));
+  return leaves;
+}
+
 template <typename PointT> bool
 pcl::ObliqueCutOctree<PointT>::run ()
 {
@@ -376,32 +405,12 @@ pcl::ObliqueCutOctree<PointT>::run ()
 
   // Sorter thread (Algorithm 1): leaves of each sorted chunk, in worklists, concatenated.
   std::thread sorter_thread ([&] {
-    using Worklist = typename ObliqueCut<PointT>::Worklist;
     std::vector<MortonCode> chunk_codes = std::move (codes);
     for (std::size_t k = 0; k < sorter.numChunks (); ++k)
     {
       if (k > 0)
         sorter.sortChunk (k, sorted_, chunk_codes);
-      const std::size_t begin = sorter.chunkRange (k).first;
-      Worklist w;
-      w.reserve (params_.worklist_size);
-      for (std::size_t i = 0; i < chunk_codes.size ();)
-      {
-        std::size_t j = i + 1;
-        while (j < chunk_codes.size () && chunk_codes[j] == chunk_codes[i])
-          ++j;
-        w.push_back (omicron::CutNode<PointT>::leaf (chunk_codes[i], sorted_.data () + begin + i,
-                                                     static_cast<std::uint32_t> (j - i)));
-        if (w.size () >= params_.worklist_size)
-        {
-          cut_->concatenate (std::move (w));
-          w = Worklist ();
-          w.reserve (params_.worklist_size);
-        }
-        i = j;
-      }
-      if (!w.empty ())
-        cut_->concatenate (std::move (w));
+      concatenateLeaves (chunk_codes, sorted_.data () + sorter.chunkRange (k).first);
     }
     sorter.release ();
     cut_->finishInput ();

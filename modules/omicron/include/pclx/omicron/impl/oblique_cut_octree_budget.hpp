@@ -397,7 +397,6 @@ pcl::ObliqueCutOctree<PointT>::runBudgeted (std::chrono::steady_clock::time_poin
   typename PointCloud::VectorType sorted;
   std::vector<MortonCode> codes;
   std::uint64_t offset = 0;
-  using Worklist = typename ObliqueCut<PointT>::Worklist;
   const std::size_t entry_bytes = 2 * sizeof (typename Front::Entry);
   for (std::size_t k = 0; k < nchunks; ++k)
   {
@@ -427,26 +426,7 @@ pcl::ObliqueCutOctree<PointT>::runBudgeted (std::chrono::steady_clock::time_poin
         cut_->setSpill (S, sink);
         spill_level_ = S;
       }
-      const std::size_t begin = sorter.chunkRange (j).first;
-      Worklist w;
-      w.reserve (params_.worklist_size);
-      for (std::size_t i = 0; i < codes.size ();)
-      {
-        std::size_t e = i + 1;
-        while (e < codes.size () && codes[e] == codes[i])
-          ++e;
-        w.push_back (omicron::CutNode<PointT>::leaf (codes[i], sorted.data () + begin + i, static_cast<std::uint32_t> (e - i)));
-        ++leaves;
-        if (w.size () >= params_.worklist_size)
-        {
-          cut_->concatenate (std::move (w));
-          w = Worklist ();
-          w.reserve (params_.worklist_size);
-        }
-        i = e;
-      }
-      if (!w.empty ())
-        cut_->concatenate (std::move (w));
+      leaves += concatenateLeaves (codes, sorted.data () + sorter.chunkRange (j).first);
     }
     sorter.release ();
     std::vector<MortonCode> ().swap (codes);
