@@ -1,0 +1,817 @@
+#include <pclx/surface/coupled_simplification.h>
+
+#include <pcl/console/print.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <queue>
+#include <sstream>
+
+namespace {
+
+using Quadric = pcl::CoupledSimplification::Quadric;
+using Clock = std::chrono::steady_clock;
+
+double ms (Clock::time_point a, Clock::time_point b)
+{
+  return std::chrono::duration<double, std::milli> (b - a).count ();
+}
+
+// Adds w · p pᵀ for the plane n·x + d = 0 (packed upper triangle, see frame_mesh.h).
+inline void addPlane (Quadric& q, const Eigen::Vector3d& n, double d, double w)
+{
+  q[0] += w * n[0] * n[0]; q[1] += w * n[0] * n[1]; q[2] += w * n[0] * n[2]; q[3] += w * n[0] * d;
+  q[4] += w * n[1] * n[1]; q[5] += w * n[1] * n[2]; q[6] += w * n[1] * d;
+  q[7] += w * n[2] * n[2]; q[8] += w * n[2] * d;   q[9] += w * d * d;
+}
+
+inline double evaluate (const Quadric& q, const Eigen::Vector3d& x)
+{
+  return q[0] * x[0] * x[0] + 2 * q[1] * x[0] * x[1] + 2 * q[2] * x[0] * x[2] + q[4] * x[1] * x[1] +
+         2 * q[5] * x[1] * x[2] + q[7] * x[2] * x[2] + 2 * (q[3] * x[0] + q[6] * x[1] + q[8] * x[2]) + q[9];
+}
+
+inline double weightOf (const Quadric& q) { return q[0] + q[4] + q[7]; }
+
+// argmin of q: the truncated pseudo-inverse about the mass point m, so that directions the
+// planes do not constrain (flat or ridge-like clusters, noise) keep m's coordinate (as in
+// dual contouring's QEF). Eigenvalues below 2 % of the largest are dropped.
+Eigen::Vector3d minimise (const Quadric& q, const Eigen::Vector3d& m)
+{
+  Eigen::Matrix3d A;
+  A << q[0], q[1], q[2], q[1], q[4], q[5], q[2], q[5], q[7];
+  const Eigen::Vector3d b (-q[3], -q[6], -q[8]);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  es.computeDirect (A);
+  const Eigen::Vector3d ev = es.eigenvalues ();
+  const double emax = std::max (std::abs (ev[0]), std::max (std::abs (ev[1]), std::abs (ev[2])));
+  if (!(emax > 0) || !std::isfinite (emax))
+    return m;
+  const Eigen::Vector3d r = b - A * m;
+  Eigen::Vector3d x = m;
+  for (int i = 0; i < 3; ++i)
+    if (ev[i] > 0.02 * emax)
+    {
+      const Eigen::Vector3d u = es.eigenvectors ().col (i);
+      x += u * (u.dot (r) / ev[i]);
+    }
+  return x;
+}
+
+// Qw = T⁻ᵀ Q T⁻¹ for T = camera_to_world (planes map with T⁻ᵀ).
+Quadric transformQuadric (const Quadric& q, const Eigen::Matrix4d& inv)
+{
+  Eigen::Matrix4d Q;
+  Q << q[0], q[1], q[2], q[3], q[1], q[4], q[5], q[6], q[2], q[5], q[7], q[8], q[3], q[6], q[8], q[9];
+  const Eigen::Matrix4d W = inv.transpose () * Q * inv;
+  Quadric out;
+  out << W (0, 0), W (0, 1), W (0, 2), W (0, 3), W (1, 1), W (1, 2), W (1, 3), W (2, 2), W (2, 3), W (3, 3);
+  return out;
+}
+
+inline std::uint64_t triKey (int a, int b, int c)
+{
+  if (a > b) std::swap (a, b);
+  if (b > c) std::swap (b, c);
+  if (a > b) std::swap (a, b);
+  return (static_cast<std::uint64_t> (a) << 42) | (static_cast<std::uint64_t> (b) << 21) |
+         static_cast<std::uint64_t> (c);
+}
+
+}  // namespace
+
+namespace pcl {
+
+bool
+CoupledSimplification::fail (const std::string& msg)
+{
+  error_ = msg;
+  PCL_ERROR ("[pcl::CoupledSimplification] %s\n", msg.c_str ());
+  return false;
+}
+
+std::string
+CoupledSimplification::checkPose (const Eigen::Matrix4d& T)
+{
+  if (!T.allFinite ())
+    return "camera pose has NaN / Inf entries";
+  if ((T.row (3) - Eigen::RowVector4d (0, 0, 0, 1)).cwiseAbs ().maxCoeff () > 1e-6)
+    return "camera pose is not a rigid transform (last row is not 0 0 0 1)";
+  const Eigen::Matrix3d R = T.topLeftCorner<3, 3> ();
+  if ((R.transpose () * R - Eigen::Matrix3d::Identity ()).cwiseAbs ().maxCoeff () > 1e-3 ||
+      R.determinant () < 0.5)
+    return "camera pose is singular or not a rotation (RᵀR ≠ I or det R ≤ 0)";
+  return {};
+}
+
+std::string
+CoupledSimplification::checkIntrinsics (const pclx::surface::DepthIntrinsics& K)
+{
+  if (!std::isfinite (K.fx) || !std::isfinite (K.fy) || !std::isfinite (K.cx) || !std::isfinite (K.cy))
+    return "intrinsics have NaN / Inf entries";
+  if (!(K.fx > 0) || !(K.fy > 0))
+    return "intrinsics fx, fy must be > 0";
+  return {};
+}
+
+bool
+CoupledSimplification::backProject (const float* depth, int width, int height,
+                                    const pclx::surface::DepthIntrinsics& K, const Eigen::Matrix4d& pose)
+{
+  if (!depth)
+    return fail ("depth image is null");
+  if (width <= 0 || height <= 0)
+    return fail ("frame size must be positive, got " + std::to_string (width) + "×" + std::to_string (height));
+  std::string e = checkIntrinsics (K);
+  if (e.empty ())
+    e = checkPose (pose);
+  if (!e.empty ())
+    return fail (e);
+  if (!(min_depth_ >= 0) || !(max_depth_ > min_depth_))
+    return fail ("depth range must satisfy 0 ≤ min < max");
+  stats_ = Stats ();
+  w_ = width; h_ = height; fx_ = K.fx;
+  const std::size_t n = static_cast<std::size_t> (width) * height;
+  pts_.resize (n);
+  range_.resize (n);
+  stats_.pixels = n;
+  const float ifx = 1.f / K.fx, ify = 1.f / K.fy, nan = std::numeric_limits<float>::quiet_NaN ();
+  std::size_t valid = 0, nonfinite = 0, out = 0;
+  for (int v = 0; v < height; ++v)
+  {
+    const float y = (v - K.cy) * ify;
+    for (int u = 0; u < width; ++u)
+    {
+      const std::size_t i = static_cast<std::size_t> (v) * width + u;
+      const float z = depth[i];
+      if (!std::isfinite (z))
+      {
+        ++nonfinite;
+        pts_[i].setConstant (nan); range_[i] = 0;
+        continue;
+      }
+      if (z == 0.f || z < min_depth_ || z > max_depth_)
+      {
+        out += (z != 0.f);
+        pts_[i].setConstant (nan); range_[i] = 0;
+        continue;
+      }
+      pts_[i] = Eigen::Vector3f ((u - K.cx) * ifx * z, y * z, z);
+      range_[i] = pts_[i].norm ();
+      ++valid;
+    }
+  }
+  stats_.valid_pixels = valid;
+  stats_.nonfinite_pixels = nonfinite;
+  stats_.out_of_range_pixels = out;
+  if (valid == 0)
+    return fail ("frame has no valid pixel (" + std::to_string (nonfinite) + " NaN/Inf, " +
+                 std::to_string (out) + " outside the depth range)");
+  return true;
+}
+
+bool
+CoupledSimplification::takePoints (const Eigen::Vector3f* pts, int width, int height,
+                                   const Eigen::Matrix4d& pose)
+{
+  if (!pts)
+    return fail ("organized cloud is null");
+  if (width <= 0 || height <= 0)
+    return fail ("frame size must be positive, got " + std::to_string (width) + "×" + std::to_string (height));
+  const std::string e = checkPose (pose);
+  if (!e.empty ())
+    return fail (e);
+  stats_ = Stats ();
+  w_ = width; h_ = height; fx_ = 0;
+  const std::size_t n = static_cast<std::size_t> (width) * height;
+  pts_.assign (pts, pts + n);
+  range_.resize (n);
+  stats_.pixels = n;
+  std::size_t valid = 0, nonfinite = 0;
+  const float nan = std::numeric_limits<float>::quiet_NaN ();
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const float r = pts_[i].norm ();
+    if (!std::isfinite (r) || !(r > 0))
+    {
+      // NaN is the organized clouds' "no data"; only count Inf (or partly NaN) points.
+      nonfinite += !(std::isnan (pts_[i][0]) && std::isnan (pts_[i][1]) && std::isnan (pts_[i][2])) &&
+                   !(r == 0);
+      pts_[i].setConstant (nan);
+      range_[i] = 0;
+      continue;
+    }
+    range_[i] = r;
+    ++valid;
+  }
+  stats_.valid_pixels = valid;
+  stats_.nonfinite_pixels = nonfinite;
+  if (valid == 0)
+    return fail ("frame has no valid point");
+  return true;
+}
+
+bool
+CoupledSimplification::compute (const float* depth_m, int width, int height,
+                                const pclx::surface::DepthIntrinsics& K,
+                                const Eigen::Matrix4d& camera_to_world, pclx::surface::FrameMesh& out)
+{
+  const auto t0 = Clock::now ();
+  if (!backProject (depth_m, width, height, K, camera_to_world))
+    return false;
+  stats_.t_backproject = ms (t0, Clock::now ());
+  return run (camera_to_world, false, out);
+}
+
+bool
+CoupledSimplification::compute (const Eigen::Vector3f* camera_points, int width, int height,
+                                const Eigen::Matrix4d& camera_to_world, pclx::surface::FrameMesh& out)
+{
+  const auto t0 = Clock::now ();
+  if (!takePoints (camera_points, width, height, camera_to_world))
+    return false;
+  stats_.t_backproject = ms (t0, Clock::now ());
+  return run (camera_to_world, false, out);
+}
+
+bool
+CoupledSimplification::computeConnectedCloud (const float* depth_m, int width, int height,
+                                              const pclx::surface::DepthIntrinsics& K,
+                                              const Eigen::Matrix4d& camera_to_world,
+                                              pclx::surface::FrameMesh& out)
+{
+  const auto t0 = Clock::now ();
+  if (!backProject (depth_m, width, height, K, camera_to_world))
+    return false;
+  stats_.t_backproject = ms (t0, Clock::now ());
+  return run (camera_to_world, true, out);
+}
+
+bool
+CoupledSimplification::computeConnectedCloud (const Eigen::Vector3f* camera_points, int width, int height,
+                                              const Eigen::Matrix4d& camera_to_world,
+                                              pclx::surface::FrameMesh& out)
+{
+  const auto t0 = Clock::now ();
+  if (!takePoints (camera_points, width, height, camera_to_world))
+    return false;
+  stats_.t_backproject = ms (t0, Clock::now ());
+  return run (camera_to_world, true, out);
+}
+
+bool
+CoupledSimplification::run (const Eigen::Matrix4d& pose, bool dense_only, pclx::surface::FrameMesh& out)
+{
+  if (!(edge_factor_ > 0) && !(edge_abs_ > 0))
+    return fail ("edge threshold: factor or absolute threshold must be > 0");
+  if (cell_pixels_ < 1)
+    return fail ("frustum cell must be ≥ 1 pixel");
+  if (bin_ratio_ < 0 || !std::isfinite (bin_ratio_))
+    return fail ("depth-bin ratio must be ≥ 0");
+  if (!(target_ratio_ >= 0 && target_ratio_ <= 1))
+    return fail ("collapse target ratio must be in [0, 1]");
+  if (std::isnan (max_error_))
+    return fail ("collapse error bound is NaN");
+  error_.clear ();
+  const auto t0 = Clock::now ();
+  auto t = Clock::now ();
+  if (dense_only)
+  {
+    // Every valid pixel is its own vertex.
+    cid_.assign (pts_.size (), -1);
+    std::int32_t k = 0;
+    for (std::size_t i = 0; i < pts_.size (); ++i)
+      if (range_[i] > 0)
+        cid_[i] = k++;
+    cq_.assign (k, Quadric::Zero ());
+  }
+  else
+  {
+    cluster ();
+    stats_.t_cluster = ms (t, Clock::now ());
+  }
+  t = Clock::now ();
+  connect (dense_only);
+  stats_.t_connect = ms (t, Clock::now ());
+  if (!dense_only)
+  {
+    t = Clock::now ();
+    collapse ();
+    stats_.t_collapse = ms (t, Clock::now ());
+  }
+  t = Clock::now ();
+  emit (pose, dense_only, out);
+  stats_.t_output = ms (t, Clock::now ());
+  stats_.t_total = stats_.t_backproject + ms (t0, Clock::now ());
+  return true;
+}
+
+// §3.3 first phase, the cells: B × B pixel blocks × geometric depth bins. A block's pixels
+// fall in few bins, so a small linear list per block replaces a hash map.
+void
+CoupledSimplification::cluster ()
+{
+  const int B = cell_pixels_;
+  const double fx_eff = fx_ > 0 ? fx_ : 500.0;
+  const double r = bin_ratio_ > 0 ? bin_ratio_ : B / fx_eff;
+  cid_.assign (pts_.size (), -1);
+  cq_.clear (); csum_.clear (); cmin_.clear (); cmax_.clear (); ccount_.clear (); cscale_.clear ();
+  // Per block: its pixels sorted by range, split where consecutive ranges jump by more than a
+  // bin (r · range) or the cell grows deeper than two bins. Fixed bin boundaries would cut a
+  // continuous (noisy) surface into slivers; gaps are where the surfaces along the rays part.
+  std::vector<std::pair<float, std::int32_t>> block;
+  block.reserve (static_cast<std::size_t> (B) * B);
+  const float rf = static_cast<float> (r);
+  for (int by = 0; by < h_; by += B)
+    for (int bx = 0; bx < w_; bx += B)
+    {
+      block.clear ();
+      for (int v = by; v < std::min (by + B, h_); ++v)
+        for (int u = bx; u < std::min (bx + B, w_); ++u)
+        {
+          const std::int32_t i = v * w_ + u;
+          if (range_[i] > 0)
+            block.emplace_back (range_[i], i);
+        }
+      if (block.empty ())
+        continue;
+      std::sort (block.begin (), block.end ());
+      std::int32_t c = -1;
+      float start = 0, prev = 0;
+      for (const auto& e : block)
+      {
+        const float rr = e.first;
+        if (c < 0 || rr - prev > rf * rr || rr - start > 2 * rf * rr)
+        {
+          c = static_cast<std::int32_t> (ccount_.size ());
+          start = rr;
+          const Eigen::Vector3f& p = pts_[e.second];
+          csum_.emplace_back (Eigen::Vector3d::Zero ());
+          cmin_.push_back (p); cmax_.push_back (p);
+          ccount_.push_back (0);
+          cscale_.push_back (static_cast<float> (B * rr / fx_eff));
+        }
+        prev = rr;
+        const Eigen::Vector3f& p = pts_[e.second];
+        csum_[c] += p.cast<double> ();
+        cmin_[c] = cmin_[c].cwiseMin (p);
+        cmax_[c] = cmax_[c].cwiseMax (p);
+        ++ccount_[c];
+        cid_[e.second] = c;
+      }
+    }
+  cq_.assign (ccount_.size (), Quadric::Zero ());
+  stats_.clusters = ccount_.size ();
+}
+
+// §3.2: 4-neighbour triangles under the edge threshold; each face's area-weighted plane
+// quadric goes to the clusters (or dense vertices) of its three corners.
+void
+CoupledSimplification::connect (bool dense_only)
+{
+  const int W = w_, H = h_;
+  // Threshold: trimmed mean of |p − q| / depth over horizontal and vertical neighbours.
+  double ratio = 0;
+  if (!(edge_abs_ > 0))
+  {
+    std::vector<float> r;
+    r.reserve (2 * pts_.size ());
+    for (int v = 0; v < H; ++v)
+      for (int u = 0; u < W; ++u)
+      {
+        const std::size_t i = static_cast<std::size_t> (v) * W + u;
+        if (!(range_[i] > 0))
+          continue;
+        if (u + 1 < W && range_[i + 1] > 0)
+          r.push_back ((pts_[i] - pts_[i + 1]).norm () / std::min (range_[i], range_[i + 1]));
+        if (v + 1 < H && range_[i + W] > 0)
+          r.push_back ((pts_[i] - pts_[i + W]).norm () / std::min (range_[i], range_[i + W]));
+      }
+    // Depth jumps inflate a plain mean; three trims at 4 × the mean leave the surface edges.
+    double mean = 0;
+    for (float x : r) mean += x;
+    mean = r.empty () ? 0 : mean / r.size ();
+    for (int it = 0; it < 3 && mean > 0; ++it)
+    {
+      double s = 0; std::size_t k = 0;
+      for (float x : r)
+        if (x < 4 * mean) { s += x; ++k; }
+      mean = k ? s / k : mean;
+    }
+    ratio = mean;
+    stats_.edge_ratio_mean = mean;
+  }
+  const float kf = static_cast<float> (edge_factor_ * ratio);
+  const float abs2 = static_cast<float> (edge_abs_ * edge_abs_);
+  auto ok = [&] (std::size_t a, std::size_t b, float scale2) {
+    const float d2 = (pts_[a] - pts_[b]).squaredNorm ();
+    if (edge_abs_ > 0)
+      return d2 < abs2 * scale2;
+    const float t = kf * std::min (range_[a], range_[b]);
+    return d2 < t * t * scale2;
+  };
+  ctris_.clear ();
+  dense_tris_.clear ();
+  orientation_vote_ = 0;
+  std::size_t dense = 0;
+  auto face = [&] (std::size_t a, std::size_t b, std::size_t c, bool diag_ab, bool diag_bc, bool diag_ca) {
+    if (!ok (a, b, diag_ab ? 2.f : 1.f) || !ok (b, c, diag_bc ? 2.f : 1.f) || !ok (c, a, diag_ca ? 2.f : 1.f))
+      return;
+    const Eigen::Vector3d pa = pts_[a].cast<double> ();
+    const Eigen::Vector3d cr = (pts_[b].cast<double> () - pa).cross (pts_[c].cast<double> () - pa);
+    const double len = cr.norm ();
+    if (!(len > 0))
+      return;
+    const Eigen::Vector3d n = cr / len;
+    const double d = -n.dot (pa);
+    orientation_vote_ += (d > 0) ? 1 : -1;  // n·(0 − a) > 0: faces the camera
+    const std::int32_t ia = cid_[a], ib = cid_[b], ic = cid_[c];
+    addPlane (cq_[ia], n, d, 0.5 * len);
+    addPlane (cq_[ib], n, d, 0.5 * len);
+    addPlane (cq_[ic], n, d, 0.5 * len);
+    ++dense;
+    if (dense_only)
+      dense_tris_.emplace_back (ia, ib, ic);
+    else if (ia != ib && ib != ic && ic != ia)
+      ctris_.emplace_back (ia, ib, ic);
+  };
+  for (int v = 0; v + 1 < H; ++v)
+    for (int u = 0; u + 1 < W; ++u)
+    {
+      const std::size_t i00 = static_cast<std::size_t> (v) * W + u, i10 = i00 + 1, i01 = i00 + W,
+                        i11 = i01 + 1;
+      const bool v00 = range_[i00] > 0, v10 = range_[i10] > 0, v01 = range_[i01] > 0, v11 = range_[i11] > 0;
+      const int nvalid = v00 + v10 + v01 + v11;
+      if (nvalid < 3)
+        continue;
+      // Counter-clockwise seen from the camera (x right, y down, looking along +z).
+      if (nvalid == 4)
+      {
+        if ((pts_[i00] - pts_[i11]).squaredNorm () <= (pts_[i10] - pts_[i01]).squaredNorm ())
+        {
+          face (i00, i01, i11, false, false, true);
+          face (i00, i11, i10, true, false, false);
+        }
+        else
+        {
+          face (i00, i01, i10, false, true, false);
+          face (i10, i01, i11, true, false, false);
+        }
+      }
+      else if (!v11) face (i00, i01, i10, false, true, false);
+      else if (!v00) face (i10, i01, i11, true, false, false);
+      else if (!v10) face (i00, i01, i11, false, false, true);
+      else face (i00, i11, i10, true, false, false);
+    }
+  stats_.dense_triangles = dense;
+}
+
+void
+CoupledSimplification::collapse ()
+{
+  const std::size_t nc = ccount_.size ();
+  // Representatives (first phase): the cluster quadric's minimiser, kept near the cluster.
+  cpos_.resize (nc);
+  for (std::size_t c = 0; c < nc; ++c)
+  {
+    const Eigen::Vector3d mean = csum_[c] / ccount_[c];
+    if (ccount_[c] == 1 || !(weightOf (cq_[c]) > 0))
+    {
+      cpos_[c] = mean;
+      continue;
+    }
+    Eigen::Vector3d x = minimise (cq_[c], mean);
+    const Eigen::Vector3d margin = Eigen::Vector3d::Constant (0.1 * cscale_[c]);
+    const Eigen::Vector3d lo = cmin_[c].cast<double> () - margin, hi = cmax_[c].cast<double> () + margin;
+    if (!x.allFinite ())
+    {
+      x = mean;
+      ++stats_.cluster_fallbacks;
+    }
+    else if ((x.array () < lo.array ()).any () || (x.array () > hi.array ()).any ())
+    {
+      x = x.cwiseMax (lo).cwiseMin (hi);
+      ++stats_.cluster_fallbacks;
+    }
+    cpos_[c] = x;
+  }
+
+  // Clustered faces: drop those that turned their back to the camera (every surface a depth
+  // frame sees faces it, so these are clustering fold-overs) and duplicates (two dense faces
+  // between the same three clusters).
+  const double facing = orientation_vote_ < 0 ? -1.0 : 1.0;
+  auto faces_camera = [&] (const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+    return facing * (b - a).cross (c - a).dot (-a) > 0;
+  };
+  {
+    std::size_t k = 0;
+    for (std::size_t f = 0; f < ctris_.size (); ++f)
+      if (faces_camera (cpos_[ctris_[f][0]], cpos_[ctris_[f][1]], cpos_[ctris_[f][2]]))
+        ctris_[k++] = ctris_[f];
+      else
+        ++stats_.backfacing;
+    ctris_.resize (k);
+  }
+  {
+    std::vector<std::pair<std::uint64_t, std::int32_t>> keys (ctris_.size ());
+    for (std::size_t f = 0; f < ctris_.size (); ++f)
+      keys[f] = {triKey (ctris_[f][0], ctris_[f][1], ctris_[f][2]), static_cast<std::int32_t> (f)};
+    std::sort (keys.begin (), keys.end ());
+    std::vector<Eigen::Vector3i> uniq;
+    uniq.reserve (keys.size ());
+    for (std::size_t k = 0; k < keys.size (); ++k)
+      if (k == 0 || keys[k].first != keys[k - 1].first)
+        uniq.push_back (ctris_[keys[k].second]);
+    ctris_.swap (uniq);
+  }
+  stats_.clustered_triangles = ctris_.size ();
+
+  // Second phase: edge collapse with the original (dense) quadrics.
+  std::vector<std::vector<std::int32_t>> vf (nc);
+  for (std::size_t f = 0; f < ctris_.size (); ++f)
+    for (int k = 0; k < 3; ++k)
+      vf[ctris_[f][k]].push_back (static_cast<std::int32_t> (f));
+  std::vector<char> face_alive (ctris_.size (), 1), vert_alive (nc, 1), locked (nc, 0);
+  std::vector<std::uint32_t> stamp (nc, 0);
+  cb_.assign (nc, Quadric::Zero ());
+
+  std::vector<std::uint64_t> edges;
+  edges.reserve (3 * ctris_.size ());
+  for (const auto& t : ctris_)
+    for (int k = 0; k < 3; ++k)
+    {
+      const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+      edges.push_back ((static_cast<std::uint64_t> (std::min (a, b)) << 32) | std::max (a, b));
+    }
+  std::sort (edges.begin (), edges.end ());
+  std::vector<std::pair<std::int32_t, std::int32_t>> unique_edges;
+  for (std::size_t k = 0; k < edges.size ();)
+  {
+    std::size_t j = k;
+    while (j < edges.size () && edges[j] == edges[k]) ++j;
+    const std::int32_t a = static_cast<std::int32_t> (edges[k] >> 32), b = static_cast<std::int32_t> (edges[k] & 0xffffffffu);
+    const std::size_t count = j - k;
+    if (count > 2)
+      locked[a] = locked[b] = 1;  // non-manifold: leave as it is
+    else if (count == 1)
+    {
+      // Boundary: a plane through the edge, perpendicular to its face (Garland–Heckbert).
+      for (std::int32_t f : vf[a])
+      {
+        const auto& t = ctris_[f];
+        if ((t[0] == b || t[1] == b || t[2] == b))
+        {
+          const Eigen::Vector3d e = cpos_[b] - cpos_[a];
+          const Eigen::Vector3d fn = (cpos_[t[1]] - cpos_[t[0]]).cross (cpos_[t[2]] - cpos_[t[0]]);
+          Eigen::Vector3d n = e.cross (fn);
+          if (n.norm () > 0)
+          {
+            n.normalize ();
+            const double w = boundary_weight_ * e.squaredNorm ();
+            addPlane (cb_[a], n, -n.dot (cpos_[a]), w);
+            addPlane (cb_[b], n, -n.dot (cpos_[a]), w);
+          }
+          break;
+        }
+      }
+    }
+    unique_edges.emplace_back (a, b);
+    k = j;
+  }
+
+  std::size_t faces = ctris_.size ();
+  const std::size_t target = static_cast<std::size_t> (std::ceil (target_ratio_ * faces));
+  const bool count_stop = target_ratio_ > 0 && target_ratio_ < 1;
+  const bool error_stop = max_error_ >= 0;
+  if (!count_stop && !error_stop)
+  {
+    // No collapse: the clustered mesh is the result.
+    stats_.triangles = faces;
+    return;
+  }
+
+  struct Entry
+  {
+    double key;
+    std::int32_t a, b;
+    std::uint32_t sa, sb;
+    bool operator> (const Entry& o) const { return key > o.key; }
+  };
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
+  auto place = [&] (std::int32_t a, std::int32_t b, double& err) -> Eigen::Vector3d {
+    Quadric q = cq_[a] + cq_[b] + cb_[a] + cb_[b];
+    const Eigen::Vector3d m = 0.5 * (cpos_[a] + cpos_[b]);
+    Eigen::Vector3d x = minimise (q, m);
+    if (!x.allFinite () || (x - m).norm () > (cpos_[a] - cpos_[b]).norm ())
+    {
+      // Best of the endpoints and the midpoint (Garland–Heckbert's fallback).
+      const double ea = evaluate (q, cpos_[a]), eb = evaluate (q, cpos_[b]), em = evaluate (q, m);
+      x = ea < eb ? (ea < em ? cpos_[a] : m) : (eb < em ? cpos_[b] : m);
+    }
+    const double wsum = weightOf (cq_[a]) + weightOf (cq_[b]);
+    err = std::sqrt (std::max (0.0, evaluate (q, x)) / std::max (wsum, 1e-30));
+    return x;
+  };
+  auto bound = [&] (std::int32_t a, std::int32_t b) {
+    if (max_error_ > 0)
+      return max_error_;
+    if (max_error_ < 0)
+      return std::numeric_limits<double>::infinity ();
+    return 0.05 * (cscale_[a] + cscale_[b]);  // 0.1 × the mean cell size
+  };
+  auto push = [&] (std::int32_t a, std::int32_t b) {
+    if (locked[a] || locked[b])
+      return;
+    double err;
+    place (a, b, err);
+    const double bnd = bound (a, b);
+    const double key = std::isinf (bnd) ? err : err / bnd;
+    heap.push ({key, a, b, stamp[a], stamp[b]});
+  };
+  for (const auto& e : unique_edges)
+    push (e.first, e.second);
+
+  const double cos_turn = std::cos (max_turn_deg_ * M_PI / 180.0);
+  std::vector<std::int32_t> na, nb;
+  while (!heap.empty ())
+  {
+    if (count_stop && faces <= target)
+      break;
+    const Entry e = heap.top ();
+    heap.pop ();
+    const std::int32_t a = e.a, b = e.b;
+    if (!vert_alive[a] || !vert_alive[b] || e.sa != stamp[a] || e.sb != stamp[b])
+      continue;
+    if (error_stop && !std::isinf (bound (a, b)) && e.key > 1.0)
+      break;
+    // Link condition: the common neighbours of a and b are exactly the opposite corners of
+    // the faces on the edge, otherwise the collapse pinches the surface.
+    na.clear (); nb.clear ();
+    int shared = 0;
+    for (std::int32_t f : vf[a])
+    {
+      if (!face_alive[f]) continue;
+      const auto& t = ctris_[f];
+      bool has_b = false;
+      for (int k = 0; k < 3; ++k)
+      {
+        if (t[k] == b) has_b = true;
+        if (t[k] != a) na.push_back (t[k]);
+      }
+      shared += has_b;
+    }
+    for (std::int32_t f : vf[b])
+    {
+      if (!face_alive[f]) continue;
+      const auto& t = ctris_[f];
+      for (int k = 0; k < 3; ++k)
+        if (t[k] != b) nb.push_back (t[k]);
+    }
+    std::sort (na.begin (), na.end ()); na.erase (std::unique (na.begin (), na.end ()), na.end ());
+    std::sort (nb.begin (), nb.end ()); nb.erase (std::unique (nb.begin (), nb.end ()), nb.end ());
+    int common = 0;
+    for (std::size_t i = 0, j = 0; i < na.size () && j < nb.size ();)
+    {
+      if (na[i] < nb[j]) ++i;
+      else if (nb[j] < na[i]) ++j;
+      else { common += (na[i] != a && na[i] != b); ++i; ++j; }
+    }
+    if (shared == 0 || common != shared)
+    {
+      ++stats_.rejected_topology;
+      continue;
+    }
+    double err;
+    const Eigen::Vector3d x = place (a, b, err);
+    // Fold-overs: no remaining face of a or b may turn by more than the limit.
+    bool fold = false;
+    for (std::int32_t v : {a, b})
+    {
+      for (std::int32_t f : vf[v])
+      {
+        if (!face_alive[f]) continue;
+        const auto& t = ctris_[f];
+        if ((t[0] == a || t[1] == a || t[2] == a) && (t[0] == b || t[1] == b || t[2] == b))
+          continue;
+        Eigen::Vector3d p[3], q[3];
+        for (int k = 0; k < 3; ++k)
+        {
+          p[k] = cpos_[t[k]];
+          q[k] = (t[k] == v) ? x : p[k];
+        }
+        const Eigen::Vector3d n0 = (p[1] - p[0]).cross (p[2] - p[0]);
+        const Eigen::Vector3d n1 = (q[1] - q[0]).cross (q[2] - q[0]);
+        const double l0 = n0.norm (), l1 = n1.norm ();
+        if (!(l1 > 1e-12 * std::max (l0, 1e-30)) || n0.dot (n1) < cos_turn * l0 * l1 ||
+            !faces_camera (q[0], q[1], q[2]))
+        {
+          fold = true;
+          break;
+        }
+      }
+      if (fold) break;
+    }
+    if (fold)
+    {
+      ++stats_.rejected_foldover;
+      continue;
+    }
+    // Collapse b into a.
+    cpos_[a] = x;
+    cq_[a] += cq_[b];
+    cb_[a] += cb_[b];
+    vert_alive[b] = 0;
+    ++stamp[a];
+    for (std::int32_t f : vf[b])
+    {
+      if (!face_alive[f]) continue;
+      auto& t = ctris_[f];
+      if (t[0] == a || t[1] == a || t[2] == a)
+      {
+        face_alive[f] = 0;
+        --faces;
+        continue;
+      }
+      for (int k = 0; k < 3; ++k)
+        if (t[k] == b) t[k] = a;
+      vf[a].push_back (f);
+    }
+    vf[b].clear ();
+    vf[a].erase (std::remove_if (vf[a].begin (), vf[a].end (), [&] (std::int32_t f) { return !face_alive[f]; }),
+                 vf[a].end ());
+    ++stats_.collapses;
+    stats_.max_error = std::max (stats_.max_error, err);
+    na.clear ();
+    for (std::int32_t f : vf[a])
+      for (int k = 0; k < 3; ++k)
+        if (ctris_[f][k] != a) na.push_back (ctris_[f][k]);
+    std::sort (na.begin (), na.end ()); na.erase (std::unique (na.begin (), na.end ()), na.end ());
+    for (std::int32_t n : na)
+      push (a, n);
+  }
+  // Keep the live faces only.
+  std::size_t k = 0;
+  for (std::size_t f = 0; f < ctris_.size (); ++f)
+    if (face_alive[f])
+      ctris_[k++] = ctris_[f];
+  ctris_.resize (k);
+}
+
+void
+CoupledSimplification::emit (const Eigen::Matrix4d& pose, bool dense_only, pclx::surface::FrameMesh& out)
+{
+  const Eigen::Matrix3f R = pose.topLeftCorner<3, 3> ().cast<float> ();
+  const Eigen::Vector3f t = pose.topRightCorner<3, 1> ().cast<float> ();
+  Eigen::Matrix4d inv = Eigen::Matrix4d::Identity ();
+  inv.topLeftCorner<3, 3> () = pose.topLeftCorner<3, 3> ().transpose ();
+  inv.topRightCorner<3, 1> () = -inv.topLeftCorner<3, 3> () * pose.topRightCorner<3, 1> ();
+  const bool flip = orientation_vote_ < 0;  // e.g. an organized grid stored bottom-up
+  pclx::surface::FrameMesh m;
+  m.viewpoint = t;
+  const std::vector<Eigen::Vector3i>& tris = dense_only ? dense_tris_ : ctris_;
+  std::vector<std::int32_t> remap (cq_.size (), -1);
+  m.triangles.reserve (tris.size ());
+  for (const auto& tri : tris)
+  {
+    Eigen::Vector3i o;
+    for (int k = 0; k < 3; ++k)
+    {
+      std::int32_t& r = remap[tri[k]];
+      if (r < 0)
+        r = static_cast<std::int32_t> (m.vertices.size ()), m.vertices.emplace_back ();
+      o[k] = r;
+    }
+    if (flip)
+      std::swap (o[1], o[2]);
+    m.triangles.push_back (o);
+  }
+  m.quadrics.resize (m.vertices.size ());
+  if (dense_only)
+  {
+    for (std::size_t i = 0; i < pts_.size (); ++i)
+      if (cid_[i] >= 0 && remap[cid_[i]] >= 0)
+      {
+        m.vertices[remap[cid_[i]]] = R * pts_[i] + t;
+        m.quadrics[remap[cid_[i]]] = transformQuadric (cq_[cid_[i]], inv);
+      }
+  }
+  else
+  {
+    for (std::size_t c = 0; c < remap.size (); ++c)
+      if (remap[c] >= 0)
+      {
+        m.vertices[remap[c]] = R * cpos_[c].cast<float> () + t;
+        m.quadrics[remap[c]] = transformQuadric (cq_[c], inv);
+      }
+  }
+  stats_.vertices = m.vertices.size ();
+  stats_.triangles = m.triangles.size ();
+  out = std::move (m);
+}
+
+}  // namespace pcl
