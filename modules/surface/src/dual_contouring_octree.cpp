@@ -1,0 +1,1082 @@
+#include <pclx/surface/dual_contouring_octree.h>
+
+#include <pcl/common/io.h>
+#include <pcl/console/print.h>
+#include <pcl/conversions.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <unordered_set>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace pcl {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double
+msSince (Clock::time_point t0)
+{
+  return std::chrono::duration<double, std::milli> (Clock::now () - t0).count ();
+}
+
+constexpr int kRootSide = 1 << DualContouringOctree::kRootLevels;  // 16 leaves per axis
+constexpr int kRootCells = kRootSide * kRootSide * kRootSide;
+constexpr int kLatticeLimit = (1 << 19) - 2 * kRootSide;  // |lattice coordinate| bound (key packing)
+constexpr std::uint16_t kNone = 0xFFFF;
+// QEF sums in fixed point: exact, so frame order does not change a bit.
+constexpr double kFix = 4294967296.0;  // 2^32
+
+inline int
+floorDiv (int a)
+{
+  return a >> DualContouringOctree::kRootLevels;  // arithmetic shift = floor for negatives
+}
+inline int
+localIndex (int x, int y, int z)
+{
+  return ((z & (kRootSide - 1)) * kRootSide + (y & (kRootSide - 1))) * kRootSide + (x & (kRootSide - 1));
+}
+inline std::uint64_t
+rootKey (int bx, int by, int bz)
+{
+  const std::uint64_t off = 1u << 15;
+  return ((static_cast<std::uint64_t> (bx + off) & 0xFFFF) << 32) |
+         ((static_cast<std::uint64_t> (by + off) & 0xFFFF) << 16) |
+         (static_cast<std::uint64_t> (bz + off) & 0xFFFF);
+}
+inline std::uint64_t
+edgeKey (int axis, int x, int y, int z)
+{
+  // Root-major so the edges of one root are contiguous after sorting.
+  const std::uint64_t rk = rootKey (floorDiv (x), floorDiv (y), floorDiv (z));
+  return (rk << 14) | (static_cast<std::uint64_t> (localIndex (x, y, z)) << 2) | static_cast<std::uint64_t> (axis);
+}
+
+// Leaf: QEF of the planes of its intersected edges in leaf-local lattice units, fixed point.
+struct Leaf
+{
+  std::int64_t ata[6] = {0, 0, 0, 0, 0, 0};  // xx xy xz yy yz zz
+  std::int64_t atb[3] = {0, 0, 0};
+  std::int64_t btb = 0;
+  std::int64_t mass[3] = {0, 0, 0};
+  std::int32_t count = 0;
+  std::uint16_t crossed = 0;  // 12 bits: edges with at least one intersection
+  std::uint16_t cell = 0;     // local index in the root
+};
+
+// QEF in double, in a node-local frame (lattice units, origin at the node's min corner).
+struct Qef
+{
+  Eigen::Matrix3d ata = Eigen::Matrix3d::Zero ();
+  Eigen::Vector3d atb = Eigen::Vector3d::Zero ();
+  double btb = 0;
+  Eigen::Vector3d mass = Eigen::Vector3d::Zero ();
+  double count = 0;
+
+  static Qef
+  fromLeaf (const Leaf& l)
+  {
+    Qef q;
+    q.ata << l.ata[0], l.ata[1], l.ata[2], l.ata[1], l.ata[3], l.ata[4], l.ata[2], l.ata[4], l.ata[5];
+    q.ata /= kFix;
+    q.atb = Eigen::Vector3d (l.atb[0], l.atb[1], l.atb[2]) / kFix;
+    q.btb = l.btb / kFix;
+    q.mass = Eigen::Vector3d (l.mass[0], l.mass[1], l.mass[2]) / kFix;
+    q.count = l.count;
+    return q;
+  }
+  // Add a QEF whose frame origin is at `o` in this QEF's frame: n·(p − o) = d ⇒ n·p = d + n·o.
+  void
+  addShifted (const Qef& c, const Eigen::Vector3d& o)
+  {
+    ata += c.ata;
+    atb += c.atb + c.ata * o;
+    btb += c.btb + 2 * o.dot (c.atb) + o.dot (c.ata * o);
+    mass += c.mass + c.count * o;
+    count += c.count;
+  }
+  double
+  error (const Eigen::Vector3d& x) const
+  {
+    return std::max (0.0, x.dot (ata * x) - 2 * x.dot (atb) + btb);
+  }
+  // Minimiser in the box [0, side]³: truncated eigen-decomposition of AᵀA (singular values below
+  // 0.1 σ_max dropped, Ju et al. 2002), solved relative to the mass point so the dropped
+  // directions stay at the mass point. Returns true when it had to be clamped.
+  bool
+  solve (double side, Eigen::Vector3d& x) const
+  {
+    if (count <= 0)
+    {
+      x = Eigen::Vector3d::Constant (0.5 * side);
+      return false;
+    }
+    const Eigen::Vector3d m = mass / count;
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+    es.computeDirect (ata);
+    const Eigen::Vector3d lambda = es.eigenvalues ();
+    const double lmax = lambda.cwiseAbs ().maxCoeff ();
+    const Eigen::Vector3d r = atb - ata * m;
+    x = m;
+    if (lmax > 0)
+      for (int i = 0; i < 3; ++i)
+        if (lambda[i] > 0.01 * lmax)  // σ_i / σ_max > 0.1
+        {
+          const Eigen::Vector3d v = es.eigenvectors ().col (i);
+          x += v * (v.dot (r) / lambda[i]);
+        }
+    const double tol = 1e-9 * side;
+    const bool escaped = (x.array () < -tol).any () || (x.array () > side + tol).any ();
+    x = x.cwiseMax (0.0).cwiseMin (side);
+    return escaped;
+  }
+};
+
+struct Crossing
+{
+  std::uint64_t key;
+  float frac;  // position along the edge, [0, 1)
+  std::uint32_t tri;
+};
+
+struct Vertex
+{
+  Eigen::Vector3f p;
+  std::uint32_t node;  // level << 12 | local node index (diagnostics)
+};
+
+}  // namespace
+
+struct DualContouringOctree::Impl
+{
+  struct Root
+  {
+    Eigen::Vector3i origin;  // lattice coordinates of the min corner
+    std::uint64_t key = 0;
+    std::uint32_t id = 0;
+    std::array<std::uint16_t, kRootCells> leaf_index;
+    std::array<std::uint8_t, kRootCells> out_votes, in_votes;  // saturating
+    std::vector<Leaf> leaves;
+    // Polygonisation cache.
+    std::array<std::uint16_t, kRootCells> cell_vertex;  // vertex of every fine cell (collapsed too)
+    std::vector<Vertex> vertices;
+    std::vector<std::array<std::uint64_t, 3>> tris;  // vertex refs (see ref ())
+    std::size_t escaped = 0, collapsed = 0;
+    std::size_t stamp = 0;  // last frame that touched it
+    bool dirty = true;
+
+    Root ()
+    {
+      leaf_index.fill (kNone);
+      out_votes.fill (0);
+      in_votes.fill (0);
+      cell_vertex.fill (kNone);
+    }
+  };
+
+  std::unordered_map<std::uint64_t, std::uint32_t> root_of;
+  std::vector<std::unique_ptr<Root>> roots;
+  std::size_t leaves = 0, voted = 0;
+
+  Root*
+  find (int bx, int by, int bz) const
+  {
+    auto it = root_of.find (rootKey (bx, by, bz));
+    return it == root_of.end () ? nullptr : roots[it->second].get ();
+  }
+  Root*
+  findCell (int x, int y, int z) const
+  {
+    return find (floorDiv (x), floorDiv (y), floorDiv (z));
+  }
+  Root*
+  get (int bx, int by, int bz)
+  {
+    const std::uint64_t k = rootKey (bx, by, bz);
+    auto it = root_of.find (k);
+    if (it != root_of.end ())
+      return roots[it->second].get ();
+    auto r = std::make_unique<Root> ();
+    r->origin = Eigen::Vector3i (bx, by, bz) * kRootSide;
+    r->key = k;
+    r->id = static_cast<std::uint32_t> (roots.size ());
+    root_of.emplace (k, r->id);
+    roots.push_back (std::move (r));
+    return roots.back ().get ();
+  }
+  const Leaf*
+  leafAt (int x, int y, int z) const
+  {
+    const Root* r = findCell (x, y, z);
+    if (!r)
+      return nullptr;
+    const std::uint16_t i = r->leaf_index[localIndex (x, y, z)];
+    return i == kNone ? nullptr : &r->leaves[i];
+  }
+};
+
+DualContouringOctree::DualContouringOctree () : impl_ (new Impl) {}
+DualContouringOctree::~DualContouringOctree () = default;
+
+bool
+DualContouringOctree::fail (const std::string& msg)
+{
+  error_ = msg;
+  PCL_ERROR ("[pcl::DualContouringOctree] %s\n", msg.c_str ());
+  return false;
+}
+
+bool
+DualContouringOctree::setLeafSize (double h)
+{
+  if (!(h > 0) || !std::isfinite (h))
+    return fail ("leaf size must be positive and finite");
+  if (!impl_->roots.empty ())
+    return fail ("the leaf size cannot change once frames are fused (clear () first)");
+  h_ = h;
+  return true;
+}
+
+void
+DualContouringOctree::setVolume (const Eigen::Vector3d& min, const Eigen::Vector3d& max)
+{
+  vol_min_ = min.cwiseMin (max);
+  vol_max_ = max.cwiseMax (min);
+  volume_set_ = true;
+}
+
+bool
+DualContouringOctree::getVolume (Eigen::Vector3d& min, Eigen::Vector3d& max) const
+{
+  min = vol_min_;
+  max = vol_max_;
+  return volume_set_;
+}
+
+void
+DualContouringOctree::clear ()
+{
+  impl_.reset (new Impl);
+  stats_ = Stats ();
+  all_dirty_ = true;
+}
+
+Eigen::Vector3i
+DualContouringOctree::toLattice (const Eigen::Vector3d& p) const
+{
+  return (p / h_).array ().floor ().cast<int> ();
+}
+
+std::pair<int, int>
+DualContouringOctree::gridVertexVotes (const Eigen::Vector3i& v) const
+{
+  const auto* r = impl_->findCell (v.x (), v.y (), v.z ());
+  if (!r)
+    return {0, 0};
+  const int i = localIndex (v.x (), v.y (), v.z ());
+  return {r->out_votes[i], r->in_votes[i]};
+}
+
+namespace {
+
+// Resolved sign of grid vertices (§3.6), read-only on the map.
+struct SignResolver
+{
+  using Root = DualContouringOctree::Impl::Root;
+  const DualContouringOctree::Impl& map;
+  DualContouringOctree::SignRule rule;
+
+  // +1 exterior, −1 interior, 2 ambiguous, 0 no vote.
+  int
+  voted (int x, int y, int z) const
+  {
+    const Root* r = map.findCell (x, y, z);
+    if (!r)
+      return 0;
+    const int i = localIndex (x, y, z);
+    const int o = r->out_votes[i], n = r->in_votes[i];
+    if (o == 0 && n == 0)
+      return 0;
+    if (rule == DualContouringOctree::SignRule::SEED)
+      return (o && n) ? 2 : (o ? 1 : -1);
+    return o > n ? 1 : (n > o ? -1 : 2);
+  }
+  // Is the lattice edge (v, v + e_axis) an edge of a leaf without intersections?
+  bool
+  openEdge (const Eigen::Vector3i& v, int axis) const
+  {
+    const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+    for (int k = 0; k < 4; ++k)
+    {
+      Eigen::Vector3i c = v;
+      const int du = (k & 1), dw = (k >> 1);
+      c[u] -= du;
+      c[w] -= dw;
+      const Leaf* l = map.leafAt (c.x (), c.y (), c.z ());
+      if (l)
+      {
+        const int e = axis * 4 + du + 2 * dw;
+        return !(l->crossed >> e & 1);
+      }
+    }
+    return false;
+  }
+  // Final sign (+1 exterior / −1 interior) and the state before defaults:
+  // state 1/−1 voted, 2 ambiguous, 3 propagated, 4 unresolved.
+  int
+  resolve (const Eigen::Vector3i& v, int* state = nullptr) const
+  {
+    const int s = voted (v.x (), v.y (), v.z ());
+    if (s == 1 || s == -1)
+    {
+      if (state)
+        *state = s;
+      return s;
+    }
+    if (s == 2)
+    {
+      if (state)
+        *state = 2;
+      return 1;  // ambiguous → exterior (§3.6)
+    }
+    // Breadth first through leaf edges without intersection, ≤ 3 edges.
+    std::array<Eigen::Vector3i, 64> seen;
+    int nseen = 1;
+    seen[0] = v;
+    std::array<Eigen::Vector3i, 64> front, next;
+    int nfront = 1, nnext = 0;
+    front[0] = v;
+    for (int depth = 0; depth < 3; ++depth)
+    {
+      nnext = 0;
+      int found = 0;
+      for (int f = 0; f < nfront; ++f)
+        for (int d = 0; d < 6; ++d)
+        {
+          const int axis = d >> 1;
+          Eigen::Vector3i w = front[f];
+          Eigen::Vector3i start = w;
+          if (d & 1)
+            w[axis] += 1;
+          else
+          {
+            w[axis] -= 1;
+            start = w;
+          }
+          if (std::find (seen.begin (), seen.begin () + nseen, w) != seen.begin () + nseen)
+            continue;
+          if (!openEdge (start, axis))
+            continue;
+          if (nseen < 64)
+            seen[nseen++] = w;
+          const int sw = voted (w.x (), w.y (), w.z ());
+          if (sw == 1 || sw == -1)
+            found |= (sw == 1 ? 1 : 2);
+          else if (nnext < 64)
+            next[nnext++] = w;
+        }
+      if (found)
+      {
+        if (found == 3)
+          break;  // neighbours disagree (Fig. 3.11): unresolved
+        if (state)
+          *state = 3;
+        return found == 1 ? 1 : -1;
+      }
+      std::swap (front, next);
+      nfront = nnext;
+      if (!nfront)
+        break;
+    }
+    if (state)
+      *state = 4;
+    return 1;  // unresolved → exterior
+  }
+};
+
+}  // namespace
+
+int
+DualContouringOctree::gridVertexState (const Eigen::Vector3i& v) const
+{
+  SignResolver sr{*impl_, rule_};
+  int state = 0;
+  const int s = sr.resolve (v, &state);
+  if (state == 2)
+    return 2;
+  if (state == 4)
+    return 0;
+  return s;
+}
+
+bool
+DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
+{
+  const auto t0 = Clock::now ();
+  Stats& st = stats_;
+  st.input_triangles = mesh.triangles.size ();
+  st.used_triangles = st.nonfinite_triangles = st.degenerate_triangles = st.outside_triangles =
+      st.bad_index_triangles = 0;
+  st.intersections = st.multi_intersection_edges = st.touched_roots = 0;
+  if (mesh.triangles.empty () || mesh.vertices.empty ())
+    return fail ("empty mesh (no triangles)");
+
+  // Lattice coordinates (units of h) in double: exact enough and the same for every frame order.
+  const std::size_t nv = mesh.vertices.size ();
+  std::vector<Eigen::Vector3d> q (nv);
+  std::vector<char> finite (nv);
+  for (std::size_t i = 0; i < nv; ++i)
+  {
+    finite[i] = mesh.vertices[i].allFinite ();
+    q[i] = mesh.vertices[i].cast<double> () / h_;
+  }
+
+  // Volume of interest from the first frame (§3.4.1).
+  if (!volume_set_)
+  {
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ());
+    Eigen::Vector3d hi = -lo;
+    for (std::size_t i = 0; i < nv; ++i)
+      if (finite[i])
+      {
+        lo = lo.cwiseMin (mesh.vertices[i].cast<double> ());
+        hi = hi.cwiseMax (mesh.vertices[i].cast<double> ());
+      }
+    if (!(lo.array () <= hi.array ()).all ())
+      return fail ("no finite vertex in the mesh");
+    const Eigen::Vector3d c = 0.5 * (lo + hi);
+    const double half = 0.5 * margin_ * (hi - lo).maxCoeff () + h_;
+    vol_min_ = c.array () - half;
+    vol_max_ = c.array () + half;
+    volume_set_ = true;
+  }
+
+  // Valid triangles: indices in range, finite corners, inside the lattice (and the volume when
+  // it does not grow), non-zero area.
+  std::vector<std::uint32_t> tris;
+  tris.reserve (mesh.triangles.size ());
+  std::vector<Eigen::Vector3d> normals (mesh.triangles.size (), Eigen::Vector3d::Zero ());
+  for (std::size_t t = 0; t < mesh.triangles.size (); ++t)
+  {
+    const Eigen::Vector3i& f = mesh.triangles[t];
+    if ((f.array () < 0).any () || (f.array () >= static_cast<int> (nv)).any ())
+    {
+      ++st.bad_index_triangles;
+      continue;
+    }
+    if (!finite[f[0]] || !finite[f[1]] || !finite[f[2]])
+    {
+      ++st.nonfinite_triangles;
+      continue;
+    }
+    bool outside = false;
+    for (int k = 0; k < 3; ++k)
+    {
+      const Eigen::Vector3d& p = q[f[k]];
+      if ((p.array ().abs () > kLatticeLimit).any ())
+        outside = true;
+      if (!grow_)
+      {
+        const Eigen::Vector3d w = p * h_;
+        if ((w.array () < vol_min_.array ()).any () || (w.array () > vol_max_.array ()).any ())
+          outside = true;
+      }
+    }
+    if (outside)
+    {
+      ++st.outside_triangles;
+      continue;
+    }
+    const Eigen::Vector3d n = (q[f[1]] - q[f[0]]).cross (q[f[2]] - q[f[0]]);
+    const double len = n.norm ();
+    if (!(len > 1e-12))
+    {
+      ++st.degenerate_triangles;
+      continue;
+    }
+    normals[t] = n / len;
+    tris.push_back (static_cast<std::uint32_t> (t));
+  }
+  st.used_triangles = tris.size ();
+  if (tris.empty ())
+    return fail ("no usable triangle (" + std::to_string (st.nonfinite_triangles) + " non-finite, " +
+                 std::to_string (st.degenerate_triangles) + " degenerate, " +
+                 std::to_string (st.outside_triangles) + " outside the volume, " +
+                 std::to_string (st.bad_index_triangles) + " bad indices)");
+  if (st.outside_triangles)
+    PCL_WARN ("[pcl::DualContouringOctree] %zu triangles outside the %s dropped\n", st.outside_triangles,
+              grow_ ? "lattice range" : "volume (growth off)");
+
+  // Edge–triangle intersections: for each axis, the lattice lines through the triangle's
+  // projection, with a top-left rule so a line through a shared triangle edge hits once.
+  std::vector<Crossing> crossings;
+#pragma omp parallel
+  {
+    std::vector<Crossing> local;
+#pragma omp for schedule(dynamic, 256) nowait
+    for (std::ptrdiff_t ti = 0; ti < static_cast<std::ptrdiff_t> (tris.size ()); ++ti)
+    {
+      const std::uint32_t t = tris[ti];
+      const Eigen::Vector3i& f = mesh.triangles[t];
+      for (int a = 0; a < 3; ++a)
+      {
+        const int u = (a + 1) % 3, w = (a + 2) % 3;
+        Eigen::Vector2d P[3];
+        double D[3];
+        for (int k = 0; k < 3; ++k)
+        {
+          P[k] = Eigen::Vector2d (q[f[k]][u], q[f[k]][w]);
+          D[k] = q[f[k]][a];
+        }
+        double area = (P[1] - P[0]).x () * (P[2] - P[0]).y () - (P[1] - P[0]).y () * (P[2] - P[0]).x ();
+        if (area == 0)
+          continue;  // parallel to the axis
+        if (area < 0)
+        {
+          std::swap (P[1], P[2]);
+          std::swap (D[1], D[2]);
+          area = -area;
+        }
+        const int u0 = static_cast<int> (std::ceil (std::min ({P[0].x (), P[1].x (), P[2].x ()})));
+        const int u1 = static_cast<int> (std::floor (std::max ({P[0].x (), P[1].x (), P[2].x ()})));
+        const int w0 = static_cast<int> (std::ceil (std::min ({P[0].y (), P[1].y (), P[2].y ()})));
+        const int w1 = static_cast<int> (std::floor (std::max ({P[0].y (), P[1].y (), P[2].y ()})));
+        for (int iw = w0; iw <= w1; ++iw)
+          for (int iu = u0; iu <= u1; ++iu)
+          {
+            const Eigen::Vector2d X (iu, iw);
+            double e[3];
+            bool in = true;
+            for (int k = 0; k < 3 && in; ++k)
+            {
+              const Eigen::Vector2d& A = P[(k + 1) % 3];
+              const Eigen::Vector2d& B = P[(k + 2) % 3];
+              const Eigen::Vector2d d = B - A;
+              e[k] = d.x () * (X.y () - A.y ()) - d.y () * (X.x () - A.x ());  // weight of vertex k
+              if (e[k] < 0)
+                in = false;
+              else if (e[k] == 0)
+                in = (d.y () < 0) || (d.y () == 0 && d.x () > 0);  // top-left edges own the line
+            }
+            if (!in)
+              continue;
+            const double z = (e[0] * D[0] + e[1] * D[1] + e[2] * D[2]) / area;
+            const double zf = std::floor (z);
+            Eigen::Vector3i s;
+            s[a] = static_cast<int> (zf);
+            s[u] = iu;
+            s[w] = iw;
+            local.push_back ({edgeKey (a, s.x (), s.y (), s.z ()),
+                              static_cast<float> (std::min (z - zf, 0.99999994)), t});
+          }
+      }
+    }
+#pragma omp critical
+    crossings.insert (crossings.end (), local.begin (), local.end ());
+  }
+  std::sort (crossings.begin (), crossings.end (), [&] (const Crossing& x, const Crossing& y) {
+    if (x.key != y.key)
+      return x.key < y.key;
+    if (x.frac != y.frac)
+      return x.frac < y.frac;
+    return x.tri < y.tri;
+  });
+  st.intersections = crossings.size ();
+  st.t_intersect_ms = msSince (t0);
+  const auto t1 = Clock::now ();
+
+  // Merge into the map (§3.4.3 / §3.5): votes on the two grid vertices, the plane into the QEFs
+  // of the four leaves around the edge.
+  Impl& m = *impl_;
+  Impl::Root* cache = nullptr;
+  auto rootOf = [&] (int x, int y, int z) -> Impl::Root* {
+    const int bx = floorDiv (x), by = floorDiv (y), bz = floorDiv (z);
+    if (cache && cache->origin == Eigen::Vector3i (bx, by, bz) * kRootSide)
+      return cache;
+    cache = m.get (bx, by, bz);
+    cache->dirty = true;
+    if (cache->stamp != st.frames + 1)
+    {
+      cache->stamp = st.frames + 1;
+      ++st.touched_roots;
+    }
+    return cache;
+  };
+  auto vote = [&] (const Eigen::Vector3i& v, bool exterior) {
+    Impl::Root* r = rootOf (v.x (), v.y (), v.z ());
+    const int i = localIndex (v.x (), v.y (), v.z ());
+    std::uint8_t& c = exterior ? r->out_votes[i] : r->in_votes[i];
+    if (r->out_votes[i] == 0 && r->in_votes[i] == 0)
+      ++m.voted;
+    if (c < 255)
+      ++c;
+  };
+  for (std::size_t g = 0; g < crossings.size ();)
+  {
+    std::size_t e = g + 1;
+    while (e < crossings.size () && crossings[e].key == crossings[g].key)
+      ++e;
+    const Crossing& c = crossings[g];  // nearest to A (smallest fraction)
+    const int axis = static_cast<int> (c.key & 3);
+    const int li = static_cast<int> ((c.key >> 2) & (kRootCells - 1));
+    const std::uint64_t rk = c.key >> 14;
+    Eigen::Vector3i s (static_cast<int> ((rk >> 32) & 0xFFFF) - (1 << 15),
+                       static_cast<int> ((rk >> 16) & 0xFFFF) - (1 << 15),
+                       static_cast<int> (rk & 0xFFFF) - (1 << 15));
+    s = s * kRootSide + Eigen::Vector3i (li % kRootSide, (li / kRootSide) % kRootSide, li / (kRootSide * kRootSide));
+    const std::size_t count = e - g;
+    if (count > 1)
+      ++st.multi_intersection_edges;
+    const Eigen::Vector3d& n = normals[c.tri];
+    // Eq. 3.1: S = (C − A)·N = frac · N_axis; S > 0 ⇒ A exterior. Odd count: B opposite;
+    // even: B as A and the intersections are disregarded (§3.4.3).
+    const bool a_ext = n[axis] > 0;
+    const bool b_ext = (count % 2) ? !a_ext : a_ext;
+    Eigen::Vector3i b = s;
+    b[axis] += 1;
+    vote (s, a_ext);
+    vote (b, b_ext);
+    // Plane of the nearest intersection, in each incident leaf's local frame.
+    const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+    std::int64_t ata[6];
+    const double nn[6] = {n.x () * n.x (), n.x () * n.y (), n.x () * n.z (), n.y () * n.y (), n.y () * n.z (), n.z () * n.z ()};
+    for (int k = 0; k < 6; ++k)
+      ata[k] = std::llround (nn[k] * kFix);
+    for (int k = 0; k < 4; ++k)
+    {
+      const int du = k & 1, dw = k >> 1;
+      Eigen::Vector3i cell = s;
+      cell[u] -= du;
+      cell[w] -= dw;
+      Impl::Root* r = rootOf (cell.x (), cell.y (), cell.z ());
+        const int ci = localIndex (cell.x (), cell.y (), cell.z ());
+      std::uint16_t& li2 = r->leaf_index[ci];
+      if (li2 == kNone)
+      {
+        li2 = static_cast<std::uint16_t> (r->leaves.size ());
+        r->leaves.emplace_back ();
+        r->leaves.back ().cell = static_cast<std::uint16_t> (ci);
+        ++m.leaves;
+      }
+      Leaf& leaf = r->leaves[li2];
+      leaf.crossed |= static_cast<std::uint16_t> (1u << (axis * 4 + du + 2 * dw));
+      if (count % 2 == 0)
+        continue;
+      Eigen::Vector3d p = Eigen::Vector3d::Zero ();  // intersection in the leaf's frame
+      p[axis] = c.frac;
+      p[u] = du;
+      p[w] = dw;
+      const double d = n.dot (p);
+      for (int j = 0; j < 6; ++j)
+        leaf.ata[j] += ata[j];
+      for (int j = 0; j < 3; ++j)
+      {
+        leaf.atb[j] += std::llround (n[j] * d * kFix);
+        leaf.mass[j] += std::llround (p[j] * kFix);
+      }
+      leaf.btb += std::llround (d * d * kFix);
+      ++leaf.count;
+    }
+    g = e;
+  }
+  st.t_merge_ms = msSince (t1);
+  ++st.frames;
+  st.roots = m.roots.size ();
+  st.leaves = m.leaves;
+  st.grid_vertices = m.voted;
+  st.memory_bytes = m.roots.size () * sizeof (Impl::Root) + m.leaves * sizeof (Leaf) +
+                    m.root_of.size () * 32;
+  st.last_frame_ms = msSince (t0);
+  return true;
+}
+
+void
+DualContouringOctree::reconstruct (pcl::PolygonMesh& mesh)
+{
+  polygonise (mesh, all_dirty_);
+}
+
+void
+DualContouringOctree::reconstructFromScratch (pcl::PolygonMesh& mesh)
+{
+  polygonise (mesh, true);
+}
+
+void
+DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
+{
+  const auto t0 = Clock::now ();
+  Impl& m = *impl_;
+  Stats& st = stats_;
+  using Root = Impl::Root;
+
+  // Dirty roots D (data changed); owners to redo P = D dilated by 2 roots: a quad depends on the
+  // leaves of the ≤ 4 roots around its edge and on signs resolved ≤ 3 edges away.
+  std::vector<Root*> dirty, redo;
+  for (auto& r : m.roots)
+    if (all || r->dirty)
+      dirty.push_back (r.get ());
+  {
+    std::vector<char> mark (m.roots.size (), 0);
+    for (Root* r : dirty)
+    {
+      const Eigen::Vector3i b = r->origin / kRootSide;
+      for (int dz = -2; dz <= 2; ++dz)
+        for (int dy = -2; dy <= 2; ++dy)
+          for (int dx = -2; dx <= 2; ++dx)
+          {
+            Root* n = m.find (b.x () + dx, b.y () + dy, b.z () + dz);
+            if (n && !mark[n->id])
+            {
+              mark[n->id] = 1;
+              redo.push_back (n);
+            }
+          }
+    }
+  }
+  st.repolygonised_roots = redo.size ();
+
+  // Vertices of the dirty roots: ε collapse inside the root (Ju et al.), then QEF minimisers.
+  const auto tv = Clock::now ();
+  const double eps2 = (eps_ / h_) * (eps_ / h_);  // RMS distance bound in leaf units, squared
+#pragma omp parallel for schedule(dynamic, 4)
+  for (std::ptrdiff_t ri = 0; ri < static_cast<std::ptrdiff_t> (dirty.size ()); ++ri)
+  {
+    Root& r = *dirty[ri];
+    r.vertices.clear ();
+    r.cell_vertex.fill (kNone);
+    r.escaped = r.collapsed = 0;
+    // Nodes per level: QEF (level-local frame), state 0 empty, 1 collapsible, 2 fixed.
+    std::vector<Qef> qef[kRootLevels + 1];
+    std::vector<std::uint8_t> state[kRootLevels + 1];
+    int top = 0;  // highest level that may hold collapsed nodes
+    if (eps_ > 0)
+    {
+      for (int l = 0; l <= kRootLevels; ++l)
+      {
+        const int side = kRootSide >> l;
+        qef[l].assign (static_cast<std::size_t> (side) * side * side, Qef ());
+        state[l].assign (static_cast<std::size_t> (side) * side * side, 0);
+      }
+      for (const Leaf& lf : r.leaves)
+      {
+        qef[0][lf.cell] = Qef::fromLeaf (lf);
+        state[0][lf.cell] = 1;
+      }
+      for (int l = 1; l <= kRootLevels; ++l)
+      {
+        const int side = kRootSide >> l, cside = side * 2;
+        bool any = false;
+        for (int z = 0; z < side; ++z)
+          for (int y = 0; y < side; ++y)
+            for (int x = 0; x < side; ++x)
+            {
+              const int ni = (z * side + y) * side + x;
+              bool ok = true, has = false;
+              Qef acc;
+              for (int c = 0; c < 8; ++c)
+              {
+                const int cx = 2 * x + (c & 1), cy = 2 * y + (c >> 1 & 1), cz = 2 * z + (c >> 2);
+                const int ci = (cz * cside + cy) * cside + cx;
+                if (state[l - 1][ci] == 0)
+                  continue;
+                has = true;
+                if (state[l - 1][ci] == 2)
+                {
+                  ok = false;
+                  continue;
+                }
+                // All node QEFs are in leaf units, origin at the node's min corner.
+                acc.addShifted (qef[l - 1][ci], Eigen::Vector3d (c & 1, c >> 1 & 1, c >> 2) * double (1 << (l - 1)));
+              }
+              if (!has)
+                continue;
+              if (ok)
+              {
+                Eigen::Vector3d x0;
+                acc.solve (double (1 << l), x0);
+                ok = acc.count > 0 && acc.error (x0) / acc.count < eps2;  // mean squared distance
+              }
+              state[l][ni] = ok ? 1 : 2;
+              if (ok)
+              {
+                qef[l][ni] = acc;
+                any = true;
+              }
+            }
+        if (!any)
+          break;
+        top = l;
+      }
+    }
+    // Assign vertices top-down: a collapsible node whose parent is not collapsible is final.
+    auto emitVertex = [&] (int level, int nx, int ny, int nz, const Qef& qq) {
+      Eigen::Vector3d x;  // leaf units from the node's min corner
+      if (qq.solve (double (1 << level), x))
+        ++r.escaped;
+      const Eigen::Vector3d lat = Eigen::Vector3d (nx, ny, nz) * double (1 << level) + x + r.origin.cast<double> ();
+      const std::uint16_t vi = static_cast<std::uint16_t> (r.vertices.size ());
+      r.vertices.push_back ({(lat * h_).cast<float> (), static_cast<std::uint32_t> (level << 12 | ((nz * (kRootSide >> level) + ny) * (kRootSide >> level) + nx))});
+      const int s = 1 << level;
+      for (int z = nz * s; z < (nz + 1) * s; ++z)
+        for (int y = ny * s; y < (ny + 1) * s; ++y)
+          for (int x2 = nx * s; x2 < (nx + 1) * s; ++x2)
+            r.cell_vertex[(z * kRootSide + y) * kRootSide + x2] = vi;
+    };
+    for (int l = top; l >= 1; --l)
+    {
+      const int side = kRootSide >> l;
+      for (int z = 0; z < side; ++z)
+        for (int y = 0; y < side; ++y)
+          for (int x = 0; x < side; ++x)
+          {
+            const int ni = (z * side + y) * side + x;
+            if (state[l][ni] != 1)
+              continue;
+            bool parent_final = false;
+            if (l < top)
+            {
+              const int ps = side / 2;
+              parent_final = state[l + 1][((z / 2) * ps + y / 2) * ps + x / 2] == 1;
+            }
+            if (parent_final)
+              continue;
+            emitVertex (l, x, y, z, qef[l][ni]);
+            ++r.collapsed;
+          }
+    }
+    for (const Leaf& lf : r.leaves)
+    {
+      if (r.cell_vertex[lf.cell] != kNone)
+        continue;
+      const int x = lf.cell % kRootSide, y = (lf.cell / kRootSide) % kRootSide, z = lf.cell / (kRootSide * kRootSide);
+      emitVertex (0, x, y, z, Qef::fromLeaf (lf));
+    }
+    r.dirty = false;
+  }
+  all_dirty_ = false;
+  st.t_vertices_ms = msSince (tv);
+
+  // Polygons (dual contouring over minimal edges) for the owner roots to redo.
+  const auto tp = Clock::now ();
+  SignResolver sr{m, rule_};
+  // A vertex reference: root id << 16 | vertex index; phantom (no leaf): bit 63 + cell coords.
+  auto phantomRef = [] (const Eigen::Vector3i& c) -> std::uint64_t {
+    const std::uint64_t off = 1u << 20;
+    return (1ull << 63) | ((static_cast<std::uint64_t> (c.x () + off) & 0x1FFFFF) << 42) |
+           ((static_cast<std::uint64_t> (c.y () + off) & 0x1FFFFF) << 21) |
+           (static_cast<std::uint64_t> (c.z () + off) & 0x1FFFFF);
+  };
+  auto repOf = [&] (const Eigen::Vector3i& c, bool& exists) -> std::uint64_t {
+    const Root* r = m.findCell (c.x (), c.y (), c.z ());
+    if (r)
+    {
+      const std::uint16_t v = r->cell_vertex[localIndex (c.x (), c.y (), c.z ())];
+      if (v != kNone)
+      {
+        exists = true;
+        return static_cast<std::uint64_t> (r->id) << 16 | v;
+      }
+    }
+    exists = false;
+    return phantomRef (c);
+  };
+  auto position = [&] (std::uint64_t ref) -> Eigen::Vector3f {
+    if (ref >> 63)
+    {
+      const std::int64_t off = 1 << 20;
+      const Eigen::Vector3d c (static_cast<double> (static_cast<std::int64_t> ((ref >> 42) & 0x1FFFFF) - off),
+                               static_cast<double> (static_cast<std::int64_t> ((ref >> 21) & 0x1FFFFF) - off),
+                               static_cast<double> (static_cast<std::int64_t> (ref & 0x1FFFFF) - off));
+      return ((c.array () + 0.5) * h_).matrix ().cast<float> ();
+    }
+    return m.roots[ref >> 16]->vertices[ref & 0xFFFF].p;
+  };
+  std::size_t ambiguous = 0, unresolved = 0, phantoms = 0;
+  const bool collapsed_mode = eps_ > 0;
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : ambiguous, unresolved, phantoms)
+  for (std::ptrdiff_t ri = 0; ri < static_cast<std::ptrdiff_t> (redo.size ()); ++ri)
+  {
+    Root& r = *redo[ri];
+    r.tris.clear ();
+    std::vector<int> cells;
+    if (collapsed_mode)
+    {
+      for (int i = 0; i < kRootCells; ++i)
+        if (r.cell_vertex[i] != kNone)
+          cells.push_back (i);
+    }
+    else
+      for (const Leaf& lf : r.leaves)
+        cells.push_back (lf.cell);
+    for (int ci : cells)
+    {
+      const Eigen::Vector3i c = r.origin + Eigen::Vector3i (ci % kRootSide, (ci / kRootSide) % kRootSide, ci / (kRootSide * kRootSide));
+      for (int e = 0; e < 12; ++e)
+      {
+        const int axis = e / 4, u = (axis + 1) % 3, w = (axis + 2) % 3;
+        const int ou = e & 1, ow = (e >> 1) & 1;
+        Eigen::Vector3i s = c;  // edge start vertex
+        s[u] += ou;
+        s[w] += ow;
+        // Incident cells in counter-clockwise order around +axis: (−,−), (0,−), (0,0), (−,0).
+        static const int kU[4] = {-1, 0, 0, -1}, kW[4] = {-1, -1, 0, 0};
+        std::array<std::uint64_t, 4> rep;
+        std::array<bool, 4> ex;
+        int self = -1, first = -1;
+        for (int k = 0; k < 4; ++k)
+        {
+          Eigen::Vector3i cc = s;
+          cc[u] += kU[k];
+          cc[w] += kW[k];
+          bool exk;
+          rep[k] = repOf (cc, exk);
+          ex[k] = exk;
+          if (exk && first < 0)
+            first = k;
+          if (cc == c)
+            self = k;
+        }
+        if (first != self)
+          continue;  // another incident cell owns this edge
+        // Minimal edge: the run of lattice edges with the same four cells.
+        Eigen::Vector3i end = s;
+        end[axis] += 1;
+        if (collapsed_mode)
+        {
+          auto repsAt = [&] (const Eigen::Vector3i& start) {
+            std::array<std::uint64_t, 4> rr;
+            for (int k = 0; k < 4; ++k)
+            {
+              Eigen::Vector3i cc = start;
+              cc[u] += kU[k];
+              cc[w] += kW[k];
+              bool exk;
+              rr[k] = repOf (cc, exk);
+            }
+            return rr;
+          };
+          Eigen::Vector3i prev = s;
+          prev[axis] -= 1;
+          if (repsAt (prev) == rep)
+            continue;  // not the first lattice edge of its minimal edge
+          while (repsAt (end) == rep)
+            end[axis] += 1;
+        }
+        int sa = 0, sb = 0;
+        const int ga = sr.resolve (s, &sa);
+        const int gb = sr.resolve (end, &sb);
+        if (ga == gb)
+          continue;
+        ambiguous += (sa == 2) + (sb == 2);
+        unresolved += (sa == 4) + (sb == 4);
+        // Interior at the start ⇒ the surface faces +axis ⇒ keep the counter-clockwise order.
+        std::array<std::uint64_t, 4> poly = rep;
+        if (ga > 0)
+          std::swap (poly[1], poly[3]);
+        for (int k = 0; k < 4; ++k)
+          phantoms += !ex[k];
+        // Drop repeated cells (collapsed nodes) cyclically.
+        std::array<std::uint64_t, 4> pv;
+        int np = 0;
+        for (int k = 0; k < 4; ++k)
+          if (np == 0 || poly[k] != pv[np - 1])
+            pv[np++] = poly[k];
+        if (np > 1 && pv[np - 1] == pv[0])
+          --np;
+        if (np == 3)
+          r.tris.push_back ({pv[0], pv[1], pv[2]});
+        else if (np == 4)
+        {
+          const float d02 = (position (pv[0]) - position (pv[2])).squaredNorm ();
+          const float d13 = (position (pv[1]) - position (pv[3])).squaredNorm ();
+          if (d02 <= d13)
+          {
+            r.tris.push_back ({pv[0], pv[1], pv[2]});
+            r.tris.push_back ({pv[0], pv[2], pv[3]});
+          }
+          else
+          {
+            r.tris.push_back ({pv[0], pv[1], pv[3]});
+            r.tris.push_back ({pv[1], pv[2], pv[3]});
+          }
+        }
+      }
+    }
+  }
+  st.ambiguous_vertices = ambiguous;
+  st.unresolved_vertices = unresolved;
+  st.phantom_vertices = phantoms;
+  st.t_polygons_ms = msSince (tp);
+
+  // Output: every root's cached triangles; vertices numbered per root, unused ones dropped.
+  const auto to = Clock::now ();
+  std::vector<std::size_t> base (m.roots.size () + 1, 0);
+  for (std::size_t i = 0; i < m.roots.size (); ++i)
+    base[i + 1] = base[i] + m.roots[i]->vertices.size ();
+  std::vector<std::int32_t> index (base.back (), -1);
+  std::unordered_map<std::uint64_t, std::int32_t> phantom_index;
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  std::vector<pcl::Vertices> polygons;
+  std::size_t ntris = 0, escaped = 0, collapsed = 0;
+  for (const auto& r : m.roots)
+  {
+    ntris += r->tris.size ();
+    escaped += r->escaped;
+    collapsed += r->collapsed;
+  }
+  polygons.reserve (ntris);
+  auto outIndex = [&] (std::uint64_t ref) -> int {
+    if (ref >> 63)
+    {
+      auto it = phantom_index.find (ref);
+      if (it != phantom_index.end ())
+        return it->second;
+      const Eigen::Vector3f p = position (ref);
+      phantom_index.emplace (ref, static_cast<std::int32_t> (cloud.size ()));
+      cloud.push_back (pcl::PointXYZ (p.x (), p.y (), p.z ()));
+      return static_cast<int> (cloud.size () - 1);
+    }
+    std::int32_t& idx = index[base[ref >> 16] + (ref & 0xFFFF)];
+    if (idx < 0)
+    {
+      const Eigen::Vector3f& p = m.roots[ref >> 16]->vertices[ref & 0xFFFF].p;
+      idx = static_cast<std::int32_t> (cloud.size ());
+      cloud.push_back (pcl::PointXYZ (p.x (), p.y (), p.z ()));
+    }
+    return idx;
+  };
+  for (const auto& r : m.roots)
+    for (const auto& t : r->tris)
+    {
+      pcl::Vertices v;
+      v.vertices = {outIndex (t[0]), outIndex (t[1]), outIndex (t[2])};
+      polygons.push_back (std::move (v));
+    }
+  pcl::toPCLPointCloud2 (cloud, mesh.cloud);
+  mesh.polygons.swap (polygons);
+  st.vertices = cloud.size ();
+  st.triangles = mesh.polygons.size ();
+  st.escaped_vertices = escaped;
+  st.collapsed_cells = collapsed;
+  st.cells = base.back ();
+  std::size_t cache_bytes = 0;
+  for (const auto& r : m.roots)
+    cache_bytes += r->vertices.capacity () * sizeof (Vertex) + r->tris.capacity () * sizeof (r->tris[0]) +
+                   r->leaves.capacity () * sizeof (Leaf);
+  st.memory_bytes = m.roots.size () * sizeof (Root) + cache_bytes + m.root_of.size () * 32;
+  st.t_output_ms = msSince (to);
+  st.last_reconstruct_ms = msSince (t0);
+}
+
+}  // namespace pcl
