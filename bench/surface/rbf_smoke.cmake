@@ -1,0 +1,18 @@
+# ctest bench_rbf_smoke: `bench_rbf --quick` exits 0 and prints the CSV header and an ok row of
+# every method (Open3D's only when it was found at build time).
+execute_process(COMMAND ${BENCH} --quick --threads 2 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "bench_rbf --quick exited with ${rc}\n${out}\n${err}")
+endif()
+if(NOT out MATCHES "module,method,params,input,points,seconds")
+  message(FATAL_ERROR "no CSV header\n${out}")
+endif()
+set(methods rbf rbf_mst pcl_poisson pcl_mc_hoppe pcl_mc_rbf)
+if(HAVE_OPEN3D)
+  list(APPEND methods o3d_poisson o3d_poisson_trim)
+endif()
+foreach(m ${methods})
+  if(NOT out MATCHES "surface,${m},[^\n]*status=ok[^\n]*,chamfer,")
+    message(FATAL_ERROR "no ok row with a chamfer distance for ${m}\n${out}")
+  endif()
+endforeach()
