@@ -289,11 +289,46 @@ DualContouringOctree::gridVertexVotes (const Eigen::Vector3i& v) const
 
 namespace {
 
+// Root lookups around one root without hashing (the 27 roots next to it), else the hash map.
+struct RootCache
+{
+  using Root = DualContouringOctree::Impl::Root;
+  const DualContouringOctree::Impl& map;
+  Eigen::Vector3i centre = Eigen::Vector3i::Constant (std::numeric_limits<int>::min ());
+  std::array<const Root*, 27> nb{};
+
+  explicit RootCache (const DualContouringOctree::Impl& m) : map (m) {}
+  void
+  centreOn (const Eigen::Vector3i& block)
+  {
+    centre = block;
+    for (int k = 0; k < 27; ++k)
+      nb[k] = map.find (block.x () + k % 3 - 1, block.y () + (k / 3) % 3 - 1, block.z () + k / 9 - 1);
+  }
+  const Root*
+  findCell (int x, int y, int z) const
+  {
+    const int dx = floorDiv (x) - centre.x () + 1, dy = floorDiv (y) - centre.y () + 1, dz = floorDiv (z) - centre.z () + 1;
+    if (static_cast<unsigned> (dx) < 3u && static_cast<unsigned> (dy) < 3u && static_cast<unsigned> (dz) < 3u)
+      return nb[dx + 3 * dy + 9 * dz];
+    return map.findCell (x, y, z);
+  }
+  const Leaf*
+  leafAt (int x, int y, int z) const
+  {
+    const Root* r = findCell (x, y, z);
+    if (!r)
+      return nullptr;
+    const std::uint16_t i = r->leaf_index[localIndex (x, y, z)];
+    return i == kNone ? nullptr : &r->leaves[i];
+  }
+};
+
 // Resolved sign of grid vertices (§3.6), read-only on the map.
 struct SignResolver
 {
   using Root = DualContouringOctree::Impl::Root;
-  const DualContouringOctree::Impl& map;
+  const RootCache& map;
   DualContouringOctree::SignRule rule;
 
   // +1 exterior, −1 interior, 2 ambiguous, 0 no vote.
@@ -409,7 +444,8 @@ struct SignResolver
 int
 DualContouringOctree::gridVertexState (const Eigen::Vector3i& v) const
 {
-  SignResolver sr{*impl_, rule_};
+  RootCache rc (*impl_);
+  SignResolver sr{rc, rule_};
   int state = 0;
   const int s = sr.resolve (v, &state);
   if (state == 2)
@@ -638,20 +674,19 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
     if (count > 1)
       ++st.multi_intersection_edges;
     const Eigen::Vector3d& n = normals[c.tri];
-    // Eq. 3.1: S = (C − A)·N = frac · N_axis; S > 0 ⇒ A exterior. Odd count: B opposite;
-    // even: B as A and the intersections are disregarded (§3.4.3).
-    const bool a_ext = n[axis] > 0;
+    // Eq. 3.1: S = (C − A)·N = frac · N_axis. With N pointing out, S > 0 means A lies behind
+    // the surface, i.e. inside (the seed's text says exterior; its figure and the geometry say
+    // interior). Odd count: B opposite; even: B as A, intersections disregarded (§3.4.3).
+    const bool a_ext = n[axis] < 0;
     const bool b_ext = (count % 2) ? !a_ext : a_ext;
     Eigen::Vector3i b = s;
     b[axis] += 1;
     vote (s, a_ext);
     vote (b, b_ext);
-    // Plane of the nearest intersection, in each incident leaf's local frame.
+    // Every intersection's plane goes into the QEFs of the four leaves around the edge (the
+    // seed kept only the nearest to A; with all of them a leaf's QEF is a function of the set
+    // of triangles, whichever frames they came in).
     const int u = (axis + 1) % 3, w = (axis + 2) % 3;
-    std::int64_t ata[6];
-    const double nn[6] = {n.x () * n.x (), n.x () * n.y (), n.x () * n.z (), n.y () * n.y (), n.y () * n.z (), n.z () * n.z ()};
-    for (int k = 0; k < 6; ++k)
-      ata[k] = std::llround (nn[k] * kFix);
     for (int k = 0; k < 4; ++k)
     {
       const int du = k & 1, dw = k >> 1;
@@ -659,7 +694,7 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
       cell[u] -= du;
       cell[w] -= dw;
       Impl::Root* r = rootOf (cell.x (), cell.y (), cell.z ());
-        const int ci = localIndex (cell.x (), cell.y (), cell.z ());
+      const int ci = localIndex (cell.x (), cell.y (), cell.z ());
       std::uint16_t& li2 = r->leaf_index[ci];
       if (li2 == kNone)
       {
@@ -670,22 +705,26 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
       }
       Leaf& leaf = r->leaves[li2];
       leaf.crossed |= static_cast<std::uint16_t> (1u << (axis * 4 + du + 2 * dw));
-      if (count % 2 == 0)
-        continue;
-      Eigen::Vector3d p = Eigen::Vector3d::Zero ();  // intersection in the leaf's frame
-      p[axis] = c.frac;
-      p[u] = du;
-      p[w] = dw;
-      const double d = n.dot (p);
-      for (int j = 0; j < 6; ++j)
-        leaf.ata[j] += ata[j];
-      for (int j = 0; j < 3; ++j)
+      for (std::size_t j = g; j < e; ++j)
       {
-        leaf.atb[j] += std::llround (n[j] * d * kFix);
-        leaf.mass[j] += std::llround (p[j] * kFix);
+        const Eigen::Vector3d& nj = normals[crossings[j].tri];
+        Eigen::Vector3d p = Eigen::Vector3d::Zero ();  // intersection in the leaf's frame
+        p[axis] = crossings[j].frac;
+        p[u] = du;
+        p[w] = dw;
+        const double d = nj.dot (p);
+        const double nn[6] = {nj.x () * nj.x (), nj.x () * nj.y (), nj.x () * nj.z (),
+                              nj.y () * nj.y (), nj.y () * nj.z (), nj.z () * nj.z ()};
+        for (int q2 = 0; q2 < 6; ++q2)
+          leaf.ata[q2] += std::llround (nn[q2] * kFix);
+        for (int q2 = 0; q2 < 3; ++q2)
+        {
+          leaf.atb[q2] += std::llround (nj[q2] * d * kFix);
+          leaf.mass[q2] += std::llround (p[q2] * kFix);
+        }
+        leaf.btb += std::llround (d * d * kFix);
+        ++leaf.count;
       }
-      leaf.btb += std::llround (d * d * kFix);
-      ++leaf.count;
     }
     g = e;
   }
@@ -855,10 +894,11 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
             ++r.collapsed;
           }
     }
-    for (const Leaf& lf : r.leaves)
+    for (int ci = 0; ci < kRootCells; ++ci)
     {
-      if (r.cell_vertex[lf.cell] != kNone)
+      if (r.leaf_index[ci] == kNone || r.cell_vertex[ci] != kNone)
         continue;
+      const Leaf& lf = r.leaves[r.leaf_index[ci]];
       const int x = lf.cell % kRootSide, y = (lf.cell / kRootSide) % kRootSide, z = lf.cell / (kRootSide * kRootSide);
       emitVertex (0, x, y, z, Qef::fromLeaf (lf));
     }
@@ -869,7 +909,6 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
 
   // Polygons (dual contouring over minimal edges) for the owner roots to redo.
   const auto tp = Clock::now ();
-  SignResolver sr{m, rule_};
   // A vertex reference: root id << 16 | vertex index; phantom (no leaf): bit 63 + cell coords.
   auto phantomRef = [] (const Eigen::Vector3i& c) -> std::uint64_t {
     const std::uint64_t off = 1u << 20;
@@ -877,8 +916,8 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
            ((static_cast<std::uint64_t> (c.y () + off) & 0x1FFFFF) << 21) |
            (static_cast<std::uint64_t> (c.z () + off) & 0x1FFFFF);
   };
-  auto repOf = [&] (const Eigen::Vector3i& c, bool& exists) -> std::uint64_t {
-    const Root* r = m.findCell (c.x (), c.y (), c.z ());
+  auto repOf = [&] (const RootCache& rc, const Eigen::Vector3i& c, bool& exists) -> std::uint64_t {
+    const Root* r = rc.findCell (c.x (), c.y (), c.z ());
     if (r)
     {
       const std::uint16_t v = r->cell_vertex[localIndex (c.x (), c.y (), c.z ())];
@@ -909,16 +948,14 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
   {
     Root& r = *redo[ri];
     r.tris.clear ();
+    RootCache rc (m);
+    rc.centreOn (r.origin / kRootSide);
+    SignResolver sr{rc, rule_};
+    // Cells in index order, so the output does not depend on the order leaves were created.
     std::vector<int> cells;
-    if (collapsed_mode)
-    {
-      for (int i = 0; i < kRootCells; ++i)
-        if (r.cell_vertex[i] != kNone)
-          cells.push_back (i);
-    }
-    else
-      for (const Leaf& lf : r.leaves)
-        cells.push_back (lf.cell);
+    for (int i = 0; i < kRootCells; ++i)
+      if (collapsed_mode ? r.cell_vertex[i] != kNone : r.leaf_index[i] != kNone)
+        cells.push_back (i);
     for (int ci : cells)
     {
       const Eigen::Vector3i c = r.origin + Eigen::Vector3i (ci % kRootSide, (ci / kRootSide) % kRootSide, ci / (kRootSide * kRootSide));
@@ -940,7 +977,7 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
           cc[u] += kU[k];
           cc[w] += kW[k];
           bool exk;
-          rep[k] = repOf (cc, exk);
+          rep[k] = repOf (rc, cc, exk);
           ex[k] = exk;
           if (exk && first < 0)
             first = k;
@@ -962,7 +999,7 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
               cc[u] += kU[k];
               cc[w] += kW[k];
               bool exk;
-              rr[k] = repOf (cc, exk);
+              rr[k] = repOf (rc, cc, exk);
             }
             return rr;
           };
@@ -1056,7 +1093,12 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
     }
     return idx;
   };
+  std::vector<const Root*> order;
+  order.reserve (m.roots.size ());
   for (const auto& r : m.roots)
+    order.push_back (r.get ());
+  std::sort (order.begin (), order.end (), [] (const Root* a, const Root* b) { return a->key < b->key; });
+  for (const Root* r : order)
     for (const auto& t : r->tris)
     {
       pcl::Vertices v;

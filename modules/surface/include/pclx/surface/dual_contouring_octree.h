@@ -17,10 +17,11 @@
 // Hermite data (§3.4.3): every lattice edge crossed by a triangle of a frame gets its
 // intersection (exact segment–triangle point, top-left rule so a point on a shared triangle
 // edge counts once) and the unit face normal. Per frame and edge: one intersection → S =
-// (C − A)·N (Eq. 3.1) gives A's sign (S > 0: exterior), B the opposite; several → parity,
-// with the intersection nearest to A (the leaves are already at maximum depth, so the
-// "refine" branch is never taken). The plane (C, N) is added to the QEFs of the four leaves
-// around the edge (seed: only the intersection nearest to A). QEFs are kept in 64-bit fixed
+// (C − A)·N (Eq. 3.1) gives A's sign (with N pointing out, S > 0: A interior; the seed's
+// text has it the other way round), B the opposite; several → parity, with the intersection
+// nearest to A (leaves are at maximum depth, so the "refine" branch is never taken). Every
+// intersection's plane (C, N) goes into the QEFs of the four leaves around the edge (the seed
+// kept only the nearest to A). QEFs are kept in 64-bit fixed
 // point in leaf-local coordinates: sums are exact and commutative, so adding frames in any
 // order gives bit-identical data.
 //
