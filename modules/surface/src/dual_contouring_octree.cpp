@@ -170,7 +170,15 @@ struct DualContouringOctree::Impl
     // Polygonisation cache.
     std::array<std::uint16_t, kRootCells> cell_vertex;  // vertex of every fine cell (collapsed too)
     std::vector<Vertex> vertices;
-    std::vector<std::array<std::uint64_t, 3>> tris;  // vertex refs (see ref ())
+    std::vector<std::array<std::uint64_t, 3>> tris;  // vertex refs (see polygonise)
+    // Polygons with a collapsed cell: the same one can come from several lattice edges along
+    // a coarse edge; they are merged over the whole map at output (net orientation).
+    struct Shared
+    {
+      std::array<std::uint64_t, 4> v;
+      int n;
+    };
+    std::vector<Shared> shared;
     std::size_t escaped = 0, collapsed = 0;
     std::size_t stamp = 0;  // last frame that touched it
     bool dirty = true;
@@ -941,6 +949,26 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
     }
     return m.roots[ref >> 16]->vertices[ref & 0xFFFF].p;
   };
+  // A polygon of 3 or 4 vertices as triangles; quads split along the shorter diagonal.
+  auto emitPolygon = [&] (std::vector<std::array<std::uint64_t, 3>>& out, const std::array<std::uint64_t, 4>& pv, int np) {
+    if (np == 3)
+    {
+      out.push_back ({pv[0], pv[1], pv[2]});
+      return;
+    }
+    const float d02 = (position (pv[0]) - position (pv[2])).squaredNorm ();
+    const float d13 = (position (pv[1]) - position (pv[3])).squaredNorm ();
+    if (d02 <= d13)
+    {
+      out.push_back ({pv[0], pv[1], pv[2]});
+      out.push_back ({pv[0], pv[2], pv[3]});
+    }
+    else
+    {
+      out.push_back ({pv[0], pv[1], pv[3]});
+      out.push_back ({pv[1], pv[2], pv[3]});
+    }
+  };
   std::size_t ambiguous = 0, unresolved = 0, phantoms = 0;
   const bool collapsed_mode = eps_ > 0;
 #pragma omp parallel for schedule(dynamic, 4) reduction(+ : ambiguous, unresolved, phantoms)
@@ -948,13 +976,14 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
   {
     Root& r = *redo[ri];
     r.tris.clear ();
+    r.shared.clear ();
     RootCache rc (m);
     rc.centreOn (r.origin / kRootSide);
     SignResolver sr{rc, rule_};
     // Cells in index order, so the output does not depend on the order leaves were created.
     std::vector<int> cells;
     for (int i = 0; i < kRootCells; ++i)
-      if (collapsed_mode ? r.cell_vertex[i] != kNone : r.leaf_index[i] != kNone)
+      if (r.leaf_index[i] != kNone)
         cells.push_back (i);
     for (int ci : cells)
     {
@@ -986,30 +1015,8 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
         }
         if (first != self)
           continue;  // another incident cell owns this edge
-        // Minimal edge: the run of lattice edges with the same four cells.
         Eigen::Vector3i end = s;
         end[axis] += 1;
-        if (collapsed_mode)
-        {
-          auto repsAt = [&] (const Eigen::Vector3i& start) {
-            std::array<std::uint64_t, 4> rr;
-            for (int k = 0; k < 4; ++k)
-            {
-              Eigen::Vector3i cc = start;
-              cc[u] += kU[k];
-              cc[w] += kW[k];
-              bool exk;
-              rr[k] = repOf (rc, cc, exk);
-            }
-            return rr;
-          };
-          Eigen::Vector3i prev = s;
-          prev[axis] -= 1;
-          if (repsAt (prev) == rep)
-            continue;  // not the first lattice edge of its minimal edge
-          while (repsAt (end) == rep)
-            end[axis] += 1;
-        }
         int sa = 0, sb = 0;
         const int ga = sr.resolve (s, &sa);
         const int gb = sr.resolve (end, &sb);
@@ -1031,23 +1038,16 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
             pv[np++] = poly[k];
         if (np > 1 && pv[np - 1] == pv[0])
           --np;
-        if (np == 3)
-          r.tris.push_back ({pv[0], pv[1], pv[2]});
-        else if (np == 4)
-        {
-          const float d02 = (position (pv[0]) - position (pv[2])).squaredNorm ();
-          const float d13 = (position (pv[1]) - position (pv[3])).squaredNorm ();
-          if (d02 <= d13)
-          {
-            r.tris.push_back ({pv[0], pv[1], pv[2]});
-            r.tris.push_back ({pv[0], pv[2], pv[3]});
-          }
-          else
-          {
-            r.tris.push_back ({pv[0], pv[1], pv[3]});
-            r.tris.push_back ({pv[1], pv[2], pv[3]});
-          }
-        }
+        if (np < 3)
+          continue;
+        bool coarse = false;
+        if (collapsed_mode)
+          for (int k = 0; k < np; ++k)
+            coarse |= !(pv[k] >> 63) && (m.roots[pv[k] >> 16]->vertices[pv[k] & 0xFFFF].node >> 12) > 0;
+        if (coarse)
+          r.shared.push_back ({pv, np});  // may repeat along a coarse edge: merged at output
+        else
+          emitPolygon (r.tris, pv, np);
       }
     }
   }
@@ -1098,13 +1098,71 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
   for (const auto& r : m.roots)
     order.push_back (r.get ());
   std::sort (order.begin (), order.end (), [] (const Root* a, const Root* b) { return a->key < b->key; });
-  for (const Root* r : order)
-    for (const auto& t : r->tris)
+  // Merge the polygons of collapsed cells: canonical cycle (smallest first, then the smaller
+  // neighbour second) → net orientation; emitted once when it is not zero.
+  std::vector<std::array<std::uint64_t, 3>> merged;
+  {
+    struct KeyHash
+    {
+      std::size_t
+      operator() (const std::array<std::uint64_t, 4>& k) const
+      {
+        std::size_t h = 0;
+        for (auto x : k)
+          h = h * 0x9E3779B97F4A7C15ull + (x ^ (x >> 29));
+        return h;
+      }
+    };
+    std::unordered_map<std::array<std::uint64_t, 4>, std::size_t, KeyHash> slot;
+    std::vector<std::pair<std::array<std::uint64_t, 4>, int>> entries;  // canonical cycle (+n), net
+    std::vector<int> sizes;
+    for (const Root* r : order)
+      for (const auto& sh : r->shared)
+      {
+        const int n = sh.n;
+        int lo = 0;
+        for (int k = 1; k < n; ++k)
+          if (sh.v[k] < sh.v[lo])
+            lo = k;
+        std::array<std::uint64_t, 4> c{~0ull, ~0ull, ~0ull, ~0ull};
+        const bool fwd = sh.v[(lo + 1) % n] < sh.v[(lo + n - 1) % n];
+        for (int k = 0; k < n; ++k)
+          c[k] = sh.v[(lo + (fwd ? k : n - k)) % n];
+        auto it = slot.find (c);
+        if (it == slot.end ())
+        {
+          slot.emplace (c, entries.size ());
+          entries.push_back ({c, fwd ? 1 : -1});
+          sizes.push_back (n);
+        }
+        else
+          entries[it->second].second += fwd ? 1 : -1;
+      }
+    for (std::size_t i = 0; i < entries.size (); ++i)
+    {
+      if (entries[i].second == 0)
+        continue;
+      std::array<std::uint64_t, 4> v = entries[i].first;
+      const int n = sizes[i];
+      if (entries[i].second < 0)
+        std::reverse (v.begin (), v.begin () + n);
+      emitPolygon (merged, v, n);
+    }
+  }
+  auto allTris = [&] (auto&& f) {
+    for (const Root* r : order)
+      for (const auto& t : r->tris)
+        f (t);
+    for (const auto& t : merged)
+      f (t);
+  };
+  allTris ([&] (const std::array<std::uint64_t, 3>& t) {
     {
       pcl::Vertices v;
       v.vertices = {outIndex (t[0]), outIndex (t[1]), outIndex (t[2])};
       polygons.push_back (std::move (v));
     }
+  });
   pcl::toPCLPointCloud2 (cloud, mesh.cloud);
   mesh.polygons.swap (polygons);
   st.vertices = cloud.size ();

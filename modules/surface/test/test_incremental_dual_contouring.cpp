@@ -463,9 +463,14 @@ TEST (IncrementalDualContouring, SimplificationMonotoneAndBounded)
       first = n;
     EXPECT_LE (n, prev) << "eps " << eps;
     prev = n;
-    EXPECT_LT (maxDistance (mesh, shape), eps + h) << "eps " << eps;
+    // Measured: 0.9 mm at ε = 0, then ≈ 1.3–1.5 ε (QEF RMS bound, the maximum is a bit above).
+    EXPECT_LT (maxDistance (mesh, shape), 2 * eps + 0.25 * h) << "eps " << eps;
+    const MeshCheck c = check (mesh);  // topology-unsafe collapse, but this scene stays closed
+    EXPECT_EQ (c.boundary_edges, 0u) << "eps " << eps;
+    if (eps == 0.001)
+      EXPECT_LT (n * 5, first);  // flat faces: 18k → ~1.1k triangles at ε = h / 20
   }
-  EXPECT_LT (prev * 4, first);
+  EXPECT_LT (prev * 50, first);
 }
 
 TEST (IncrementalDualContouring, PlaneRemovalIsolatesObject)
