@@ -277,9 +277,14 @@ CoupledSimplification::run (const Eigen::Matrix4d& pose, bool dense_only, pclx::
     return fail ("collapse target ratio must be in [0, 1]");
   if (std::isnan (max_error_))
     return fail ("collapse error bound is NaN");
+  if (!(cell_size_ >= 0))
+    return fail ("frustum cell size must be ≥ 0");
   error_.clear ();
   const auto t0 = Clock::now ();
   auto t = Clock::now ();
+  measureSpacing ();
+  stats_.t_spacing = ms (t, Clock::now ());
+  t = Clock::now ();
   if (dense_only)
   {
     // Every valid pixel is its own vertex.
@@ -316,8 +321,12 @@ CoupledSimplification::run (const Eigen::Matrix4d& pose, bool dense_only, pclx::
 void
 CoupledSimplification::cluster ()
 {
-  const int B = cell_pixels_;
-  const double fx_eff = fx_ > 0 ? fx_ : 500.0;
+  // Pixels per radian: fx, or for organized clouds 1 / (mean neighbour spacing / range).
+  const double fx_eff = fx_ > 0 ? fx_ : (stats_.edge_ratio_mean > 0 ? 1.0 / stats_.edge_ratio_mean : 500.0);
+  int B = cell_pixels_;
+  if (cell_size_ > 0 && stats_.median_range > 0)
+    B = static_cast<int> (std::lround (std::clamp (cell_size_ * fx_eff / stats_.median_range, 1.0, 64.0)));
+  stats_.cell_pixels = B;
   const double r = bin_ratio_ > 0 ? bin_ratio_ : B / fx_eff;
   cid_.assign (pts_.size (), -1);
   cq_.clear (); csum_.clear (); cmin_.clear (); cmax_.clear (); ccount_.clear (); cscale_.clear ();
@@ -340,7 +349,12 @@ CoupledSimplification::cluster ()
         }
       if (block.empty ())
         continue;
-      std::sort (block.begin (), block.end ());
+      // Most blocks see one surface within a bin: no sort needed then.
+      float lo = block[0].first, hi = lo;
+      for (const auto& e : block)
+        lo = std::min (lo, e.first), hi = std::max (hi, e.first);
+      if (hi - lo > rf * lo)
+        std::sort (block.begin (), block.end ());
       std::int32_t c = -1;
       float start = 0, prev = 0;
       for (const auto& e : block)
@@ -369,43 +383,56 @@ CoupledSimplification::cluster ()
   stats_.clusters = ccount_.size ();
 }
 
+// Trimmed mean of |p − q| / range over horizontal and vertical neighbours (§4.2's mean
+// neighbour distance, made depth-independent), and the median range of the frame.
+void
+CoupledSimplification::measureSpacing ()
+{
+  const int W = w_, H = h_;
+  // Every other row is plenty for a mean.
+  std::vector<float>& r = ratios_;
+  r.clear ();
+  for (int v = 0; v < H; v += 2)
+    for (int u = 0; u < W; ++u)
+    {
+      const std::size_t i = static_cast<std::size_t> (v) * W + u;
+      if (!(range_[i] > 0))
+        continue;
+      if (u + 1 < W && range_[i + 1] > 0)
+        r.push_back ((pts_[i] - pts_[i + 1]).norm () / std::min (range_[i], range_[i + 1]));
+      if (v + 1 < H && range_[i + W] > 0)
+        r.push_back ((pts_[i] - pts_[i + W]).norm () / std::min (range_[i], range_[i + W]));
+    }
+  // Depth jumps inflate a plain mean; three trims at 4 × the mean leave the surface edges.
+  double mean = 0;
+  for (float x : r) mean += x;
+  mean = r.empty () ? 0 : mean / r.size ();
+  for (int it = 0; it < 3 && mean > 0; ++it)
+  {
+    double s = 0; std::size_t k = 0;
+    for (float x : r)
+      if (x < 4 * mean) { s += x; ++k; }
+    mean = k ? s / k : mean;
+  }
+  stats_.edge_ratio_mean = mean;
+  r.clear ();
+  for (std::size_t i = 0; i < range_.size (); i += 7)
+    if (range_[i] > 0)
+      r.push_back (range_[i]);
+  if (r.empty ())
+    for (float x : range_)
+      if (x > 0) r.push_back (x);
+  std::nth_element (r.begin (), r.begin () + r.size () / 2, r.end ());
+  stats_.median_range = r.empty () ? 0 : r[r.size () / 2];
+}
+
 // §3.2: 4-neighbour triangles under the edge threshold; each face's area-weighted plane
 // quadric goes to the clusters (or dense vertices) of its three corners.
 void
 CoupledSimplification::connect (bool dense_only)
 {
   const int W = w_, H = h_;
-  // Threshold: trimmed mean of |p − q| / depth over horizontal and vertical neighbours.
-  double ratio = 0;
-  if (!(edge_abs_ > 0))
-  {
-    std::vector<float> r;
-    r.reserve (2 * pts_.size ());
-    for (int v = 0; v < H; ++v)
-      for (int u = 0; u < W; ++u)
-      {
-        const std::size_t i = static_cast<std::size_t> (v) * W + u;
-        if (!(range_[i] > 0))
-          continue;
-        if (u + 1 < W && range_[i + 1] > 0)
-          r.push_back ((pts_[i] - pts_[i + 1]).norm () / std::min (range_[i], range_[i + 1]));
-        if (v + 1 < H && range_[i + W] > 0)
-          r.push_back ((pts_[i] - pts_[i + W]).norm () / std::min (range_[i], range_[i + W]));
-      }
-    // Depth jumps inflate a plain mean; three trims at 4 × the mean leave the surface edges.
-    double mean = 0;
-    for (float x : r) mean += x;
-    mean = r.empty () ? 0 : mean / r.size ();
-    for (int it = 0; it < 3 && mean > 0; ++it)
-    {
-      double s = 0; std::size_t k = 0;
-      for (float x : r)
-        if (x < 4 * mean) { s += x; ++k; }
-      mean = k ? s / k : mean;
-    }
-    ratio = mean;
-    stats_.edge_ratio_mean = mean;
-  }
+  const double ratio = stats_.edge_ratio_mean;
   const float kf = static_cast<float> (edge_factor_ * ratio);
   const float abs2 = static_cast<float> (edge_abs_ * edge_abs_);
   auto ok = [&] (std::size_t a, std::size_t b, float scale2) {
@@ -422,18 +449,26 @@ CoupledSimplification::connect (bool dense_only)
   auto face = [&] (std::size_t a, std::size_t b, std::size_t c, bool diag_ab, bool diag_bc, bool diag_ca) {
     if (!ok (a, b, diag_ab ? 2.f : 1.f) || !ok (b, c, diag_bc ? 2.f : 1.f) || !ok (c, a, diag_ca ? 2.f : 1.f))
       return;
-    const Eigen::Vector3d pa = pts_[a].cast<double> ();
-    const Eigen::Vector3d cr = (pts_[b].cast<double> () - pa).cross (pts_[c].cast<double> () - pa);
-    const double len = cr.norm ();
+    const Eigen::Vector3f& pa = pts_[a];
+    const Eigen::Vector3f cr = (pts_[b] - pa).cross (pts_[c] - pa);
+    const float len = cr.norm ();
     if (!(len > 0))
       return;
-    const Eigen::Vector3d n = cr / len;
-    const double d = -n.dot (pa);
+    const Eigen::Vector3f nf = cr / len;
+    const float d = -nf.dot (pa);
     orientation_vote_ += (d > 0) ? 1 : -1;  // n·(0 − a) > 0: faces the camera
     const std::int32_t ia = cid_[a], ib = cid_[b], ic = cid_[c];
-    addPlane (cq_[ia], n, d, 0.5 * len);
-    addPlane (cq_[ib], n, d, 0.5 * len);
-    addPlane (cq_[ic], n, d, 0.5 * len);
+    // One face quadric (area-weighted), added at each corner; most faces lie in one cluster.
+    Quadric k = Quadric::Zero ();
+    addPlane (k, nf.cast<double> (), d, 0.5 * len);
+    if (ia == ib && ib == ic)
+      cq_[ia] += 3 * k;
+    else
+    {
+      cq_[ia] += k;
+      cq_[ib] += k;
+      cq_[ic] += k;
+    }
     ++dense;
     if (dense_only)
       dense_tris_.emplace_back (ia, ib, ic);
@@ -518,21 +553,30 @@ CoupledSimplification::collapse ()
     ctris_.resize (k);
   }
   {
-    std::vector<std::pair<std::uint64_t, std::int32_t>> keys (ctris_.size ());
+    auto& keys = tri_keys_;
+    keys.resize (ctris_.size ());
     for (std::size_t f = 0; f < ctris_.size (); ++f)
       keys[f] = {triKey (ctris_[f][0], ctris_[f][1], ctris_[f][2]), static_cast<std::int32_t> (f)};
     std::sort (keys.begin (), keys.end ());
-    std::vector<Eigen::Vector3i> uniq;
-    uniq.reserve (keys.size ());
-    for (std::size_t k = 0; k < keys.size (); ++k)
-      if (k == 0 || keys[k].first != keys[k - 1].first)
-        uniq.push_back (ctris_[keys[k].second]);
-    ctris_.swap (uniq);
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < keys.size (); ++i)
+      if (i == 0 || keys[i].first != keys[i - 1].first)
+        keys[k++].second = keys[i].second;
+    // Keep the first face of each key, in the original order.
+    std::sort (keys.begin (), keys.begin () + k,
+               [] (const auto& x, const auto& y) { return x.second < y.second; });
+    for (std::size_t i = 0; i < k; ++i)
+      ctris_[i] = ctris_[keys[i].second];
+    ctris_.resize (k);
   }
   stats_.clustered_triangles = ctris_.size ();
 
   // Second phase: edge collapse with the original (dense) quadrics.
-  std::vector<std::vector<std::int32_t>> vf (nc);
+  if (vf_.size () < nc)
+    vf_.resize (nc);
+  for (std::size_t v = 0; v < nc; ++v)
+    vf_[v].clear ();  // keeps the capacity of earlier frames
+  auto& vf = vf_;
   for (std::size_t f = 0; f < ctris_.size (); ++f)
     for (int k = 0; k < 3; ++k)
       vf[ctris_[f][k]].push_back (static_cast<std::int32_t> (f));
@@ -540,8 +584,8 @@ CoupledSimplification::collapse ()
   std::vector<std::uint32_t> stamp (nc, 0);
   cb_.assign (nc, Quadric::Zero ());
 
-  std::vector<std::uint64_t> edges;
-  edges.reserve (3 * ctris_.size ());
+  auto& edges = edges_;
+  edges.clear ();
   for (const auto& t : ctris_)
     for (int k = 0; k < 3; ++k)
     {

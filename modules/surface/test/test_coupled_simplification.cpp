@@ -249,6 +249,32 @@ TEST (CoupledSimplification, MonotoneInTheErrorBound)
   }
 }
 
+TEST (CoupledSimplification, CellSizeInMetresSetsThePixelBlock)
+{
+  // A wall 2 m away: 4 cm cells are 4 cm · 525 / 2 m ≈ 10.5 pixels (median range ≈ 2.1 m).
+  const auto depth = planeDepth (Eigen::Vector3f::UnitZ (), 2.f);
+  Simplifier s;
+  s.setCollapseTargetRatio (1);  // clustering only
+  FrameMesh fine, coarse;
+  s.setFrustumCellSize (0.01);
+  ASSERT_TRUE (s.compute (depth.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), fine));
+  const int b_fine = s.getStats ().cell_pixels;
+  s.setFrustumCellSize (0.04);
+  ASSERT_TRUE (s.compute (depth.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), coarse));
+  const int b_coarse = s.getStats ().cell_pixels;
+  EXPECT_NEAR (b_coarse, 0.04 * 525 / s.getStats ().median_range, 1.0);
+  EXPECT_GT (s.getStats ().median_range, 2.0);
+  EXPECT_GT (b_coarse, 3 * b_fine);
+  EXPECT_GT (fine.triangles.size (), 9 * coarse.triangles.size ());
+  // Organized input (no intrinsics): the pixel angle comes from the neighbour spacing.
+  std::vector<Eigen::Vector3f> pts (depth.size ());
+  for (int v = 0; v < kH; ++v)
+    for (int u = 0; u < kW; ++u)
+      pts[v * kW + u] = Eigen::Vector3f ((u - kK.cx) / kK.fx * 2.f, (v - kK.cy) / kK.fy * 2.f, 2.f);
+  ASSERT_TRUE (s.compute (pts.data (), kW, kH, Eigen::Matrix4d::Identity (), coarse));
+  EXPECT_NEAR (s.getStats ().cell_pixels, b_coarse, 1);
+}
+
 TEST (CoupledSimplification, OrganizedCloudInputMatchesDepthInput)
 {
   const auto depth = planeDepth (Eigen::Vector3f (0.1f, 0.2f, 1.f).normalized (), 1.2f);

@@ -44,9 +44,11 @@ public:
     std::size_t collapses = 0, rejected_foldover = 0, rejected_topology = 0;
     std::size_t cluster_fallbacks = 0;  // representatives set to the cluster mean
     std::size_t vertices = 0, triangles = 0;
-    double edge_ratio_mean = 0;   // trimmed mean of neighbour distance / depth
+    double edge_ratio_mean = 0;   // trimmed mean of neighbour distance / range
+    double median_range = 0;      // metres
+    int cell_pixels = 0;          // frustum cell side used (pixels)
     double max_error = 0;         // RMS error (m) of the last accepted collapse
-    double t_backproject = 0, t_connect = 0, t_cluster = 0, t_collapse = 0, t_output = 0, t_total = 0;
+    double t_backproject = 0, t_spacing = 0, t_connect = 0, t_cluster = 0, t_collapse = 0, t_output = 0, t_total = 0;
   };
 
   CoupledSimplification () = default;
@@ -61,11 +63,15 @@ public:
   // Depth images: depths outside [min, max] metres are no data (default 0.1–8).
   void setDepthRange (float min_m, float max_m) { min_depth_ = min_m; max_depth_ = max_m; }
   // §3.3 frustum cells: pixel block side B (≥ 1, default 8; 1 = no clustering) and depth-bin
-  // ratio r (> 0; 0 = auto: B / fx, i.e. about cubic cells; organized clouds without
-  // intrinsics: B / 500).
+  // ratio r (> 0; 0 = auto: B / fx, about cubic cells; organized clouds without intrinsics:
+  // B × the mean neighbour spacing / range).
   void setFrustumCellPixels (int b) { cell_pixels_ = b; }
   int getFrustumCellPixels () const { return cell_pixels_; }
   void setDepthBinRatio (double r) { bin_ratio_ = r; }
+  // Frustum cell side in metres at the frame's median range (> 0; 0 = off, default): B is
+  // chosen per frame as size · fx / median range (1–64 pixels), e.g. the octree leaf size.
+  void setFrustumCellSize (double metres) { cell_size_ = metres; }
+  double getFrustumCellSize () const { return cell_size_; }
   // Edge collapse stops at the first of: triangles ≤ target_ratio · clustered triangles
   // (default 0.25; 0 = no count target), or a collapse whose RMS quadric error exceeds
   // max_error (metres; 0 = auto: 0.1 · the frustum cell size at that depth; default < 0: no
@@ -109,13 +115,14 @@ private:
                     const pclx::surface::DepthIntrinsics& K, const Eigen::Matrix4d& pose);
   bool takePoints (const Eigen::Vector3f* pts, int width, int height, const Eigen::Matrix4d& pose);
   bool run (const Eigen::Matrix4d& pose, bool dense_only, pclx::surface::FrameMesh& out);
+  void measureSpacing ();
   void connect (bool dense_only);
   void cluster ();
   void collapse ();
   void emit (const Eigen::Matrix4d& pose, bool dense_only, pclx::surface::FrameMesh& out);
 
   double edge_factor_ = 3, edge_abs_ = 0, bin_ratio_ = 0, target_ratio_ = 0.25, max_error_ = -1;
-  double boundary_weight_ = 10, max_turn_deg_ = 60;
+  double boundary_weight_ = 10, max_turn_deg_ = 60, cell_size_ = 0;
   float min_depth_ = 0.1f, max_depth_ = 8.f;
   int cell_pixels_ = 8;
 
@@ -136,7 +143,10 @@ private:
   std::vector<Eigen::Vector3f> cmin_, cmax_;
   std::vector<std::int32_t> ccount_;
   std::vector<float> cscale_;         // frustum cell size at the cluster (m)
-  std::vector<std::uint64_t> tri_keys_;
+  std::vector<float> ratios_;
+  std::vector<std::vector<std::int32_t>> vf_;  // clustered vertex → faces
+  std::vector<std::uint64_t> edges_;
+  std::vector<std::pair<std::uint64_t, std::int32_t>> tri_keys_;
   std::vector<Eigen::Vector3i> ctris_;
   int orientation_vote_ = 0;
 };
