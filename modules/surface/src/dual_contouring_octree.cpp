@@ -36,6 +36,14 @@ constexpr std::uint16_t kNone = 0xFFFF;
 // QEF sums in fixed point: exact, so frame order does not change a bit.
 constexpr double kFix = 4294967296.0;  // 2^32
 
+// Round to nearest for the fixed-point sums (a truncating cast, no libm call; deterministic).
+inline std::int64_t
+fix (double x)
+{
+  x *= kFix;
+  return static_cast<std::int64_t> (x + (x >= 0 ? 0.5 : -0.5));
+}
+
 inline int
 floorDiv (int a)
 {
@@ -166,6 +174,7 @@ struct DualContouringOctree::Impl
     std::uint32_t id = 0;
     std::array<std::uint16_t, kRootCells> leaf_index;
     std::array<std::uint8_t, kRootCells> out_votes, in_votes;  // saturating
+    std::array<std::int32_t, kRootCells> sdf;  // Σ ± distance to the nearest crossing (2^-12 leaf)
     std::vector<Leaf> leaves;
     // Polygonisation cache.
     std::array<std::uint16_t, kRootCells> cell_vertex;  // vertex of every fine cell (collapsed too)
@@ -188,6 +197,7 @@ struct DualContouringOctree::Impl
       leaf_index.fill (kNone);
       out_votes.fill (0);
       in_votes.fill (0);
+      sdf.fill (0);
       cell_vertex.fill (kNone);
     }
   };
@@ -348,11 +358,19 @@ struct SignResolver
       return 0;
     const int i = localIndex (x, y, z);
     const int o = r->out_votes[i], n = r->in_votes[i];
+    if (rule == DualContouringOctree::SignRule::WEIGHTED)
+    {
+      const std::int32_t d = r->sdf[i];
+      return d > 0 ? 1 : (d < 0 ? -1 : ((o || n) ? 2 : 0));
+    }
     if (o == 0 && n == 0)
       return 0;
     if (rule == DualContouringOctree::SignRule::SEED)
       return (o && n) ? 2 : (o ? 1 : -1);
-    return o > n ? 1 : (n > o ? -1 : 2);
+    if (rule == DualContouringOctree::SignRule::MAJORITY)
+      return o > n ? 1 : (n > o ? -1 : 2);
+    const std::int32_t d = r->sdf[i];
+    return d > 0 ? 1 : (d < 0 ? -1 : 2);
   }
   // Is the lattice edge (v, v + e_axis) an edge of a leaf without intersections?
   bool
@@ -418,7 +436,9 @@ struct SignResolver
           }
           if (std::find (seen.begin (), seen.begin () + nseen, w) != seen.begin () + nseen)
             continue;
-          if (!openEdge (start, axis))
+          // WEIGHTED: the field is defined around the surface, any lattice edge carries it;
+          // the seed's rules propagate inside cells, through leaf edges without intersection.
+          if (rule != DualContouringOctree::SignRule::WEIGHTED && !openEdge (start, axis))
             continue;
           if (nseen < 64)
             seen[nseen++] = w;
@@ -642,21 +662,42 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
   // Merge into the map (§3.4.3 / §3.5): votes on the two grid vertices, the plane into the QEFs
   // of the four leaves around the edge.
   Impl& m = *impl_;
-  Impl::Root* cache = nullptr;
+  // Roots around the current crossing's root, resolved (and created) lazily: crossings come
+  // sorted root by root, so the hash map is hardly touched.
+  Eigen::Vector3i centre = Eigen::Vector3i::Constant (std::numeric_limits<int>::min ());
+  std::array<Impl::Root*, 27> near{};
   auto rootOf = [&] (int x, int y, int z) -> Impl::Root* {
     const int bx = floorDiv (x), by = floorDiv (y), bz = floorDiv (z);
-    if (cache && cache->origin == Eigen::Vector3i (bx, by, bz) * kRootSide)
-      return cache;
-    cache = m.get (bx, by, bz);
-    cache->dirty = true;
-    if (cache->stamp != st.frames + 1)
+    const int dx = bx - centre.x () + 1, dy = by - centre.y () + 1, dz = bz - centre.z () + 1;
+    Impl::Root** slot = nullptr;
+    if (static_cast<unsigned> (dx) < 3u && static_cast<unsigned> (dy) < 3u && static_cast<unsigned> (dz) < 3u)
     {
-      cache->stamp = st.frames + 1;
+      slot = &near[dx + 3 * dy + 9 * dz];
+      if (*slot)
+        return *slot;
+    }
+    Impl::Root* r = m.get (bx, by, bz);
+    r->dirty = true;
+    if (r->stamp != st.frames + 1)
+    {
+      r->stamp = st.frames + 1;
       ++st.touched_roots;
     }
-    return cache;
+    if (slot)
+      *slot = r;
+    return r;
   };
-  auto vote = [&] (const Eigen::Vector3i& v, bool exterior) {
+  auto recentre = [&] (const Eigen::Vector3i& s) {
+    const Eigen::Vector3i b (floorDiv (s.x ()), floorDiv (s.y ()), floorDiv (s.z ()));
+    if (b != centre)
+    {
+      centre = b;
+      near.fill (nullptr);
+    }
+  };
+  // `weighted_ext`: the vertex's own reading of its nearest crossing (for the WEIGHTED rule),
+  // at `dist` leaf units along the edge.
+  auto vote = [&] (const Eigen::Vector3i& v, bool exterior, bool weighted_ext, double dist) {
     Impl::Root* r = rootOf (v.x (), v.y (), v.z ());
     const int i = localIndex (v.x (), v.y (), v.z ());
     std::uint8_t& c = exterior ? r->out_votes[i] : r->in_votes[i];
@@ -664,6 +705,29 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
       ++m.voted;
     if (c < 255)
       ++c;
+    const std::int32_t w = static_cast<std::int32_t> (std::lround (std::min (dist, 1.0) * 4096));
+    r->sdf[i] += weighted_ext ? w : -w;
+  };
+  // WEIGHTED rule: a crossing also informs the vertices in front of it along its lattice line,
+  // up to kBand leaves away, with their distance to its plane (a truncated signed distance
+  // sampled on the lattice lines; frames whose noise exceeds a leaf then average instead of
+  // contradicting each other).
+  constexpr int kBand = 2;
+  auto bandVote = [&] (const Eigen::Vector3i& s, int axis, double frac, double n_axis) {
+    for (int k = -kBand + 1; k <= kBand; ++k)
+    {
+      if (k == 0 || k == 1)
+        continue;  // the edge's own ends: vote ()
+      // Behind the surface only where the line meets it steeply: along a grazing line the
+      // surface may already have been left again (curved or thin parts).
+      if ((k - frac) * n_axis < 0 && std::abs (n_axis) < 0.5)
+        continue;
+      Eigen::Vector3i v = s;
+      v[axis] += k;
+      Impl::Root* r = rootOf (v.x (), v.y (), v.z ());
+      const double d = std::max (-double (kBand), std::min (double (kBand), (k - frac) * n_axis));
+      r->sdf[localIndex (v.x (), v.y (), v.z ())] += static_cast<std::int32_t> (std::lround (d * 4096));
+    }
   };
   for (std::size_t g = 0; g < crossings.size ();)
   {
@@ -678,6 +742,7 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
                        static_cast<int> ((rk >> 16) & 0xFFFF) - (1 << 15),
                        static_cast<int> (rk & 0xFFFF) - (1 << 15));
     s = s * kRootSide + Eigen::Vector3i (li % kRootSide, (li / kRootSide) % kRootSide, li / (kRootSide * kRootSide));
+    recentre (s);
     const std::size_t count = e - g;
     if (count > 1)
       ++st.multi_intersection_edges;
@@ -689,8 +754,13 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
     const bool b_ext = (count % 2) ? !a_ext : a_ext;
     Eigen::Vector3i b = s;
     b[axis] += 1;
-    vote (s, a_ext);
-    vote (b, b_ext);
+    // Weighted: each end reads its nearest crossing, weighted by its distance to it (a truncated
+    // signed distance along the edge; robust to noisy frames that disagree near the surface).
+    const Crossing& last = crossings[e - 1];
+    vote (s, a_ext, a_ext, c.frac * std::abs (n[axis]));
+    vote (b, b_ext, normals[last.tri][axis] > 0, (1.0 - last.frac) * std::abs (normals[last.tri][axis]));
+    for (std::size_t j = g; j < e; ++j)
+        bandVote (s, axis, crossings[j].frac, normals[crossings[j].tri][axis]);
     // Every intersection's plane goes into the QEFs of the four leaves around the edge (the
     // seed kept only the nearest to A; with all of them a leaf's QEF is a function of the set
     // of triangles, whichever frames they came in).
@@ -724,13 +794,13 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
         const double nn[6] = {nj.x () * nj.x (), nj.x () * nj.y (), nj.x () * nj.z (),
                               nj.y () * nj.y (), nj.y () * nj.z (), nj.z () * nj.z ()};
         for (int q2 = 0; q2 < 6; ++q2)
-          leaf.ata[q2] += std::llround (nn[q2] * kFix);
+          leaf.ata[q2] += fix (nn[q2]);
         for (int q2 = 0; q2 < 3; ++q2)
         {
-          leaf.atb[q2] += std::llround (nj[q2] * d * kFix);
-          leaf.mass[q2] += std::llround (p[q2] * kFix);
+          leaf.atb[q2] += fix (nj[q2] * d);
+          leaf.mass[q2] += fix (p[q2]);
         }
-        leaf.btb += std::llround (d * d * kFix);
+        leaf.btb += fix (d * d);
         ++leaf.count;
       }
     }
@@ -985,69 +1055,110 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
     for (int i = 0; i < kRootCells; ++i)
       if (r.leaf_index[i] != kNone)
         cells.push_back (i);
+    static const int kU[4] = {-1, 0, 0, -1}, kW[4] = {-1, -1, 0, 0};
+    // One lattice edge: if its resolved signs differ, the polygon of the (collapsed) cells
+    // around it.
+    auto processEdge = [&] (const Eigen::Vector3i& s, int axis) {
+      const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+      Eigen::Vector3i end = s;
+      end[axis] += 1;
+      int sa = 0, sb = 0;
+      const int ga = sr.resolve (s, &sa);
+      const int gb = sr.resolve (end, &sb);
+      if (ga == gb)
+        return;
+      ambiguous += (sa == 2) + (sb == 2);
+      unresolved += (sa == 4) + (sb == 4);
+      // Incident cells in counter-clockwise order around +axis: (−,−), (0,−), (0,0), (−,0).
+      std::array<std::uint64_t, 4> poly;
+      bool missing = false;
+      for (int k = 0; k < 4; ++k)
+      {
+        Eigen::Vector3i cc = s;
+        cc[u] += kU[k];
+        cc[w] += kW[k];
+        bool exk;
+        poly[k] = repOf (rc, cc, exk);
+        if (!exk)
+        {
+          ++phantoms;
+          missing = true;
+        }
+      }
+      if (missing && !phantom_polygons_)
+        return;
+      // Interior at the start ⇒ the surface faces +axis ⇒ keep the counter-clockwise order.
+      if (ga > 0)
+        std::swap (poly[1], poly[3]);
+      // Drop repeated cells (collapsed nodes) cyclically.
+      std::array<std::uint64_t, 4> pv;
+      int np = 0;
+      for (int k = 0; k < 4; ++k)
+        if (np == 0 || poly[k] != pv[np - 1])
+          pv[np++] = poly[k];
+      if (np > 1 && pv[np - 1] == pv[0])
+        --np;
+      if (np < 3)
+        return;
+      bool coarse = false;
+      if (collapsed_mode)
+        for (int k = 0; k < np; ++k)
+          coarse |= !(pv[k] >> 63) && (m.roots[pv[k] >> 16]->vertices[pv[k] & 0xFFFF].node >> 12) > 0;
+      if (coarse)
+        r.shared.push_back ({pv, np});  // may repeat along a coarse edge: merged at output
+      else
+        emitPolygon (r.tris, pv, np);
+    };
+    // First leaf (fixed order) among the 4 cells around an edge, or the 8 around a vertex.
+    auto firstLeafAroundEdge = [&] (const Eigen::Vector3i& s, int axis, Eigen::Vector3i& out) {
+      const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+      for (int k = 0; k < 4; ++k)
+      {
+        Eigen::Vector3i cc = s;
+        cc[u] += kU[k];
+        cc[w] += kW[k];
+        if (rc.leafAt (cc.x (), cc.y (), cc.z ()))
+        {
+          out = cc;
+          return true;
+        }
+      }
+      return false;
+    };
+    if (rule_ == SignRule::WEIGHTED)
+    {
+      // The sign field is defined on every vertex a crossing informed (band included), so
+      // every edge with such an end is examined: all sign changes get their polygon and the
+      // mesh closes. An edge between two informed vertices is done from its start.
+      for (int vi = 0; vi < kRootCells; ++vi)
+      {
+        if (!r.out_votes[vi] && !r.in_votes[vi] && !r.sdf[vi])
+          continue;
+        const Eigen::Vector3i v = r.origin + Eigen::Vector3i (vi % kRootSide, (vi / kRootSide) % kRootSide, vi / (kRootSide * kRootSide));
+        for (int axis = 0; axis < 3; ++axis)
+        {
+          processEdge (v, axis);
+          Eigen::Vector3i prev = v;
+          prev[axis] -= 1;
+          if (!sr.voted (prev.x (), prev.y (), prev.z ()))
+            processEdge (prev, axis);
+        }
+      }
+      continue;
+    }
     for (int ci : cells)
     {
       const Eigen::Vector3i c = r.origin + Eigen::Vector3i (ci % kRootSide, (ci / kRootSide) % kRootSide, ci / (kRootSide * kRootSide));
+      // The leaf's 12 edges, each done by the first leaf around it.
       for (int e = 0; e < 12; ++e)
       {
         const int axis = e / 4, u = (axis + 1) % 3, w = (axis + 2) % 3;
-        const int ou = e & 1, ow = (e >> 1) & 1;
         Eigen::Vector3i s = c;  // edge start vertex
-        s[u] += ou;
-        s[w] += ow;
-        // Incident cells in counter-clockwise order around +axis: (−,−), (0,−), (0,0), (−,0).
-        static const int kU[4] = {-1, 0, 0, -1}, kW[4] = {-1, -1, 0, 0};
-        std::array<std::uint64_t, 4> rep;
-        std::array<bool, 4> ex;
-        int self = -1, first = -1;
-        for (int k = 0; k < 4; ++k)
-        {
-          Eigen::Vector3i cc = s;
-          cc[u] += kU[k];
-          cc[w] += kW[k];
-          bool exk;
-          rep[k] = repOf (rc, cc, exk);
-          ex[k] = exk;
-          if (exk && first < 0)
-            first = k;
-          if (cc == c)
-            self = k;
-        }
-        if (first != self)
-          continue;  // another incident cell owns this edge
-        Eigen::Vector3i end = s;
-        end[axis] += 1;
-        int sa = 0, sb = 0;
-        const int ga = sr.resolve (s, &sa);
-        const int gb = sr.resolve (end, &sb);
-        if (ga == gb)
-          continue;
-        ambiguous += (sa == 2) + (sb == 2);
-        unresolved += (sa == 4) + (sb == 4);
-        // Interior at the start ⇒ the surface faces +axis ⇒ keep the counter-clockwise order.
-        std::array<std::uint64_t, 4> poly = rep;
-        if (ga > 0)
-          std::swap (poly[1], poly[3]);
-        for (int k = 0; k < 4; ++k)
-          phantoms += !ex[k];
-        // Drop repeated cells (collapsed nodes) cyclically.
-        std::array<std::uint64_t, 4> pv;
-        int np = 0;
-        for (int k = 0; k < 4; ++k)
-          if (np == 0 || poly[k] != pv[np - 1])
-            pv[np++] = poly[k];
-        if (np > 1 && pv[np - 1] == pv[0])
-          --np;
-        if (np < 3)
-          continue;
-        bool coarse = false;
-        if (collapsed_mode)
-          for (int k = 0; k < np; ++k)
-            coarse |= !(pv[k] >> 63) && (m.roots[pv[k] >> 16]->vertices[pv[k] & 0xFFFF].node >> 12) > 0;
-        if (coarse)
-          r.shared.push_back ({pv, np});  // may repeat along a coarse edge: merged at output
-        else
-          emitPolygon (r.tris, pv, np);
+        s[u] += e & 1;
+        s[w] += (e >> 1) & 1;
+        Eigen::Vector3i owner;
+        if (firstLeafAroundEdge (s, axis, owner) && owner == c)
+          processEdge (s, axis);
       }
     }
   }

