@@ -457,3 +457,60 @@ TEST (RBFPOUReconstruction, OtherPointTypesKeepAttributes)
   pcl::RBFPOUReconstruction<pcl::PointXYZINormal> rec_i;  // instantiated too
   EXPECT_EQ (rec_i.getMaxPointsPerSubdomain (), 150);
 }
+
+TEST (RBFPOUReconstruction, SurfaceContinuationMatchesTheWholeBand)
+{
+  // Continuation evaluates F only near the zero set; on closed shapes the mesh is the one the
+  // whole band gives, byte for byte, from fewer evaluated corners.
+  for (const auto* shape : {&sphereMesh (), &torusMesh ()})
+  {
+    const auto cloud = sample (*shape, 6000, 41);
+    Recon full, cont;
+    full.setSurfaceContinuation (false);
+    EXPECT_TRUE (cont.getSurfaceContinuation ());
+    const auto a = run (full, cloud), b = run (cont, cloud);
+    ASSERT_GT (a.polygons.size (), 100u);
+    EXPECT_EQ (a.cloud.data, b.cloud.data);
+    ASSERT_EQ (a.polygons.size (), b.polygons.size ());
+    for (std::size_t i = 0; i < a.polygons.size (); ++i)
+      ASSERT_EQ (a.polygons[i].vertices, b.polygons[i].vertices);
+    const auto& sf = full.getStats ();
+    const auto& sc = cont.getStats ();
+    EXPECT_EQ (sf.active_cells, sf.band_cells);
+    EXPECT_EQ (sf.waves, 1u);
+    EXPECT_EQ (sc.band_cells, sf.band_cells);
+    EXPECT_GT (sc.waves, 1u);
+    EXPECT_LT (2 * sc.corners, sf.corners);  // measured ~2.7× fewer
+    EXPECT_LT (sc.active_cells, sc.band_cells);
+  }
+}
+
+TEST (RBFPOUReconstruction, PolygonMeshAndPointCloudOutputsAgree)
+{
+  // The PolygonMesh output writes PointNT records straight into the blob: it must read back
+  // as the PointCloud output (positions, unit normals, zero curvature).
+  const auto cloud = sample (sphereMesh (), 4000, 43);
+  Recon a, b;
+  const auto mesh = run (a, cloud);
+  b.setInputCloud (cloud);
+  Cloud points;
+  std::vector<pcl::Vertices> polygons;
+  b.reconstruct (points, polygons);
+  Cloud back;
+  pcl::fromPCLPointCloud2 (mesh.cloud, back);
+  ASSERT_GT (points.size (), 100u);
+  ASSERT_EQ (back.size (), points.size ());
+  EXPECT_EQ (mesh.cloud.width, points.size ());
+  EXPECT_EQ (mesh.cloud.height, 1u);
+  for (std::size_t i = 0; i < points.size (); ++i)
+  {
+    ASSERT_EQ (back[i].getVector3fMap (), points[i].getVector3fMap ());
+    ASSERT_EQ (back[i].getNormalVector3fMap (), points[i].getNormalVector3fMap ());
+    ASSERT_NEAR (back[i].getNormalVector3fMap ().norm (), 1.f, 1e-5f);
+    ASSERT_EQ (back[i].curvature, 0.f);
+  }
+  ASSERT_EQ (mesh.polygons.size (), polygons.size ());
+  for (std::size_t i = 0; i < polygons.size (); ++i)
+    ASSERT_EQ (mesh.polygons[i].vertices, polygons[i].vertices);
+  EXPECT_GT (a.getStats ().t_output, 0.0);
+}

@@ -42,11 +42,14 @@ public:
   struct Stats
   {
     double t_prepare = 0, t_off_surface = 0, t_octree = 0, t_fits = 0, t_extraction = 0;
+    double t_output = 0;  // vertex normals / attributes and the output cloud (after extraction)
     std::size_t input_points = 0, dropped_points = 0, zero_normals = 0;
     std::size_t normals_voted = 0, normals_oriented = 0;  // flipped by the vote / by MST
     std::size_t off_surface_points = 0, eps_halved = 0, off_surface_dropped = 0;
     std::size_t subdomains = 0, grown = 0, over_tmax = 0, fit_fallbacks = 0;
-    std::size_t active_cells = 0, corners = 0, uncovered_corners = 0;
+    // band_cells: cells within the band; active_cells: cells visited (all of the band without
+    // surface continuation); corners: corners where F was evaluated; waves: continuation steps.
+    std::size_t band_cells = 0, active_cells = 0, corners = 0, uncovered_corners = 0, waves = 0;
     std::size_t vertices = 0, triangles = 0;
     double mean_spacing = 0, grid_resolution = 0, epsilon = 0;
   };
@@ -79,6 +82,12 @@ public:
   // default 2).
   void setBandWidth (int cells) { band_ = cells; }
   int getBandWidth () const { return band_; }
+  // Surface continuation (default on): F is evaluated at the cells holding a point, then only
+  // at band cells reached across a face the surface crosses, wave by wave. Gives the same mesh
+  // as polygonising the whole band, minus zero-set pieces that touch no cell holding a point
+  // (sheets of F floating in the band); ~3× fewer evaluations. Off: every band corner.
+  void setSurfaceContinuation (bool on) { continuation_ = on; }
+  bool getSurfaceContinuation () const { return continuation_; }
   void setIsoLevel (double iso) { iso_ = iso; }
   double getIsoLevel () const { return iso_; }
   // Initial ε of the off-surface points (> 0). Until set: the mean spacing.
@@ -121,19 +130,34 @@ private:
     Eigen::Vector3d centre;     // local frame: q = (p − centre) / scale
     double scale;
     Eigen::Vector4d poly;       // linear polynomial in q
-    std::uint32_t first, count; // range in sub_lambda_ (and sub_q_ / 3)
+    std::uint32_t first, count; // range in sub_lambda_; centres at sub_q_[3 first ...] as x[count], y[count], z[count]
+  };
+
+  // Subdomains of one lookup bucket (a range of buckets_); cached per thread because
+  // neighbouring grid corners mostly fall in the same bucket.
+  struct BucketCache
+  {
+    std::uint64_t key = ~std::uint64_t (0);
+    std::size_t begin = 0, end = 0;
   };
 
   bool fail (const std::string& msg);
   bool build ();  // filtering, off-surface points, octree, fits
-  void extract (PointCloud<PointNT>& points, std::vector<Vertices>& polygons);
+  // Marching cubes: vertex positions and triangles (vertex normals / attributes come after).
+  bool extract (std::vector<Eigen::Vector3f>& vertices, std::vector<Vertices>& polygons);
+  // Area-weighted vertex normals and the attributes of the nearest input point; sink (i, point)
+  // stores vertex i (called in parallel for distinct i).
+  template <typename Sink> void
+  makeVertices (const std::vector<Eigen::Vector3f>& vertices, const std::vector<Vertices>& polygons, Sink&& sink);
   double weight (const Subdomain& s, const Eigen::Vector3d& p) const;
   double local (const Subdomain& s, const Eigen::Vector3d& p) const;
-  template <typename F> void forCovering (const Eigen::Vector3d& p, F&& f) const;
+  template <typename F> void forCovering (const Eigen::Vector3d& p, BucketCache& cache, F&& f) const;
+  double evaluateCached (const Eigen::Vector3d& p, BucketCache& cache, double* weight_sum = nullptr) const;
 
   int t_max_ = 150, t_min_ = 50, band_ = 2;
   double overlap_ = 1.5, grid_resolution_ = 0, iso_ = 0, epsilon_ = 0;
   bool grid_auto_ = true, epsilon_auto_ = true, orient_normals_ = false, normal_vote_ = true;
+  bool continuation_ = true;
   Decay decay_ = Decay::LINEAR;
   unsigned int threads_ = 0;
 
@@ -143,7 +167,8 @@ private:
   std::vector<int> src_;  // input index of every filtered point
   std::vector<Constraint> off_;
   std::vector<Subdomain> subs_;
-  // Per subdomain: its centres in the local frame (x, y, z floats) and their RBF weights λ.
+  // Per subdomain: its centres in the local frame (floats, all x then all y then all z, so the
+  // r³ sum vectorises) and their RBF weights λ.
   std::vector<float> sub_q_;
   std::vector<double> sub_lambda_;
   // Subdomain lookup: (bucket key, subdomain) sorted by key.
