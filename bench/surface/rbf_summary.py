@@ -32,7 +32,7 @@ def setting(r):
         if key in r:
             v = r[key]
             if key == "p_grid":
-                return "h = auto (1.5 s)" if v == "auto" else f"h = {v:g} s"
+                return "h = auto (1.5 s)" if v == "auto" else f"h = {v:g} s, band {int(r.get('p_band', 2))}"
             return f"{tag}{int(v)}"
     return ""
 
