@@ -632,7 +632,7 @@ CoupledSimplification::collapse ()
   const std::size_t target = static_cast<std::size_t> (std::ceil (target_ratio_ * faces));
   const bool count_stop = target_ratio_ > 0 && target_ratio_ < 1;
   const bool error_stop = max_error_ >= 0;
-  if (!count_stop && !error_stop)
+  if (target_ratio_ >= 1 || (!count_stop && !error_stop))
   {
     // No collapse: the clustered mesh is the result.
     stats_.triangles = faces;
