@@ -43,6 +43,7 @@ STYLE = {  # label: (colour, marker)
     "RBF-POU, our normals + MST": ("tab:orange", "s"),
     "RBF-POU, PCA normals + MST": ("tab:brown", "D"),
     "RBF-POU + MST re-orientation": ("tab:pink", "P"),
+    "RBF-POU, the given normals (neighbour vote)": ("tab:red", "o"),
     "Open3D screened Poisson": ("tab:blue", "^"),
     "Open3D Poisson, 5 % low density trimmed": ("tab:cyan", "v"),
     "PCL Poisson": ("tab:green", "<"),
@@ -53,6 +54,8 @@ STYLE = {  # label: (colour, marker)
 
 def label(r):
     m = r["method"]
+    if m == "rbf" and r.get("p_sweep") == "robust":
+        return "RBF-POU, the given normals (neighbour vote)"
     if m == "rbf":
         return {"true": "RBF-POU, true normals", "ours": "RBF-POU, our normals + MST",
                 "pca": "RBF-POU, PCA normals + MST"}[r.get("p_normals", "true")]
@@ -236,7 +239,7 @@ def noise(rows, out):
 
 
 def size(rows, out):
-    rows = [r for r in rows if r.get("p_sweep") == "size"]
+    rows = [r for r in rows if r.get("p_sweep") == "size" and r["method"] != "o3d_poisson_trim"]
     if not rows:
         return None
     inputs = list(collections.OrderedDict.fromkeys(r["input"] for r in rows))
@@ -274,7 +277,7 @@ def size(rows, out):
                                 fontsize=6, rotation=90, xytext=(2, 4), textcoords="offset points", color=c)
             if y == "peak_mb":
                 xs = sorted({r["points"] for r in irows})
-                ax.plot(xs, [x * 1024 / 1e6 for x in xs], "k:", lw=1, label="1 KB per point (target)")
+                ax.plot(xs, [x * 1024 / 2 ** 20 for x in xs], "k:", lw=1, label="1 KB per point (target)")
             if i == 0:
                 ax.set_title(f"{name}: time against points", fontsize=10)
             else:
