@@ -265,12 +265,25 @@ DualContouringOctree::setLeafSize (double h)
   return true;
 }
 
-void
+bool
+DualContouringOctree::setSimplificationError (double eps)
+{
+  if (!(eps >= 0) || !std::isfinite (eps))
+    return fail ("simplification error must be finite and >= 0");
+  eps_ = eps;
+  all_dirty_ = true;
+  return true;
+}
+
+bool
 DualContouringOctree::setVolume (const Eigen::Vector3d& min, const Eigen::Vector3d& max)
 {
-  vol_min_ = min.cwiseMin (max);
-  vol_max_ = max.cwiseMax (min);
+  if (!min.allFinite () || !max.allFinite () || !((max - min).array () > 0).all ())
+    return fail ("volume must be finite with max > min on every axis");
+  vol_min_ = min;
+  vol_max_ = max;
   volume_set_ = true;
+  return true;
 }
 
 bool

@@ -526,6 +526,9 @@ TEST (IncrementalDualContouring, BadInputsLeaveTheMapUnchanged)
   pcl::PolygonMesh before;
   idc.reconstruct (before);
   EXPECT_FALSE (idc.setLeafSize (0.01));  // after frames
+  EXPECT_FALSE (idc.setSimplificationError (-1.0));
+  EXPECT_FALSE (idc.setSimplificationError (std::numeric_limits<double>::quiet_NaN ()));
+  EXPECT_EQ (idc.getSimplificationError (), 0.0);
 
   // Empty mesh.
   EXPECT_FALSE (idc.addFrameMesh (FrameMesh ()));
@@ -579,6 +582,8 @@ TEST (IncrementalDualContouring, FixedVolumeDropsOutsideGeometry)
   IDC idc;
   idc.setLeafSize (0.02);
   idc.setGrowVolume (false);
+  EXPECT_FALSE (idc.setVolume (Eigen::Vector3d::Ones (), Eigen::Vector3d::Zero ()));  // max < min
+  EXPECT_FALSE (idc.setVolume (Eigen::Vector3d::Zero (), Eigen::Vector3d::Constant (std::nan (""))));
   ASSERT_TRUE (idc.addFrameMesh (toFrame (a, facing (a, {0.f, 0.f, 3.f}))));
   const std::size_t leaves = idc.getStats ().leaves;
   EXPECT_FALSE (idc.addFrameMesh (toFrame (b, facing (b, {3.f, 0.f, 3.f}))));

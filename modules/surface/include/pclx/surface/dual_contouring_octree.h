@@ -14,31 +14,45 @@
 //   * the inner levels of each root are rebuilt at polygonisation time for the ε collapse
 //     (Ju et al. 2002), never across roots, so a root is the unit of re-polygonisation.
 //
+// Departure from §3.4.2: every leaf is at maximum depth (the lattice); the seed's stop
+// criterion 2 (no interior triangle in a cell and its parent → coarse leaf) is not used, because
+// a coarse leaf's Hermite data lives on its long edges while finer neighbours' minimal edges lie
+// inside its faces, and its size would depend on how much the front end simplified. Coarse cells
+// come from the ε collapse instead (Ju et al.'s simplification), which measures geometry.
+//
 // Hermite data (§3.4.3): every lattice edge crossed by a triangle of a frame gets its
-// intersection (exact segment–triangle point, top-left rule so a point on a shared triangle
+// intersection (exact segment–triangle point; top-left rule, so a point on a shared triangle
 // edge counts once) and the unit face normal. Per frame and edge: one intersection → S =
-// (C − A)·N (Eq. 3.1) gives A's sign (with N pointing out, S > 0: A interior; the seed's
-// text has it the other way round), B the opposite; several → parity, with the intersection
-// nearest to A (leaves are at maximum depth, so the "refine" branch is never taken). Every
+// (C − A)·N (Eq. 3.1) gives A's sign (with N pointing out, S > 0: A interior; the seed's text
+// has it the other way round), B the opposite; several → parity, with the intersection nearest
+// to A (leaves are at maximum depth, so the "refine" branch is never taken). Every
 // intersection's plane (C, N) goes into the QEFs of the four leaves around the edge (the seed
-// kept only the nearest to A). QEFs are kept in 64-bit fixed
-// point in leaf-local coordinates: sums are exact and commutative, so adding frames in any
-// order gives bit-identical data.
+// kept only the nearest to A). QEFs are kept in 64-bit fixed point in leaf-local coordinates:
+// sums are exact and commutative, so adding frames in any order gives bit-identical data.
+// Not tried: the seed's unvalidated proposal of cell quadrics from the front end's per-vertex
+// quadrics (FrameMesh::quadrics is ignored).
 //
 // Signs live in a hash table of shared grid vertices (per root, dense): per vertex, counts of
-// exterior and interior votes and a weighted sum. Merge (§3.5, SignRule::SEED): same or
-// unknown → adopt, different → ambiguous; MAJORITY and WEIGHTED (default) settle conflicts.
+// exterior and interior votes and a weighted sum. SignRule::SEED (§3.5): same or unknown →
+// adopt, different → ambiguous → exterior. MAJORITY: more votes wins. WEIGHTED (default):
+// Σ ± distance to the plane; each crossing also informs the next vertex in front of it along
+// its lattice line (and behind it on steep lines): a truncated signed distance sampled on the
+// lattice lines, so noisy frames average instead of contradicting each other.
 // Resolution before polygonisation (§3.6): an unknown vertex takes the sign of the nearest
-// voted vertices reached through leaf edges without intersection (breadth first, ≤ 3 edges:
-// the seed's repeated passes over a cell's 3 neighbours); when those disagree (Fig. 3.11) or
-// none is reached it stays unresolved; ambiguous and unresolved vertices are exterior.
+// informed vertices reached breadth first (≤ 3 edges; SEED / MAJORITY only through leaf edges
+// without intersection: the seed's repeated passes over a cell's 3 neighbours); when those
+// disagree (Fig. 3.11) or none is reached it stays unresolved → exterior.
 //
 // Polygonisation: dual contouring over minimal edges. Every lattice edge whose resolved signs
-// differ gives a quad of the (collapsed) leaves around it; quads of a collapsed cell that
-// repeat along a coarse edge are merged (net orientation), so the result equals Ju's
-// cellProc / faceProc / edgeProc traversal. Quads split along the shorter diagonal.
+// differ (SEED / MAJORITY: edges of leaves; WEIGHTED: edges at informed vertices) gives a quad
+// of the (collapsed) leaves around it; the same polygon of collapsed cells from several
+// lattice edges along a coarse edge is emitted once (net orientation), as Ju's cellProc /
+// faceProc / edgeProc traversal would. Quads split along the shorter diagonal.
 // Vertices: QEF minimiser by truncated eigen-decomposition of AᵀA (singular values below
 // 0.1 σ_max dropped), biased to the mass point, clamped into the cell (counted as escaped).
+// Incremental: a root whose data changed recomputes its vertices; polygons are redone for the
+// roots within 2 of a changed one (a polygon depends on the ≤ 4 roots around its edge and on
+// signs resolved ≤ 3 edges away); all other roots keep their cached triangles.
 #include <pcl/PolygonMesh.h>
 
 #include <pclx/surface/frame_mesh.h>
@@ -97,12 +111,14 @@ public:
   // Initial volume. Unset: the first frame's bounding box enlarged by `margin` (default 1.5×,
   // §3.4.1). With growth on (default) it only reports; geometry outside adds roots. With growth
   // off, triangles not inside the volume are dropped and counted (outside_triangles).
-  void setVolume (const Eigen::Vector3d& min, const Eigen::Vector3d& max);
+  bool setVolume (const Eigen::Vector3d& min, const Eigen::Vector3d& max);  // false if empty / NaN
   void setVolumeMargin (double m) { margin_ = m; }
   void setGrowVolume (bool on) { grow_ = on; }
   bool getVolume (Eigen::Vector3d& min, Eigen::Vector3d& max) const;
-  // ε of the octree simplification (QEF error, in leaf units squared ·count; 0 = off).
-  void setSimplificationError (double eps) { eps_ = eps; all_dirty_ = true; }
+  // ε of the octree simplification in metres (0 = off, default): 8 sibling cells (collapsed
+  // or leaves) of a root merge while the RMS distance of all their planes to the merged QEF's
+  // minimiser stays below ε (Ju et al. 2002, topology-unsafe). False for ε < 0 or NaN.
+  bool setSimplificationError (double eps);
   double getSimplificationError () const { return eps_; }
   // Default WEIGHTED: on 14 noisy (Kinect model) views of a sphere the seed's rule left 10.8k
   // ambiguous vertex readings (→ exterior), 50 boundary and 57 non-manifold edges; WEIGHTED 0,

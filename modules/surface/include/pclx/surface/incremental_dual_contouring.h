@@ -61,11 +61,11 @@ public:
   double getLeafSize () const { return octree_.getLeafSize (); }
   // Volume of interest; unset: from the first frame (§3.4.1). Growth (default on) adds roots
   // for geometry outside it; off: such geometry is dropped and counted.
-  void setVolume (const Eigen::Vector3d& min, const Eigen::Vector3d& max) { octree_.setVolume (min, max); }
+  bool setVolume (const Eigen::Vector3d& min, const Eigen::Vector3d& max) { return octree_.setVolume (min, max); }
   void setGrowVolume (bool on) { octree_.setGrowVolume (on); }
-  // ε of the octree simplification (0 = off, default). Units: QEF error in leaf units², i.e.
-  // a collapse is accepted while Σ (distance / h)² over the merged planes stays below ε.
-  void setSimplificationError (double eps) { octree_.setSimplificationError (eps); }
+  // ε of the octree simplification in metres (0 = off, default): cells merge while the RMS
+  // distance of their planes to the merged vertex stays below ε. False for ε < 0 or NaN.
+  bool setSimplificationError (double eps) { return octree_.setSimplificationError (eps); }
   double getSimplificationError () const { return octree_.getSimplificationError (); }
   void setSignRule (SignRule r) { octree_.setSignRule (r); }
   // Optional plane removal (§4.4): the largest RANSAC plane of the output vertices
