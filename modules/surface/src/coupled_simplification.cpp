@@ -63,6 +63,24 @@ Eigen::Vector3d minimise (const Quadric& q, const Eigen::Vector3d& m)
   return x;
 }
 
+// Garland–Heckbert's placement for an edge collapse: the exact minimiser when the 3×3
+// system is well conditioned (closed-form inverse, no eigen solve: this runs for every edge
+// and every re-queued neighbour), else NaN and the caller falls back.
+inline Eigen::Vector3d
+minimiseEdge (const Quadric& q)
+{
+  const double a = q[0], b = q[1], c = q[2], d = q[4], e = q[5], f = q[7];
+  const double c00 = d * f - e * e, c01 = c * e - b * f, c02 = b * e - c * d;
+  const double det = a * c00 + b * c01 + c * c02;
+  const double tr = (a + d + f) / 3;
+  if (!(std::abs (det) > 1e-6 * tr * tr * tr))
+    return Eigen::Vector3d::Constant (std::numeric_limits<double>::quiet_NaN ());
+  const double c11 = a * f - c * c, c12 = b * c - a * e, c22 = a * d - b * b;
+  const Eigen::Vector3d r (-q[3], -q[6], -q[8]);
+  return Eigen::Vector3d (c00 * r[0] + c01 * r[1] + c02 * r[2], c01 * r[0] + c11 * r[1] + c12 * r[2],
+                          c02 * r[0] + c12 * r[1] + c22 * r[2]) / det;
+}
+
 // Qw = T⁻ᵀ Q T⁻¹ for T = camera_to_world (planes map with T⁻ᵀ).
 Quadric transformQuadric (const Quadric& q, const Eigen::Matrix4d& inv)
 {
@@ -650,8 +668,8 @@ CoupledSimplification::collapse ()
   auto place = [&] (std::int32_t a, std::int32_t b, double& err) -> Eigen::Vector3d {
     Quadric q = cq_[a] + cq_[b] + cb_[a] + cb_[b];
     const Eigen::Vector3d m = 0.5 * (cpos_[a] + cpos_[b]);
-    Eigen::Vector3d x = minimise (q, m);
-    if (!x.allFinite () || (x - m).norm () > (cpos_[a] - cpos_[b]).norm ())
+    Eigen::Vector3d x = minimiseEdge (q);
+    if (!x.allFinite () || (x - m).squaredNorm () > (cpos_[a] - cpos_[b]).squaredNorm ())
     {
       // Best of the endpoints and the midpoint (Garland–Heckbert's fallback).
       const double ea = evaluate (q, cpos_[a]), eb = evaluate (q, cpos_[b]), em = evaluate (q, m);
