@@ -20,6 +20,10 @@ NAMES = {"o3d_poisson": "Open3D Poisson", "o3d_poisson_trim": "Open3D Poisson tr
          "rbf_mst": "RBF-POU + MST"}
 
 
+# True meshes with holes (bun_zipper.ply's base): no reconstruction that follows the data closes.
+OPEN_TRUTH = {"bunny"}
+
+
 def name(r):
     if r["method"] == "rbf":
         return {"true": "RBF-POU (true normals)", "ours": "RBF-POU (our normals + MST)",
@@ -242,7 +246,7 @@ def main():
     # ------------------------------------------------------------------ main sweep
     w("## Every method at its best setting (main sweep)\n")
     w("Best = lowest Chamfer over the method's setting sweep. 'ours at equal error' = our cheapest setting "
-      "(true normals) with Chamfer ≤ the peer's best (and watertight when the peer's mesh is), and the time ratio peer / ours (> 1: we are faster).\n")
+      "(true normals) with Chamfer ≤ the peer's best (and watertight when the peer's mesh is and the true mesh is closed; the bunny's is not), and the time ratio peer / ours (> 1: we are faster).\n")
     ratio_by_peer = collections.defaultdict(list)
     for cond in ("clean", "scan"):
         crow = [r for r in main_rows if r.get("p_cond") == cond]
@@ -264,7 +268,7 @@ def main():
                     continue
                 eq = ""
                 if not meth.startswith("RBF"):
-                    o = ours_at(g, b["chamfer_rel"], b.get("watertight") == 1.0)
+                    o = ours_at(g, b["chamfer_rel"], b.get("watertight") == 1.0 and inp not in OPEN_TRUTH)
                     if o:
                         ratio = b["seconds"] / o["seconds"]
                         ratio_by_peer[(cond, meth)].append(ratio)
