@@ -1188,7 +1188,6 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
   std::vector<std::int32_t> index (base.back (), -1);
   std::unordered_map<std::uint64_t, std::int32_t> phantom_index;
   pcl::PointCloud<pcl::PointXYZ> cloud;
-  std::vector<pcl::Vertices> polygons;
   std::size_t ntris = 0, escaped = 0, collapsed = 0;
   for (const auto& r : m.roots)
   {
@@ -1196,7 +1195,6 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
     escaped += r->escaped;
     collapsed += r->collapsed;
   }
-  polygons.reserve (ntris);
   auto outIndex = [&] (std::uint64_t ref) -> int {
     if (ref >> 63)
     {
@@ -1280,15 +1278,19 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
     for (const auto& t : merged)
       f (t);
   };
+  // Fill the caller's polygons in place: a mesh passed again (every frame) reuses its storage
+  // instead of one allocation per triangle.
+  ntris += merged.size ();
+  mesh.polygons.resize (ntris);
+  std::size_t ti = 0;
   allTris ([&] (const std::array<std::uint64_t, 3>& t) {
-    {
-      pcl::Vertices v;
-      v.vertices = {outIndex (t[0]), outIndex (t[1]), outIndex (t[2])};
-      polygons.push_back (std::move (v));
-    }
+    auto& v = mesh.polygons[ti++].vertices;
+    v.resize (3);
+    v[0] = outIndex (t[0]);
+    v[1] = outIndex (t[1]);
+    v[2] = outIndex (t[2]);
   });
   pcl::toPCLPointCloud2 (cloud, mesh.cloud);
-  mesh.polygons.swap (polygons);
   st.vertices = cloud.size ();
   st.triangles = mesh.polygons.size ();
   st.escaped_vertices = escaped;
