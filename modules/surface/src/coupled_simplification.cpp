@@ -11,6 +11,9 @@
 #include <limits>
 #include <queue>
 #include <sstream>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 namespace {
 
@@ -312,6 +315,7 @@ CoupledSimplification::run (const Eigen::Matrix4d& pose, bool dense_only, pclx::
       if (range_[i] > 0)
         cid_[i] = k++;
     cq_.assign (k, Quadric::Zero ());
+    block_rows_ = 1;
   }
   else
   {
@@ -345,6 +349,7 @@ CoupledSimplification::cluster ()
   if (cell_size_ > 0 && stats_.median_range > 0)
     B = static_cast<int> (std::lround (std::clamp (cell_size_ * fx_eff / stats_.median_range, 1.0, 64.0)));
   stats_.cell_pixels = B;
+  block_rows_ = B;
   const double r = bin_ratio_ > 0 ? bin_ratio_ : B / fx_eff;
   cid_.assign (pts_.size (), -1);
   cq_.clear (); csum_.clear (); cmin_.clear (); cmax_.clear (); ccount_.clear (); cscale_.clear ();
@@ -460,11 +465,15 @@ CoupledSimplification::connect (bool dense_only)
     const float t = kf * std::min (range_[a], range_[b]);
     return d2 < t * t * scale2;
   };
-  ctris_.clear ();
-  dense_tris_.clear ();
-  orientation_vote_ = 0;
-  std::size_t dense = 0;
-  auto face = [&] (std::size_t a, std::size_t b, std::size_t c, bool diag_ab, bool diag_bc, bool diag_ca) {
+  // Per thread: its faces (clustered or dense), orientation vote and dense-face count.
+  struct Part
+  {
+    std::vector<Eigen::Vector3i> tris;
+    long vote = 0;
+    std::size_t dense = 0;
+  };
+  auto face = [&] (Part& part, std::size_t a, std::size_t b, std::size_t c, bool diag_ab, bool diag_bc,
+                   bool diag_ca) {
     if (!ok (a, b, diag_ab ? 2.f : 1.f) || !ok (b, c, diag_bc ? 2.f : 1.f) || !ok (c, a, diag_ca ? 2.f : 1.f))
       return;
     const Eigen::Vector3f& pa = pts_[a];
@@ -474,7 +483,7 @@ CoupledSimplification::connect (bool dense_only)
       return;
     const Eigen::Vector3f nf = cr / len;
     const float d = -nf.dot (pa);
-    orientation_vote_ += (d > 0) ? 1 : -1;  // n·(0 − a) > 0: faces the camera
+    part.vote += (d > 0) ? 1 : -1;  // n·(0 − a) > 0: faces the camera
     const std::int32_t ia = cid_[a], ib = cid_[b], ic = cid_[c];
     // One face quadric (area-weighted), added at each corner; most faces lie in one cluster.
     Quadric k = Quadric::Zero ();
@@ -487,13 +496,11 @@ CoupledSimplification::connect (bool dense_only)
       cq_[ib] += k;
       cq_[ic] += k;
     }
-    ++dense;
-    if (dense_only)
-      dense_tris_.emplace_back (ia, ib, ic);
-    else if (ia != ib && ib != ic && ic != ia)
-      ctris_.emplace_back (ia, ib, ic);
+    ++part.dense;
+    if (dense_only || (ia != ib && ib != ic && ic != ia))
+      part.tris.emplace_back (ia, ib, ic);
   };
-  for (int v = 0; v + 1 < H; ++v)
+  auto quadRow = [&] (Part& part, int v) {
     for (int u = 0; u + 1 < W; ++u)
     {
       const std::size_t i00 = static_cast<std::size_t> (v) * W + u, i10 = i00 + 1, i01 = i00 + W,
@@ -507,20 +514,51 @@ CoupledSimplification::connect (bool dense_only)
       {
         if ((pts_[i00] - pts_[i11]).squaredNorm () <= (pts_[i10] - pts_[i01]).squaredNorm ())
         {
-          face (i00, i01, i11, false, false, true);
-          face (i00, i11, i10, true, false, false);
+          face (part, i00, i01, i11, false, false, true);
+          face (part, i00, i11, i10, true, false, false);
         }
         else
         {
-          face (i00, i01, i10, false, true, false);
-          face (i10, i01, i11, true, false, false);
+          face (part, i00, i01, i10, false, true, false);
+          face (part, i10, i01, i11, true, false, false);
         }
       }
-      else if (!v11) face (i00, i01, i10, false, true, false);
-      else if (!v00) face (i10, i01, i11, true, false, false);
-      else if (!v10) face (i00, i01, i11, false, false, true);
-      else face (i00, i11, i10, true, false, false);
+      else if (!v11) face (part, i00, i01, i10, false, true, false);
+      else if (!v00) face (part, i10, i01, i11, true, false, false);
+      else if (!v10) face (part, i00, i01, i11, false, false, true);
+      else face (part, i00, i11, i10, true, false, false);
     }
+  };
+  // Row bands, one per thread, cut at cluster-block rows: a band's quads below its last row
+  // touch only its own clusters (or dense vertices), so the bands run in parallel; the quad
+  // rows across band borders run afterwards. The result does not depend on timing.
+#ifdef _OPENMP
+  const int threads = std::max (1, std::min (omp_get_max_threads (), H / (4 * std::max (1, block_rows_))));
+#else
+  const int threads = 1;
+#endif
+  std::vector<int> cut (threads + 1, 0);
+  for (int t = 1; t < threads; ++t)
+    cut[t] = (H * t / threads) / std::max (1, block_rows_) * std::max (1, block_rows_);
+  cut[threads] = H - 1;  // quad rows are 0 … H − 2
+  std::vector<Part> parts (threads + 1);
+#pragma omp parallel for num_threads (threads) schedule (static, 1)
+  for (int t = 0; t < threads; ++t)
+    for (int v = cut[t]; v < (t + 1 < threads ? cut[t + 1] - 1 : cut[t + 1]); ++v)
+      quadRow (parts[t], v);
+  for (int t = 1; t < threads; ++t)
+    if (cut[t] >= 1)
+      quadRow (parts[threads], cut[t] - 1);
+  std::vector<Eigen::Vector3i>& tris = dense_only ? dense_tris_ : ctris_;
+  tris.clear ();
+  orientation_vote_ = 0;
+  std::size_t dense = 0;
+  for (auto& p : parts)
+  {
+    tris.insert (tris.end (), p.tris.begin (), p.tris.end ());
+    orientation_vote_ += p.vote;
+    dense += p.dense;
+  }
   stats_.dense_triangles = dense;
 }
 

@@ -148,7 +148,8 @@ private:
   std::vector<std::uint64_t> edges_;
   std::vector<std::pair<std::uint64_t, std::int32_t>> tri_keys_;
   std::vector<Eigen::Vector3i> ctris_;
-  int orientation_vote_ = 0;
+  long orientation_vote_ = 0;
+  int block_rows_ = 1;  // rows of a cluster block (band cuts for the parallel connect)
 };
 
 }  // namespace pcl
