@@ -44,6 +44,14 @@ fix (double x)
   return static_cast<std::int64_t> (x + (x >= 0 ? 0.5 : -0.5));
 }
 
+// The signed-distance sums saturate (a vertex seen in very many frames keeps its sign).
+inline void
+addSaturated (std::int32_t& acc, std::int32_t d)
+{
+  const std::int64_t v = static_cast<std::int64_t> (acc) + d;
+  acc = static_cast<std::int32_t> (std::max<std::int64_t> (std::min<std::int64_t> (v, INT32_MAX), INT32_MIN));
+}
+
 inline int
 floorDiv (int a)
 {
@@ -647,7 +655,10 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
             }
             if (!in)
               continue;
-            const double z = (e[0] * D[0] + e[1] * D[1] + e[2] * D[2]) / area;
+            // Clamped to the triangle's extent: a sliver's barycentrics can cancel badly.
+            const double z = std::min (std::max ((e[0] * D[0] + e[1] * D[1] + e[2] * D[2]) / area,
+                                                 std::min ({D[0], D[1], D[2]})),
+                                       std::max ({D[0], D[1], D[2]}));
             const double zf = std::floor (z);
             Eigen::Vector3i s;
             s[a] = static_cast<int> (zf);
@@ -719,7 +730,7 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
     if (c < 255)
       ++c;
     const std::int32_t w = static_cast<std::int32_t> (std::lround (std::min (dist, 1.0) * 4096));
-    r->sdf[i] += weighted_ext ? w : -w;
+    addSaturated (r->sdf[i], weighted_ext ? w : -w);
   };
   // WEIGHTED rule: a crossing also informs the vertices in front of it along its lattice line,
   // up to kBand leaves away, with their distance to its plane (a truncated signed distance
@@ -739,7 +750,7 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
       v[axis] += k;
       Impl::Root* r = rootOf (v.x (), v.y (), v.z ());
       const double d = std::max (-double (kBand), std::min (double (kBand), (k - frac) * n_axis));
-      r->sdf[localIndex (v.x (), v.y (), v.z ())] += static_cast<std::int32_t> (std::lround (d * 4096));
+      addSaturated (r->sdf[localIndex (v.x (), v.y (), v.z ())], static_cast<std::int32_t> (std::lround (d * 4096)));
     }
   };
   for (std::size_t g = 0; g < crossings.size ();)
