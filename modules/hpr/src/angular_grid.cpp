@@ -37,7 +37,7 @@ atomicMin (std::uint64_t& target, std::uint64_t value)
 }  // namespace
 
 void
-AngularGrid::build (const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3f& centre, double radius,
+AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre, double radius,
                     std::size_t sectors)
 {
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t> (points.size ());
@@ -48,7 +48,7 @@ AngularGrid::build (const std::vector<Eigen::Vector3f>& points, const Eigen::Vec
   radius_ = radius;
 
   // Frame (§4.1): x through the cloud centre; z from the world axis least aligned with x.
-  Eigen::Vector3d x = centre.cast<double> ();
+  Eigen::Vector3d x = centre;
   x = x.norm () > 0 ? x.normalized () : Eigen::Vector3d::UnitX ();
   Eigen::Vector3d e = Eigen::Vector3d::UnitZ ();
   if (std::abs (x.z ()) > 0.9)
@@ -58,22 +58,24 @@ AngularGrid::build (const std::vector<Eigen::Vector3f>& points, const Eigen::Vec
   frame_.row (0) = x;
   frame_.row (1) = y;
   frame_.row (2) = z;
-  const Eigen::Matrix3f frame = frame_.cast<float> ();
 
   // Directions in frame coordinates (all later tests are rotation invariant).
   unit_.resize (n);
   rho_.resize (n);
   sector_.resize (n);
   float min_x = 1.f;
-#pragma omp parallel for reduction(min : min_x)
+  double rho0 = std::numeric_limits<double>::infinity ();
+#pragma omp parallel for reduction(min : min_x, rho0)
   for (std::ptrdiff_t i = 0; i < n; ++i)
   {
-    const float r = points[i].norm ();
-    const Eigen::Vector3f u = r > 0 ? Eigen::Vector3f (frame * points[i] / r) : Eigen::Vector3f::UnitX ();
+    const double r = points[i].norm ();
+    const Eigen::Vector3f u = r > 0 ? Eigen::Vector3f ((frame_ * points[i] / r).cast<float> ()) : Eigen::Vector3f::UnitX ();
     unit_[i] = u;
     rho_[i] = r;
     min_x = std::min (min_x, u.x ());
+    rho0 = std::min (rho0, r);
   }
+  rho0_ = rho0;
 
   // Sector coordinates. Narrow views (every point within 60° of the axis) use the
   // gnomonic tiling (a, b) = (y/x, z/x): sectors are pyramids bounded by planes through
@@ -151,7 +153,7 @@ AngularGrid::build (const std::vector<Eigen::Vector3f>& points, const Eigen::Vec
   std::vector<std::uint64_t> keys (k, std::numeric_limits<std::uint64_t>::max ());
   const float inv_a = float (1.0 / cell_phi_), inv_b = float (1.0 / cell_theta_);
   const float a0 = float (phi0_), b0 = float (theta0_);
-  const float inv_2r = float (1.0 / (2.0 * radius_));
+  const double inv_2r = 1.0 / (2.0 * radius_);
 #pragma omp parallel for
   for (std::ptrdiff_t i = 0; i < n; ++i)
   {
@@ -168,7 +170,8 @@ AngularGrid::build (const std::vector<Eigen::Vector3f>& points, const Eigen::Vec
     else
       d = direction (s).cast<float> ();
     const float one_minus_cos = 0.5f * (unit_[i] - d).squaredNorm ();
-    const float g = one_minus_cos + (1.f - one_minus_cos) * rho_[i] * inv_2r;
+    // See score(): the depth enters as (ρ − ρ_min)/2R, exact in float at any distance.
+    const float g = one_minus_cos * float (1.0 - rho_[i] * inv_2r) + float ((rho_[i] - rho0_) * inv_2r);
     atomicMin (keys[s], packKey (g, std::uint32_t (i)));
   }
   cand_.assign (k, -1);
@@ -211,7 +214,9 @@ AngularGrid::score (int point, std::size_t sector) const
 {
   const Eigen::Vector3d d = direction (sector);
   const double one_minus_cos = 0.5 * (unit_[point].cast<double> () - d).squaredNorm ();
-  return one_minus_cos + (1.0 - one_minus_cos) * double (rho_[point]) / (2.0 * radius_);
+  // g − ρ_min/2R: the same ranking, and the depth term keeps its digits when C is far
+  // (ρ ≈ distance, depth differences ≪ ρ).
+  return one_minus_cos * (1.0 - rho_[point] / (2.0 * radius_)) + (rho_[point] - rho0_) / (2.0 * radius_);
 }
 
 double
@@ -428,7 +433,7 @@ AngularGrid::occupiedSectors () const
 }
 
 std::vector<Eigen::Vector3i>
-AngularGrid::triangulate (const std::vector<Eigen::Vector3f>& points, float max_edge) const
+AngularGrid::triangulate (const std::vector<Eigen::Vector3d>& points, float max_edge) const
 {
   std::vector<Eigen::Vector3i> tris;
   const int rows = wrap_phi_ ? n_phi_ : n_phi_ - 1;
@@ -436,7 +441,7 @@ AngularGrid::triangulate (const std::vector<Eigen::Vector3f>& points, float max_
   auto add = [&] (int a, int b, int c) {
     if (a < 0 || b < 0 || c < 0 || a == b || b == c || a == c)
       return;
-    const Eigen::Vector3f &pa = points[a], &pb = points[b], &pc = points[c];
+    const Eigen::Vector3d &pa = points[a], &pb = points[b], &pc = points[c];
     if ((pa - pb).squaredNorm () > max2 || (pb - pc).squaredNorm () > max2 || (pc - pa).squaredNorm () > max2)
       return;
     if ((pb - pa).cross (pc - pa).dot (-pa) < 0)  // face the viewpoint (origin)
@@ -468,7 +473,7 @@ AngularGrid::triangulate (const std::vector<Eigen::Vector3f>& points, float max_
 }
 
 void
-AngularGrid::normalsAndSplats (const std::vector<Eigen::Vector3f>& points, std::vector<Eigen::Vector3f>& normals,
+AngularGrid::normalsAndSplats (const std::vector<Eigen::Vector3d>& points, std::vector<Eigen::Vector3f>& normals,
                                std::vector<float>& splat_radius) const
 {
   const std::size_t k = cand_.size ();
@@ -498,20 +503,20 @@ AngularGrid::normalsAndSplats (const std::vector<Eigen::Vector3f>& points, std::
         fan[m++] = c;
     }
     Eigen::Vector3f sum = Eigen::Vector3f::Zero ();
-    const Eigen::Vector3f& p0 = points[c0];
+    const Eigen::Vector3d& p0 = points[c0];
     for (int t = 0; t + 1 < m + (m > 2 ? 1 : 0); ++t)
     {
       const int c1 = fan[t], c2 = fan[(t + 1) % m];
       if (c1 == c2)
         continue;
-      Eigen::Vector3f nrm = (points[c2] - p0).cross (points[c1] - p0);
-      if (nrm.dot (-p0) < 0)
+      Eigen::Vector3f nrm = (points[c2] - p0).cross (points[c1] - p0).cast<float> ();
+      if (nrm.dot ((-p0).cast<float> ()) < 0)
         nrm = -nrm;
       sum += nrm;
     }
     sector_normal[s] = sum;
     // §5.5: the splat must cover the footprint of every sector this point won.
-    const float r = rho_[c0];
+    const double r = rho_[c0];
     sector_splat[s] = r * ((unit_[c0].cast<double> () - direction (std::size_t (s))).norm () + half_diag);
   }
   normals.assign (points.size (), Eigen::Vector3f::Constant (std::numeric_limits<float>::quiet_NaN ()));
@@ -528,12 +533,12 @@ AngularGrid::normalsAndSplats (const std::vector<Eigen::Vector3f>& points, std::
     if (acc[c].norm () > 0)
       normals[c] = acc[c].normalized ();
     else  // isolated candidate: facing the viewer is the only estimate
-      normals[c] = (-points[c]).normalized ();
+      normals[c] = (-points[c]).normalized ().cast<float> ();
   }
 }
 
 std::vector<std::uint8_t>
-AngularGrid::interiorPoints (const std::vector<Eigen::Vector3f>& points) const
+AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points) const
 {
   const std::size_t n = unit_.size (), k = cand_.size ();
   std::vector<std::uint8_t> interior (n, 0);
@@ -557,10 +562,10 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3f>& points) const
   // be interior to the very hull Qhull computes.
   const double R2 = 2.0 * radius_;
   auto flipped = [&points, R2] (int i) -> Eigen::Vector3d {
-    const Eigen::Vector3d p = points[i].cast<double> ();
+    const Eigen::Vector3d& p = points[i];
     return p * (R2 / p.norm () - 1.0);
   };
-  auto dir = [&points] (int i) -> Eigen::Vector3d { return points[i].cast<double> ().normalized (); };
+  auto dir = [&points] (int i) -> Eigen::Vector3d { return points[i].normalized (); };
   // Tetrahedron (C, a, b, c) in flipped space: q is strictly inside when it is strictly
   // inside the cone of the three directions and strictly on C's side of plane(a, b, c).
   struct Tetra
@@ -568,7 +573,8 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3f>& points) const
     Eigen::Vector3d edge[3];  // cone side normals, pointing inwards
     double cone_eps;
     Eigen::Vector3d w;        // plane normal, C's side positive
-    double h;                 // inside when w·q > h
+    Eigen::Vector3d f;        // a point of the plane (flipped a)
+    double h;                 // inside when w·(q − f) > h (h > 0: the margin)
   };
   static const int tri[4][3] = {{0, 1, 2}, {0, 2, 3}, {0, 1, 3}, {1, 2, 3}};
 
@@ -615,7 +621,13 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3f>& points) const
           if (nrm.dot (fa) > 0)  // make C (the origin) the positive side
             nrm = -nrm;
           T.w = nrm;
-          T.h = nrm.dot (fa) * (1.0 - 1e-7);  // strict, with a relative margin
+          // Strict, with a margin of ~10⁴ double roundoffs of coordinates of size 2R (|q| < 2R).
+          // It must not grow faster than that: a margin relative to w·a (the old 1e-7·w·a)
+          // is ~1e-7·2R deep, and R grows as distance² (Fig. 9 at a fixed angular spacing),
+          // so from 20× the diameter on it swallowed every depth difference and nothing
+          // was culled.
+          T.f = fa;
+          T.h = 1e-12 * R2 * nrm.norm ();
           ++m;
         }
       }
@@ -626,7 +638,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3f>& points) const
       const std::uint32_t i = order[r];
       if (is_cand[i])
         continue;
-      const Eigen::Vector3d p = points[i].cast<double> ();
+      const Eigen::Vector3d& p = points[i];
       const double rho = p.norm ();
       const Eigen::Vector3d uq = p / rho, q = p * (R2 / rho - 1.0);  // same flip as flipped()
       // Try first the quad whose sector centres surround the point (the one most likely to
@@ -647,7 +659,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3f>& points) const
           if (T.edge[0].dot (uq) <= T.cone_eps || T.edge[1].dot (uq) <= T.cone_eps ||
               T.edge[2].dot (uq) <= T.cone_eps)
             continue;
-          if (T.w.dot (q) > T.h)
+          if (T.w.dot (q - T.f) > T.h)
           {
             interior[i] = 1;
             break;
@@ -664,7 +676,7 @@ AngularGrid::calibrate () const
 {
   const std::size_t k = cand_.size ();
   const std::ptrdiff_t n = std::ptrdiff_t (unit_.size ());
-  std::vector<float> min_rho (k, std::numeric_limits<float>::infinity ());
+  std::vector<double> min_rho (k, std::numeric_limits<double>::infinity ());
   for (std::ptrdiff_t i = 0; i < n; ++i)
     min_rho[sector_[i]] = std::min (min_rho[sector_[i]], rho_[i]);
   // Visible-count estimate (§6): per sector, points roughly as near as the nearest one,
@@ -672,7 +684,7 @@ AngularGrid::calibrate () const
   double visible = 0;
   for (std::ptrdiff_t i = 0; i < n; ++i)
   {
-    const float m = min_rho[sector_[i]];
+    const double m = min_rho[sector_[i]];
     visible += rho_[i] <= m * (1.0 + 2.0 * cell_);
   }
   Calibration c;

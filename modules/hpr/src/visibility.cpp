@@ -2,6 +2,7 @@
 #include <pclx/hpr/qhull_visibility.h>
 #include <pclx/hpr/visibility.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -15,25 +16,25 @@ namespace hpr {
 
 namespace {
 
-Eigen::Vector3f
-centroidOf (const std::vector<Eigen::Vector3f>& pts)
+Eigen::Vector3d
+centroidOf (const std::vector<Eigen::Vector3d>& pts)
 {
   Eigen::Vector3d c = Eigen::Vector3d::Zero ();
   for (const auto& p : pts)
-    c += p.cast<double> ();
-  return (c / double (std::max<std::size_t> (1, pts.size ()))).cast<float> ();
+    c += p;
+  return c / double (std::max<std::size_t> (1, pts.size ()));
 }
 
 // Flipped cloud (Eq. 1) in double: R ≫ ρ leaves the depth differences in the low digits.
 std::vector<Eigen::Vector3d>
-flip (const std::vector<Eigen::Vector3f>& pts, const std::vector<int>& ids, double R)
+flip (const std::vector<Eigen::Vector3d>& pts, const std::vector<int>& ids, double R)
 {
   std::vector<Eigen::Vector3d> out (ids.size ());
   const std::ptrdiff_t m = std::ptrdiff_t (ids.size ());
 #pragma omp parallel for
   for (std::ptrdiff_t i = 0; i < m; ++i)
   {
-    const Eigen::Vector3d p = pts[ids[i]].cast<double> ();
+    const Eigen::Vector3d& p = pts[ids[i]];
     const double rho = p.norm ();
     out[i] = p * (2.0 * R / rho - 1.0);
   }
@@ -42,7 +43,7 @@ flip (const std::vector<Eigen::Vector3f>& pts, const std::vector<int>& ids, doub
 
 // Hull of the flipped `ids` (+ C); marks vertices visible, maps triangles back.
 bool
-hullVisibility (const std::vector<Eigen::Vector3f>& pts, const std::vector<int>& ids, double R, bool triangles,
+hullVisibility (const std::vector<Eigen::Vector3d>& pts, const std::vector<int>& ids, double R, bool triangles,
                 VisibilityResult& res)
 {
   const std::vector<Eigen::Vector3d> flipped = flip (pts, ids, R);
@@ -66,7 +67,7 @@ hullVisibility (const std::vector<Eigen::Vector3f>& pts, const std::vector<int>&
 }
 
 void
-filterLongEdges (const std::vector<Eigen::Vector3f>& pts, float max_edge, std::vector<Eigen::Vector3i>& tris)
+filterLongEdges (const std::vector<Eigen::Vector3d>& pts, float max_edge, std::vector<Eigen::Vector3i>& tris)
 {
   if (tris.empty ())
     return;
@@ -91,18 +92,18 @@ filterLongEdges (const std::vector<Eigen::Vector3f>& pts, float max_edge, std::v
 
 // Normals and splats from hull triangles: area-weighted, facing the viewpoint.
 void
-meshNormals (const std::vector<Eigen::Vector3f>& pts, const std::vector<Eigen::Vector3i>& tris,
+meshNormals (const std::vector<Eigen::Vector3d>& pts, const std::vector<Eigen::Vector3i>& tris,
              VisibilityResult& res)
 {
   std::vector<Eigen::Vector3f> acc (pts.size (), Eigen::Vector3f::Zero ());
   res.splat_radius.assign (pts.size (), 0.f);
   for (const auto& t : tris)
   {
-    const Eigen::Vector3f n = (pts[t[1]] - pts[t[0]]).cross (pts[t[2]] - pts[t[0]]);
+    const Eigen::Vector3f n = (pts[t[1]] - pts[t[0]]).cross (pts[t[2]] - pts[t[0]]).cast<float> ();
     for (int k = 0; k < 3; ++k)
     {
       acc[t[k]] += n;
-      const float e = (pts[t[k]] - pts[t[(k + 1) % 3]]).norm () / 2;
+      const float e = float ((pts[t[k]] - pts[t[(k + 1) % 3]]).norm () / 2);
       res.splat_radius[t[k]] = std::max (res.splat_radius[t[k]], e);
       res.splat_radius[t[(k + 1) % 3]] = std::max (res.splat_radius[t[(k + 1) % 3]], e);
     }
@@ -111,27 +112,28 @@ meshNormals (const std::vector<Eigen::Vector3f>& pts, const std::vector<Eigen::V
   for (std::size_t i = 0; i < pts.size (); ++i)
     if (res.visible[i])
     {
-      Eigen::Vector3f n = acc[i].norm () > 0 ? acc[i].normalized () : Eigen::Vector3f (-pts[i].normalized ());
-      res.normals[i] = n.dot (-pts[i]) < 0 ? Eigen::Vector3f (-n) : n;
+      const Eigen::Vector3f to_eye = (-pts[i]).cast<float> ();
+      Eigen::Vector3f n = acc[i].norm () > 0 ? acc[i].normalized () : to_eye.normalized ();
+      res.normals[i] = n.dot (to_eye) < 0 ? Eigen::Vector3f (-n) : n;
     }
 }
 
 // Exact duplicates share the visibility (and normal, splat) of their visible twin: the hull
 // and the grid keep one copy.
 void
-shareWithDuplicates (const std::vector<Eigen::Vector3f>& pts, VisibilityResult& sub)
+shareWithDuplicates (const std::vector<Eigen::Vector3d>& pts, VisibilityResult& sub)
 {
   std::vector<std::uint8_t>& visible = sub.visible;
   struct Hash
   {
-    std::size_t operator() (const Eigen::Vector3f& p) const
+    std::size_t operator() (const Eigen::Vector3d& p) const
     {
-      std::uint32_t b[3];
+      std::uint64_t b[3];
       std::memcpy (b, p.data (), sizeof b);
       return (std::size_t (b[0]) * 73856093u) ^ (std::size_t (b[1]) * 19349663u) ^ (std::size_t (b[2]) * 83492791u);
     }
   };
-  std::unordered_map<Eigen::Vector3f, int, Hash> seen;
+  std::unordered_map<Eigen::Vector3d, int, Hash> seen;
   seen.reserve (pts.size () / 2);
   for (std::size_t i = 0; i < pts.size (); ++i)
     if (visible[i])
@@ -156,7 +158,7 @@ shareWithDuplicates (const std::vector<Eigen::Vector3f>& pts, VisibilityResult& 
 // grid's candidates after `steps` of propagation span local tetrahedra (C, a, b, c);
 // points strictly inside one are hidden. The rest holds every hull vertex.
 std::vector<std::uint8_t>
-interiorMask (AngularGrid& grid, const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& centre, double R,
+interiorMask (AngularGrid& grid, const std::vector<Eigen::Vector3d>& pts, const Eigen::Vector3d& centre, double R,
               std::size_t sectors, int steps)
 {
   grid.build (pts, centre, R, sectors);
@@ -165,7 +167,7 @@ interiorMask (AngularGrid& grid, const std::vector<Eigen::Vector3f>& pts, const 
 }
 
 std::vector<int>
-cullInterior (AngularGrid& grid, const std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& centre, double R,
+cullInterior (AngularGrid& grid, const std::vector<Eigen::Vector3d>& pts, const Eigen::Vector3d& centre, double R,
               std::size_t sectors, int steps)
 {
   const std::vector<std::uint8_t> interior = interiorMask (grid, pts, centre, R, sectors, steps);
@@ -179,12 +181,34 @@ cullInterior (AngularGrid& grid, const std::vector<Eigen::Vector3f>& pts, const 
 
 }  // namespace
 
+bool
+isEdgeOn (const std::vector<Eigen::Vector3d>& points, double tolerance)
+{
+  if (points.size () < 3)
+    return true;
+  // The plane through C (the origin) that fits best: the smallest eigenvector of Σ p pᵀ.
+  Eigen::Matrix3d m = Eigen::Matrix3d::Zero ();
+  for (const auto& p : points)
+  {
+    const double r = p.norm ();
+    if (r > 0)
+      m.noalias () += (p / r) * (p / r).transpose ();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es (m);
+  const Eigen::Vector3d normal = es.eigenvectors ().col (0);
+  const double ulps = 8.0 * std::numeric_limits<float>::epsilon ();
+  for (const auto& p : points)
+    if (std::abs (normal.dot (p)) > tolerance + ulps * p.norm ())
+      return false;
+  return true;
+}
+
 HPRCalibration
-calibrateHPR (const std::vector<Eigen::Vector3f>& points, const VisibilityOptions& options)
+calibrateHPR (const std::vector<Eigen::Vector3d>& points, const VisibilityOptions& options)
 {
   HPRCalibration cal;
   const std::size_t n = points.size ();
-  const Eigen::Vector3f centre = centroidOf (points);
+  const Eigen::Vector3d centre = centroidOf (points);
   double max_rho = 0, r = 0, mean_rho = 0;
   for (const auto& p : points)
   {
@@ -240,7 +264,7 @@ propagationSteps (const HPRCalibration& cal, std::size_t k)
 }
 
 VisibilityResult
-computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityOptions& opt)
+computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityOptions& opt)
 {
   VisibilityResult res;
   const std::size_t n = points.size ();
@@ -270,7 +294,7 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
   // Work on the input itself unless points at the viewpoint had to be left out; id(i) maps
   // back to the input.
   std::vector<int> ids;
-  std::vector<Eigen::Vector3f> compact;
+  std::vector<Eigen::Vector3d> compact;
   if (at_eye > 0)
   {
     for (std::size_t i = 0; i < n; ++i)
@@ -280,13 +304,27 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
         compact.push_back (points[i]);
       }
   }
-  const std::vector<Eigen::Vector3f>& pts = at_eye > 0 ? compact : points;
+  const std::vector<Eigen::Vector3d>& pts = at_eye > 0 ? compact : points;
   auto id = [&ids] (std::size_t i) { return ids.empty () ? int (i) : ids[i]; };
 
   if (opt.radius > 0 && opt.radius <= max_rho)
   {
     res.error = "R = " + std::to_string (opt.radius) + " must exceed the distance from the viewpoint to the "
                 "farthest point (" + std::to_string (max_rho) + ")";
+    return res;
+  }
+  // A sheet seen edge-on: every point is on the silhouette (see isEdgeOn). One answer for
+  // every method, decided before any of them meets the degenerate geometry.
+  const double scale = opt.coordinate_scale > 0 ? opt.coordinate_scale : max_rho;
+  if (isEdgeOn (pts, 8.0 * std::numeric_limits<float>::epsilon () * scale))
+  {
+    res.visible.assign (n, 1);
+    res.radius = opt.radius > 0 ? opt.radius : 0;
+    if (opt.normals)
+    {
+      res.normals.assign (n, Eigen::Vector3f::Constant (std::numeric_limits<float>::quiet_NaN ()));
+      res.splat_radius.assign (n, 0.f);
+    }
     return res;
   }
   // Calibration only where something calibrated is used (the grid-sampling methods' k and ℓ).
@@ -322,7 +360,7 @@ computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityO
   res.radius = R;
   VisibilityResult sub;
   sub.visible.assign (pts.size (), 0);
-  const Eigen::Vector3f centre = centroidOf (pts);
+  const Eigen::Vector3d centre = centroidOf (pts);
   AngularGrid grid;
 
   auto everyPoint = [&pts] {

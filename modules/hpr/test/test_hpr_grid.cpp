@@ -245,20 +245,20 @@ TEST (HPRBadInput, SectorCountZeroAndAbsurd)
 
 TEST (AngularGrid, SectorsCoverTheCloudAndCandidatesAreExtreme)
 {
-  std::vector<Eigen::Vector3f> pts;
+  std::vector<Eigen::Vector3d> pts;
   // A flat patch at distance 5 facing the origin, plus a copy 1 unit behind it.
   for (int i = 0; i < 50; ++i)
     for (int j = 0; j < 50; ++j)
     {
-      pts.emplace_back (5.f, (i - 25) * 0.02f, (j - 25) * 0.02f);
-      pts.emplace_back (6.f, (i - 25) * 0.024f + 0.001f, (j - 25) * 0.024f + 0.001f);
+      pts.emplace_back (5.0, (i - 25) * 0.02, (j - 25) * 0.02);
+      pts.emplace_back (6.0, (i - 25) * 0.024 + 0.001, (j - 25) * 0.024 + 0.001);
     }
   pcl::hpr::AngularGrid g;
-  g.build (pts, Eigen::Vector3f (5.5f, 0, 0), 1e4, 400);
+  g.build (pts, Eigen::Vector3d (5.5, 0, 0), 1e4, 400);
   EXPECT_NEAR (double (g.sectorCount ()), 400.0, 60.0);
   // Every candidate is on the front patch: it is the nearer, so the more extreme when flipped.
   for (int c : g.candidates ())
-    EXPECT_EQ (pts[c].x (), 5.f);
+    EXPECT_EQ (pts[c].x (), 5.0);
   EXPECT_GT (g.occupiedSectors (), 0.9 * g.sectorCount ());  // cells are square: the rim may be empty
 }
 

@@ -19,7 +19,7 @@ public:
   // tangent plane (y/x, z/x); wide ones in the seed's φ = atan2(y, x), θ = acos(z / ρ).
   // `sectors` is k; cells are square (see build()).
   // `radius` is the flip radius R (> max ρ).
-  void build (const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3f& centre, double radius,
+  void build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre, double radius,
               std::size_t sectors);
 
   // Adaptive propagation (§4.3.1, scatter): only sectors changed in the previous step
@@ -36,18 +36,18 @@ public:
 
   // §4.4: two triangles per 2×2 sector neighbourhood with distinct vertices, facing C;
   // triangles with an edge longer than max_edge (in point units, <= 0: no filter) dropped.
-  std::vector<Eigen::Vector3i> triangulate (const std::vector<Eigen::Vector3f>& points, float max_edge) const;
+  std::vector<Eigen::Vector3i> triangulate (const std::vector<Eigen::Vector3d>& points, float max_edge) const;
   // §5.3: normals of the visible points from the triangle fans around each sector, facing C
   // (NaN for points that are not candidates); §5.5: splat radius covering the sectors a
   // point won.
-  void normalsAndSplats (const std::vector<Eigen::Vector3f>& points, std::vector<Eigen::Vector3f>& normals,
+  void normalsAndSplats (const std::vector<Eigen::Vector3d>& points, std::vector<Eigen::Vector3f>& normals,
                          std::vector<float>& splat_radius) const;
 
   // Exact-method pre-filter: marks points that lie strictly inside a tetrahedron
   // (C, a, b, c) of candidate points in flipped space. Such points are interior to
   // the hull of the flipped cloud, so they cannot be hull vertices: culling them
   // before Qhull changes no visible point. `points` are the ones given to build().
-  std::vector<std::uint8_t> interiorPoints (const std::vector<Eigen::Vector3f>& points) const;
+  std::vector<std::uint8_t> interiorPoints (const std::vector<Eigen::Vector3d>& points) const;
 
   // Balls-in-bins calibration (§6) on this grid used as the coarse grid.
   struct Calibration
@@ -78,7 +78,8 @@ private:
   void neighbours (std::size_t s, int radius, std::vector<std::size_t>& out) const;
 
   std::vector<Eigen::Vector3f> unit_;  // per point: direction from C, in frame coordinates
-  std::vector<float> rho_;             // per point: distance from C
+  std::vector<double> rho_;            // per point: distance from C
+  double rho0_ = 0;                    // min rho_: scores rank by ρ − ρ0 (see score())
   std::vector<std::uint32_t> sector_;  // per point: its sector
   double radius_ = 0;
   Eigen::Matrix3d frame_ = Eigen::Matrix3d::Identity ();  // rows: frame axes

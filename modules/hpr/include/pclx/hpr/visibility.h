@@ -30,6 +30,9 @@ struct VisibilityOptions
   bool triangles = false;
   float max_edge = 0.f;       // <= 0: 5 × median edge
   bool normals = false;
+  // Size of the input's own coordinates (max |p| + |C| before p − C); the tolerance of the
+  // flat-input test is a few float ulps of it. <= 0: max |p − C|.
+  double coordinate_scale = 0;
 };
 
 struct VisibilityResult
@@ -60,15 +63,26 @@ struct HPRCalibration
   double reference_distance = 0;  // |C − C_e| (mean |p − C| when C is inside the cloud)
   double max_distance = 0;        // max |p − C|
 };
-HPRCalibration calibrateHPR (const std::vector<Eigen::Vector3f>& points, const VisibilityOptions& options);
+HPRCalibration calibrateHPR (const std::vector<Eigen::Vector3d>& points, const VisibilityOptions& options);
 // R at which two points α apart (seen from reference_distance) hide a point
 // occlusion_depth × cloud_radius behind them (Fig. 9); always > max_distance.
 double radiusForSeparation (const HPRCalibration& cal, double alpha, double occlusion_depth);
 // ℓ for a grid of k sectors: enough steps to cover the sectors between two visible points.
 int propagationSteps (const HPRCalibration& cal, std::size_t k);
 
+// True when every point lies in one plane through the viewpoint (or on one line), within
+// `tolerance` (absolute, plus a few float ulps of each |p|). Such a cloud is a sheet seen
+// exactly edge-on: every point lies on its silhouette, so HPR calls all of them visible.
+// That is also the limit of the exact operator as C approaches the plane: the flip maps a
+// plane not through C onto a closed surface of which every point is a hull vertex, so a
+// flat cloud is entirely visible from any C off its plane. (Qhull, given the degenerate
+// flat case itself, returned a joggle-dependent ~63 %; the grid methods returned 100 %.)
+bool isEdgeOn (const std::vector<Eigen::Vector3d>& points, double tolerance);
+
 // `points` are p − C for finite p; points at the viewpoint itself are visible.
-VisibilityResult computeVisibility (const std::vector<Eigen::Vector3f>& points, const VisibilityOptions& options);
+// Flat input seen edge-on (every point, to float precision, in one plane through C) is all
+// visible, whatever the method: see isEdgeOn().
+VisibilityResult computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityOptions& options);
 
 }  // namespace hpr
 }  // namespace pcl
