@@ -47,6 +47,7 @@ public:
     std::size_t normals_voted = 0, normals_oriented = 0;  // flipped by the vote / by MST
     std::size_t off_surface_points = 0, eps_halved = 0, off_surface_dropped = 0;
     std::size_t subdomains = 0, grown = 0, over_tmax = 0, fit_fallbacks = 0;
+    std::size_t subdomain_centres = 0;  // Σ constraints over subdomains (12 bytes each are kept)
     // band_cells: cells within the band; active_cells: cells visited (all of the band without
     // surface continuation); corners: corners where F was evaluated; waves: continuation steps.
     std::size_t band_cells = 0, active_cells = 0, corners = 0, uncovered_corners = 0, waves = 0;
@@ -130,7 +131,7 @@ private:
     Eigen::Vector3d centre;     // local frame: q = (p − centre) / scale
     double scale;
     Eigen::Vector4d poly;       // linear polynomial in q
-    std::uint32_t first, count; // range in sub_lambda_; centres at sub_q_[3 first ...] as x[count], y[count], z[count]
+    std::uint32_t first, count; // range in sub_ids_ and sub_lambda_
   };
 
   // Subdomains of one lookup bucket (a range of buckets_); cached per thread because
@@ -167,10 +168,11 @@ private:
   std::vector<int> src_;  // input index of every filtered point
   std::vector<Constraint> off_;
   std::vector<Subdomain> subs_;
-  // Per subdomain: its centres in the local frame (floats, all x then all y then all z, so the
-  // r³ sum vectorises) and their RBF weights λ.
-  std::vector<float> sub_q_;
+  // Per subdomain: its centres (constraint numbers into cpos_) and their RBF weights λ: 12 bytes
+  // per centre (a local float copy of the centre would add 12 more, ~400 MB at 1M points).
+  std::vector<std::uint32_t> sub_ids_;
   std::vector<double> sub_lambda_;
+  std::vector<float> cpos_;  // x, y, z of every constraint, numbered in octree order
   // Subdomain lookup: (bucket key, subdomain) sorted by key.
   std::vector<std::pair<std::uint64_t, std::uint32_t>> buckets_;
   Eigen::Vector3d bucket_origin_ = Eigen::Vector3d::Zero ();

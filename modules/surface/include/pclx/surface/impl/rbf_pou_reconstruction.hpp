@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <numeric>
 
 #ifdef _OPENMP
@@ -93,23 +94,26 @@ dilate (std::vector<std::uint64_t>& keys, int axis, int lo, int hi)
   keys.swap (out);
 }
 
-// Σ_j λ_j |q − c_j|³ over centres stored as x[m], y[m], z[m] floats. SSE2 by hand: GCC does not
-// vectorise the sqrt of this reduction without -fno-math-errno, which we cannot ask of users.
+// Σ_j λ_j |p − c_j|³ with c_j = xyz[3 ids[j] ...] (floats, world units). SSE2 by hand: GCC does
+// not vectorise the sqrt of this reduction without -fno-math-errno, which we cannot ask of users.
 inline double
-sumR3 (const float* cx, const float* cy, const float* cz, const double* lambda, std::uint32_t m,
-       double qx, double qy, double qz)
+sumR3 (const float* xyz, const std::uint32_t* ids, const double* lambda, std::uint32_t m, double px, double py,
+       double pz)
 {
   std::uint32_t j = 0;
   double f = 0;
 #if defined(__SSE2__)
-  const __m128d x = _mm_set1_pd (qx), y = _mm_set1_pd (qy), z = _mm_set1_pd (qz);
+  const __m128d x = _mm_set1_pd (px), y = _mm_set1_pd (py), z = _mm_set1_pd (pz);
   __m128d acc0 = _mm_setzero_pd (), acc1 = _mm_setzero_pd ();
   for (; j + 4 <= m; j += 4)
   {
-    const __m128 x4 = _mm_loadu_ps (cx + j), y4 = _mm_loadu_ps (cy + j), z4 = _mm_loadu_ps (cz + j);
-    const __m128d dx0 = _mm_sub_pd (x, _mm_cvtps_pd (x4)), dx1 = _mm_sub_pd (x, _mm_cvtps_pd (_mm_movehl_ps (x4, x4)));
-    const __m128d dy0 = _mm_sub_pd (y, _mm_cvtps_pd (y4)), dy1 = _mm_sub_pd (y, _mm_cvtps_pd (_mm_movehl_ps (y4, y4)));
-    const __m128d dz0 = _mm_sub_pd (z, _mm_cvtps_pd (z4)), dz1 = _mm_sub_pd (z, _mm_cvtps_pd (_mm_movehl_ps (z4, z4)));
+    const float* a = xyz + 3 * std::size_t (ids[j]);
+    const float* b = xyz + 3 * std::size_t (ids[j + 1]);
+    const float* c = xyz + 3 * std::size_t (ids[j + 2]);
+    const float* d = xyz + 3 * std::size_t (ids[j + 3]);
+    const __m128d dx0 = _mm_sub_pd (x, _mm_set_pd (b[0], a[0])), dx1 = _mm_sub_pd (x, _mm_set_pd (d[0], c[0]));
+    const __m128d dy0 = _mm_sub_pd (y, _mm_set_pd (b[1], a[1])), dy1 = _mm_sub_pd (y, _mm_set_pd (d[1], c[1]));
+    const __m128d dz0 = _mm_sub_pd (z, _mm_set_pd (b[2], a[2])), dz1 = _mm_sub_pd (z, _mm_set_pd (d[2], c[2]));
     const __m128d r0 = _mm_add_pd (_mm_add_pd (_mm_mul_pd (dx0, dx0), _mm_mul_pd (dy0, dy0)), _mm_mul_pd (dz0, dz0));
     const __m128d r1 = _mm_add_pd (_mm_add_pd (_mm_mul_pd (dx1, dx1), _mm_mul_pd (dy1, dy1)), _mm_mul_pd (dz1, dz1));
     acc0 = _mm_add_pd (acc0, _mm_mul_pd (_mm_mul_pd (_mm_loadu_pd (lambda + j), r0), _mm_sqrt_pd (r0)));
@@ -121,11 +125,35 @@ sumR3 (const float* cx, const float* cy, const float* cz, const double* lambda, 
 #endif
   for (; j < m; ++j)
   {
-    const double dx = qx - cx[j], dy = qy - cy[j], dz = qz - cz[j];
+    const float* c = xyz + 3 * std::size_t (ids[j]);
+    const double dx = px - c[0], dy = py - c[1], dz = pz - c[2];
     const double r2 = dx * dx + dy * dy + dz * dz;
     f += lambda[j] * r2 * std::sqrt (r2);
   }
   return f;
+}
+
+// out[k] = |q − (x, y, z)[k]|³ for k < count (doubles): the rows of the fit matrix, SSE2 as above.
+inline void
+r3Row (const double* x, const double* y, const double* z, int count, double qx, double qy, double qz, double* out)
+{
+  int k = 0;
+#if defined(__SSE2__)
+  const __m128d vx = _mm_set1_pd (qx), vy = _mm_set1_pd (qy), vz = _mm_set1_pd (qz);
+  for (; k + 2 <= count; k += 2)
+  {
+    const __m128d dx = _mm_sub_pd (vx, _mm_loadu_pd (x + k)), dy = _mm_sub_pd (vy, _mm_loadu_pd (y + k));
+    const __m128d dz = _mm_sub_pd (vz, _mm_loadu_pd (z + k));
+    const __m128d r2 = _mm_add_pd (_mm_add_pd (_mm_mul_pd (dx, dx), _mm_mul_pd (dy, dy)), _mm_mul_pd (dz, dz));
+    _mm_storeu_pd (out + k, _mm_mul_pd (r2, _mm_sqrt_pd (r2)));
+  }
+#endif
+  for (; k < count; ++k)
+  {
+    const double dx = qx - x[k], dy = qy - y[k], dz = qz - z[k];
+    const double r2 = dx * dx + dy * dy + dz * dz;
+    out[k] = r2 * std::sqrt (r2);
+  }
 }
 
 // PCL's marching-cubes corner order (MarchingCubes::getNeighborList1D) and edge ends.
@@ -166,11 +194,11 @@ RBFPOUReconstruction<PointNT>::weight (const Subdomain& s, const Eigen::Vector3d
 template <typename PointNT> double
 RBFPOUReconstruction<PointNT>::local (const Subdomain& s, const Eigen::Vector3d& p) const
 {
+  // In the frame of the fit: q = (p − centre) / scale, so |q − q_j|³ = |p − c_j|³ / scale³.
   const Eigen::Vector3d q = (p - s.centre) / s.scale;
-  const float* c = sub_q_.data () + 3 * std::size_t (s.first);
-  return s.poly[0] + s.poly.template tail<3> ().dot (q) +
-         rbf_pou_detail::sumR3 (c, c + s.count, c + 2 * std::size_t (s.count), sub_lambda_.data () + s.first,
-                                s.count, q[0], q[1], q[2]);
+  const double rbf = rbf_pou_detail::sumR3 (cpos_.data (), sub_ids_.data () + s.first, sub_lambda_.data () + s.first,
+                                            s.count, p[0], p[1], p[2]);
+  return s.poly[0] + s.poly.template tail<3> ().dot (q) + rbf / (s.scale * s.scale * s.scale);
 }
 
 template <typename PointNT> template <typename F> void
@@ -246,7 +274,7 @@ RBFPOUReconstruction<PointNT>::build ()
   stats_ = Stats ();
   error_.clear ();
   pts_.clear (); nrm_.clear (); src_.clear (); off_.clear (); subs_.clear ();
-  sub_q_.clear (); sub_lambda_.clear (); buckets_.clear ();
+  sub_ids_.clear (); sub_lambda_.clear (); cpos_.clear (); buckets_.clear ();
 
   if (t_min_ < 10)
     return fail ("Tmin must be >= 10 (got " + std::to_string (t_min_) + ")");
@@ -303,8 +331,8 @@ RBFPOUReconstruction<PointNT>::build ()
   xyz->resize (n);
   for (std::size_t i = 0; i < n; ++i)
     (*xyz)[i].getVector3fMap () = pts_[i];
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree (false);
-  tree.setInputCloud (xyz);
+  auto tree = std::make_unique<pcl::KdTreeFLANN<pcl::PointXYZ>> (false);  // freed after the off-surface points
+  tree->setInputCloud (xyz);
 
   // One kNN pass gives the mean spacing (second nearest, the first is the point itself) and
   // the 8 neighbours of the normal vote.
@@ -317,7 +345,7 @@ RBFPOUReconstruction<PointNT>::build ()
   {
     pcl::Indices k (kq);
     std::vector<float> d (kq);
-    const int found = tree.nearestKSearch ((*xyz)[i], kq, k, d);
+    const int found = tree->nearestKSearch ((*xyz)[i], kq, k, d);
     if (found >= 2)
       spacing_sum += std::sqrt (d[1]);
     if (vote)
@@ -400,7 +428,7 @@ RBFPOUReconstruction<PointNT>::build ()
         pcl::PointXYZ q;
         q.getVector3fMap () = pts_[i] + sign * e * nrm_[i];
         // Ties (another point exactly as near) count as failures.
-        if (tree.nearestKSearch (q, 1, k, d) == 1 &&
+        if (tree->nearestKSearch (q, 1, k, d) == 1 &&
             (k[0] == int (i) || d[0] > (q.getVector3fMap () - pts_[i]).squaredNorm () * (1.f + 1e-5f)))
         {
           eps[2 * i + side] = sign * e;
@@ -423,6 +451,8 @@ RBFPOUReconstruction<PointNT>::build ()
   stats_.eps_halved = halved - stats_.off_surface_dropped * 12;
   stats_.off_surface_points = off_.size ();
   stats_.t_off_surface = seconds (t0);
+  tree.reset ();
+  xyz.reset ();
 
   // --- octree partition of unity (§4.3.2) ----------------------------------------------
   t0 = Clock::now ();
@@ -468,19 +498,29 @@ RBFPOUReconstruction<PointNT>::build ()
         continue;
       }
       // Children enlarged by d stay inside the parent's enlarged box (d ≥ 1): filter its list.
+      // Per axis a constraint lies in the low child's range, the high one's or both (the
+      // overlap), so it is tested 3 × 2 times and appended to its ~d³ children only.
+      std::array<Node, 8> child;
       for (int o = 0; o < 8; ++o)
       {
-        Node child;
-        child.half = node.half / 2;
-        child.depth = node.depth + 1;
-        child.c = node.c + child.half * Eigen::Vector3d (o & 1 ? 1 : -1, o & 2 ? 1 : -1, o & 4 ? 1 : -1);
-        const double r = overlap_ * child.half;
-        for (const auto id : node.ids)
-          if (((centre_of (id).template cast<double> () - child.c).array ().abs () < r).all ())
-            child.ids.push_back (id);
-        if (!child.ids.empty ())
-          stack.push_back (std::move (child));
+        child[o].half = node.half / 2;
+        child[o].depth = node.depth + 1;
+        child[o].c = node.c + child[o].half * Eigen::Vector3d (o & 1 ? 1 : -1, o & 2 ? 1 : -1, o & 4 ? 1 : -1);
       }
+      const double r = overlap_ * node.half / 2;
+      for (const auto id : node.ids)
+      {
+        const Eigen::Vector3d p = centre_of (id).template cast<double> ();
+        int side[3];  // bit 0: in the low child's range, bit 1: in the high child's
+        for (int a = 0; a < 3; ++a)
+          side[a] = (std::abs (p[a] - child[0].c[a]) < r) | (std::abs (p[a] - child[7].c[a]) < r) << 1;
+        for (int o = 0; o < 8; ++o)
+          if ((side[0] >> (o & 1) & 1) && (side[1] >> (o >> 1 & 1) & 1) && (side[2] >> (o >> 2 & 1) & 1))
+            child[o].ids.push_back (id);
+      }
+      for (int o = 0; o < 8; ++o)
+        if (!child[o].ids.empty ())
+          stack.push_back (std::move (child[o]));
     }
   }
 
@@ -491,10 +531,10 @@ RBFPOUReconstruction<PointNT>::build ()
   cxyz->resize (nc);
   for (std::uint32_t c = 0; c < nc; ++c)
     (*cxyz)[c].getVector3fMap () = centre_of (c);
-  pcl::KdTreeFLANN<pcl::PointXYZ> ctree (false);
-  ctree.setInputCloud (cxyz);
+  auto ctree = std::make_unique<pcl::KdTreeFLANN<pcl::PointXYZ>> (false);  // freed after growing
+  ctree->setInputCloud (cxyz);
   std::vector<char> keep (leaves.size (), 1);
-  std::vector<std::uint32_t> sub_centres;  // constraint ids of every subdomain, until fitted
+  std::vector<std::uint32_t>& sub_centres = sub_ids_;  // constraint ids (renumbered below)
   std::vector<double> scale (leaves.size (), 1.0);
   std::size_t grown = 0;
 #pragma omp parallel for num_threads(nt) reduction(+ : grown) schedule(dynamic, 16)
@@ -518,7 +558,7 @@ RBFPOUReconstruction<PointNT>::build ()
       {
         covered = std::max (f * 1.25, covered * 1.5625);
         const double r = leaf.half * covered;
-        ctree.radiusSearch (q, float (r * std::sqrt (3.0) * 1.0001), k, d);
+        ctree->radiusSearch (q, float (r * std::sqrt (3.0) * 1.0001), k, d);
         near.clear ();
         for (const auto id : k)
           near.emplace_back ((centre_of (id).template cast<double> () - leaf.c).array ().abs ().maxCoeff (),
@@ -564,6 +604,8 @@ RBFPOUReconstruction<PointNT>::build ()
     std::sort (leaf.ids.begin (), leaf.ids.end ());
   }
   stats_.grown = grown;
+  ctree.reset ();
+  cxyz.reset ();
   TRACE_RBF ("octree grow");
   for (std::size_t l = 0; l < leaves.size (); ++l)
   {
@@ -582,9 +624,33 @@ RBFPOUReconstruction<PointNT>::build ()
     sub_centres.insert (sub_centres.end (), leaves[l].ids.begin (), leaves[l].ids.end ());
     subs_.push_back (s);
   }
+  // Renumber the constraints in the order the octree's depth-first leaves first list them, so
+  // that the centres of a subdomain lie close together in cpos_ (evaluation gathers them).
+  std::vector<float> cvalue (nc);  // h of every constraint, new numbering, until fitted
+  {
+    std::vector<std::uint32_t> rank (nc, std::numeric_limits<std::uint32_t>::max ());
+    std::uint32_t next = 0;
+    for (auto& id : sub_centres)
+    {
+      if (rank[id] == std::numeric_limits<std::uint32_t>::max ())
+        rank[id] = next++;
+      id = rank[id];
+    }
+    for (auto& r : rank)
+      if (r == std::numeric_limits<std::uint32_t>::max ())
+        r = next++;
+    cpos_.resize (3 * std::size_t (nc));
+    for (std::uint32_t c = 0; c < nc; ++c)
+    {
+      Eigen::Map<Eigen::Vector3f> dst (&cpos_[3 * std::size_t (rank[c])]);
+      dst = centre_of (c);
+      cvalue[rank[c]] = c < n ? 0.f : off_[c - n].value;
+    }
+  }
   leaves.clear ();
   leaves.shrink_to_fit ();
   stats_.subdomains = subs_.size ();
+  stats_.subdomain_centres = sub_ids_.size ();
   if (subs_.empty ())
     return fail ("no subdomain reached Tmin = " + std::to_string (t_min_) + " constraints");
 
@@ -618,38 +684,29 @@ RBFPOUReconstruction<PointNT>::build ()
   // --- local fits: [A P; Pᵀ 0] [λ; c] = [h; 0], A_jk = |q_j − q_k|³ -------------------
   t0 = Clock::now ();
   sub_lambda_.assign (sub_centres.size (), 0.0);
-  sub_q_.assign (3 * sub_centres.size (), 0.f);
   std::size_t fallbacks = 0;
 #pragma omp parallel for num_threads(nt) reduction(+ : fallbacks) schedule(dynamic, 4)
   for (std::ptrdiff_t si = 0; si < std::ptrdiff_t (subs_.size ()); ++si)
   {
     Subdomain& s = subs_[si];
     const int m = int (s.count);
-    float* cq = sub_q_.data () + 3 * std::size_t (s.first);
     Eigen::MatrixXd p (m, 4);  // the linear polynomial [1 q] at the centres
     Eigen::VectorXd h (m);
     for (int j = 0; j < m; ++j)
     {
       const std::uint32_t c = sub_centres[s.first + j];
-      const Eigen::Vector3d q = (centre_of (c).template cast<double> () - s.centre) / s.scale;  // conditioning
-      for (int r = 0; r < 3; ++r)
-      {
-        cq[r * m + j] = float (q[r]);
-        p (j, 1 + r) = double (cq[r * m + j]);  // fit the centres evaluation will use
-      }
-      p (j, 0) = 1;
-      h[j] = c < n ? 0.0 : double (off_[c - n].value);
+      const Eigen::Vector3d q =
+          (Eigen::Vector3f (&cpos_[3 * std::size_t (c)]).template cast<double> () - s.centre) / s.scale;  // conditioning
+      p.row (j) << 1, q.transpose ();
+      h[j] = double (cvalue[c]);
     }
     Eigen::MatrixXd a (m, m);
-    for (int j = 0; j < m; ++j)
+    for (int j = 0; j < m; ++j)  // upper triangle by columns, then mirrored
     {
+      r3Row (&p (0, 1), &p (0, 2), &p (0, 3), j, p (j, 1), p (j, 2), p (j, 3), &a (0, j));
       a (j, j) = 0;
-      for (int k = 0; k < j; ++k)
-      {
-        const double r = (p.row (j).tail<3> () - p.row (k).tail<3> ()).norm ();
-        a (j, k) = a (k, j) = r * r * r;
-      }
     }
+    a.template triangularView<Eigen::StrictlyLower> () = a.transpose ();
     // [A P; Pᵀ 0] [λ; c] = [h; 0]. With P = QR and Q = [Q1 Q2], λ = Q2 μ and Q2ᵀ A Q2 μ = Q2ᵀ h;
     // r³ is conditionally positive definite of order 2, so Q2ᵀ A Q2 is SPD: an LLT of size m − 4
     // (a third of the LU's flops), then R c = Q1ᵀ (h − A λ).
@@ -662,10 +719,33 @@ RBFPOUReconstruction<PointNT>::build ()
       const double rmax = r.diagonal ().cwiseAbs ().maxCoeff ();
       if (r.diagonal ().cwiseAbs ().minCoeff () > 1e-9 * rmax)  // else coplanar centres: fallback
       {
+        // Q = I − V T Vᵀ (LAPACK's larft), so Qᵀ A Q = A − U Vᵀ − V Uᵀ with U = A V T − ½ V M,
+        // M = Tᵀ Vᵀ A V T: two rank-4 products instead of eight rank-1 reflector updates.
+        Eigen::MatrixXd v = Eigen::MatrixXd::Zero (m, 4);
+        for (int i = 0; i < 4; ++i)
+        {
+          v (i, i) = 1;
+          v.col (i).tail (m - i - 1) = qr.matrixQR ().col (i).tail (m - i - 1);
+        }
+        const Eigen::Vector4d tau = qr.hCoeffs ();
+        Eigen::Matrix4d t = Eigen::Matrix4d::Zero ();
+        for (int i = 0; i < 4; ++i)
+        {
+          t (i, i) = tau[i];
+          if (i > 0)
+          {
+            const Eigen::VectorXd vtv = v.leftCols (i).transpose () * v.col (i);
+            const Eigen::VectorXd col = t.topLeftCorner (i, i).template triangularView<Eigen::Upper> () * vtv;
+            t.col (i).head (i) = -tau[i] * col;
+          }
+        }
+        const Eigen::MatrixXd w = a * v;
+        const Eigen::Matrix4d mm = t.transpose () * (v.transpose () * w) * t;
+        const Eigen::MatrixXd u = w * t - 0.5 * v * mm;
         Eigen::MatrixXd b = a;
-        b.applyOnTheLeft (qr.householderQ ().adjoint ());
-        b.applyOnTheRight (qr.householderQ ());
-        const Eigen::VectorXd g = qr.householderQ ().adjoint () * h;
+        b.noalias () -= u * v.transpose ();
+        b.noalias () -= v * u.transpose ();
+        const Eigen::VectorXd g = h - v * (t.transpose () * (v.transpose () * h));  // Qᵀ h
         const Eigen::LLT<Eigen::MatrixXd> llt (b.bottomRightCorner (m - 4, m - 4));
         if (llt.info () == Eigen::Success)
         {
@@ -673,7 +753,7 @@ RBFPOUReconstruction<PointNT>::build ()
           mu.tail (m - 4) = llt.solve (g.tail (m - 4));
           poly = r.template triangularView<Eigen::Upper> ().solve (
               g.head<4> () - b.topRightCorner (4, m - 4) * mu.tail (m - 4));
-          lambda = qr.householderQ () * mu;
+          lambda = mu - v * (t * (v.transpose () * mu));  // Q μ
           ok = lambda.allFinite () && poly.allFinite ();
         }
       }
