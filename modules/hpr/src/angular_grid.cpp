@@ -8,6 +8,10 @@
 #include <limits>
 #include <stdexcept>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 namespace pcl {
 namespace hpr {
 
@@ -65,7 +69,7 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   sector_.resize (n);
   float min_x = 1.f;
   double rho0 = std::numeric_limits<double>::infinity ();
-#pragma omp parallel for reduction(min : min_x, rho0)
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192) reduction(min : min_x, rho0)
   for (std::ptrdiff_t i = 0; i < n; ++i)
   {
     const double r = points[i].norm ();
@@ -86,7 +90,7 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   std::vector<float> ca (n), cb (n);
   float a_min = std::numeric_limits<float>::max (), a_max = std::numeric_limits<float>::lowest ();
   float b_min = a_min, b_max = a_max;
-#pragma omp parallel for reduction(min : a_min, b_min) reduction(max : a_max, b_max)
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192) reduction(min : a_min, b_min) reduction(max : a_max, b_max)
   for (std::ptrdiff_t i = 0; i < n; ++i)
   {
     const Eigen::Vector3f& u = unit_[i];
@@ -154,7 +158,7 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   const float inv_a = float (1.0 / cell_phi_), inv_b = float (1.0 / cell_theta_);
   const float a0 = float (phi0_), b0 = float (theta0_);
   const double inv_2r = 1.0 / (2.0 * radius_);
-#pragma omp parallel for
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192)
   for (std::ptrdiff_t i = 0; i < n; ++i)
   {
     const int a = std::clamp (int ((ca[i] - a0) * inv_a), 0, n_phi_ - 1);
@@ -176,7 +180,7 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   }
   cand_.assign (k, -1);
   best_.assign (k, std::numeric_limits<double>::infinity ());
-#pragma omp parallel for
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192)
   for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
     if (keys[s] != std::numeric_limits<std::uint64_t>::max ())
     {
@@ -198,6 +202,16 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
       const int a = int (s / n_theta_), b = int (s % n_theta_);
       occupied_coarse_[std::size_t (a / empty_factor_) * coarse_theta_ + b / empty_factor_] = 1;
     }
+}
+
+int
+AngularGrid::nt () const
+{
+#ifdef _OPENMP
+  return threads_ > 0 ? threads_ : omp_get_max_threads ();
+#else
+  return 1;
+#endif
 }
 
 Eigen::Vector3d
@@ -289,7 +303,7 @@ AngularGrid::propagateAdaptive (int max_steps)
     if (changed.size () > k / 8)
     {
       // Many sectors changed (the first steps): a parallel gather over all sectors.
-#pragma omp parallel for schedule(dynamic, 256) private(nb)
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 256) private(nb)
       for (std::ptrdiff_t t = 0; t < std::ptrdiff_t (k); ++t)
       {
         if (isEmpty (std::size_t (t)))
@@ -371,7 +385,7 @@ AngularGrid::propagateFixed (int m)
   const std::vector<int> old = cand_;
   const std::ptrdiff_t k = std::ptrdiff_t (cand_.size ());
   std::vector<std::size_t> nb;
-#pragma omp parallel for schedule(dynamic, 256) private(nb)
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 256) private(nb)
   for (std::ptrdiff_t t = 0; t < k; ++t)
   {
     if (isEmpty (std::size_t (t)))
@@ -397,7 +411,7 @@ AngularGrid::refineGlobal ()
 {
   const std::vector<int> pool = candidates ();
   const std::ptrdiff_t k = std::ptrdiff_t (cand_.size ());
-#pragma omp parallel for schedule(dynamic, 64)
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 64)
   for (std::ptrdiff_t t = 0; t < k; ++t)
   {
     if (cand_[t] < 0)
@@ -482,7 +496,7 @@ AngularGrid::normalsAndSplats (const std::vector<Eigen::Vector3d>& points, std::
   // Circulation order around a sector (§5.3, Fig. 8a).
   static const int ring[8][2] = {{-1, -1}, {-1, 0}, {-1, 1}, {0, 1}, {1, 1}, {1, 0}, {1, -1}, {0, -1}};
   const float half_diag = static_cast<float> (cell_ * std::sqrt (2.0) / 2);
-#pragma omp parallel for schedule(dynamic, 256)
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 256)
   for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
   {
     const int c0 = cand_[s];
@@ -578,7 +592,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points) const
   };
   static const int tri[4][3] = {{0, 1, 2}, {0, 2, 3}, {0, 1, 3}, {1, 2, 3}};
 
-#pragma omp parallel for schedule(dynamic, 64)
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 64)
   for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
   {
     if (start[s] == start[s + 1])

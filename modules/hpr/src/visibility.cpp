@@ -9,7 +9,12 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <fstream>
 #include <unordered_map>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 namespace pcl {
 namespace hpr {
@@ -27,11 +32,11 @@ centroidOf (const std::vector<Eigen::Vector3d>& pts)
 
 // Flipped cloud (Eq. 1) in double: R ≫ ρ leaves the depth differences in the low digits.
 std::vector<Eigen::Vector3d>
-flip (const std::vector<Eigen::Vector3d>& pts, const std::vector<int>& ids, double R)
+flip (const std::vector<Eigen::Vector3d>& pts, const std::vector<int>& ids, double R, int threads)
 {
   std::vector<Eigen::Vector3d> out (ids.size ());
   const std::ptrdiff_t m = std::ptrdiff_t (ids.size ());
-#pragma omp parallel for
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 8192)
   for (std::ptrdiff_t i = 0; i < m; ++i)
   {
     const Eigen::Vector3d& p = pts[ids[i]];
@@ -44,9 +49,9 @@ flip (const std::vector<Eigen::Vector3d>& pts, const std::vector<int>& ids, doub
 // Hull of the flipped `ids` (+ C); marks vertices visible, maps triangles back.
 bool
 hullVisibility (const std::vector<Eigen::Vector3d>& pts, const std::vector<int>& ids, double R, bool triangles,
-                VisibilityResult& res)
+                VisibilityResult& res, int threads)
 {
-  const std::vector<Eigen::Vector3d> flipped = flip (pts, ids, R);
+  const std::vector<Eigen::Vector3d> flipped = flip (pts, ids, R, threads);
   HullResult hull = flippedHull (flipped, triangles);
   if (!hull.ok)
   {
@@ -181,6 +186,35 @@ cullInterior (AngularGrid& grid, const std::vector<Eigen::Vector3d>& pts, const 
 
 }  // namespace
 
+int
+autoThreads (std::size_t points)
+{
+#ifdef _OPENMP
+  int threads = omp_get_max_threads ();
+#else
+  int threads = 1;
+#endif
+  // A parallel pass over fewer points than this costs more in wake-ups than it saves.
+  constexpr std::size_t kPointsPerThread = 32768;
+  threads = std::min<std::size_t> (threads, std::max<std::size_t> (1, points / kPointsPerThread));
+  if (threads <= 1)
+    return 1;
+#if defined(__linux__) && defined(_OPENMP)
+  // Field 4 of /proc/loadavg is "runnable/total" scheduling entities right now (this thread
+  // included); the 1-minute averages would lag a pipeline by a minute.
+  std::ifstream f ("/proc/loadavg");
+  double l1, l5, l15;
+  int runnable = 0;
+  char slash;
+  if (f >> l1 >> l5 >> l15 >> runnable >> slash)
+  {
+    const int free_cores = omp_get_num_procs () - std::max (0, runnable - 1);
+    threads = std::clamp (free_cores, 1, threads);
+  }
+#endif
+  return threads;
+}
+
 bool
 isEdgeOn (const std::vector<Eigen::Vector3d>& points, double tolerance)
 {
@@ -222,6 +256,7 @@ calibrateHPR (const std::vector<Eigen::Vector3d>& points, const VisibilityOption
 
   // A coarse grid, ~16 points per sector, is the balls-in-bins sample.
   AngularGrid coarse;
+  coarse.setThreads (options.threads > 0 ? options.threads : autoThreads (n));
   coarse.build (points, centre, 1e3 * max_rho + 1.0, std::clamp<std::size_t> (n / 16, 16, std::size_t (1) << 20));
   const AngularGrid::Calibration c = coarse.calibrate ();
   cal.alpha = c.alpha;
@@ -334,8 +369,14 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
   const bool need_cal = opt.radius <= 0 || (grid_sampled && opt.sectors == 0) ||
                         (opt.method == VisibilityMethod::ANGULAR_GRID && opt.steps == 0 && !opt.fixed_propagation);
   HPRCalibration cal;
+  const int threads = opt.threads > 0 ? opt.threads : autoThreads (pts.size ());
+  res.threads = threads;
   if (need_cal)
-    cal = calibrateHPR (pts, opt);
+  {
+    VisibilityOptions copt = opt;
+    copt.threads = threads;
+    cal = calibrateHPR (pts, copt);
+  }
   // The culling grid of CANDIDATE_HULL and of the exact pre-filter: k = 2·n^0.7 was the best
   // on the bench (bunny and torus scene, 100k–3M points): finer grids make smaller triangles
   // that cover fewer points, coarser ones sag. Its triangles span a cell diagonal, not the
@@ -362,6 +403,7 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
   sub.visible.assign (pts.size (), 0);
   const Eigen::Vector3d centre = centroidOf (pts);
   AngularGrid grid;
+  grid.setThreads (threads);
 
   auto everyPoint = [&pts] {
     std::vector<int> all (pts.size ());
@@ -391,7 +433,7 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
                                       ? cullInterior (grid, pts, centre, R, k_cull_default, 4)
                                       : everyPoint ();
     res.prefilter_kept = keep.size ();
-    if (!hullVisibility (pts, keep, R, opt.triangles || opt.normals, sub))
+    if (!hullVisibility (pts, keep, R, opt.triangles || opt.normals, sub, threads))
     {
       res.error = sub.error;
       return res;
@@ -418,7 +460,7 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     const std::vector<int> cands = grid.candidates ();
     if (opt.method == VisibilityMethod::HYBRID)
     {
-      if (!hullVisibility (pts, cands, R, opt.triangles || opt.normals, sub))
+      if (!hullVisibility (pts, cands, R, opt.triangles || opt.normals, sub, threads))
       {
         res.error = sub.error;
         return res;
@@ -439,7 +481,7 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
   case VisibilityMethod::BENTLEY_FAUST_PREPARATA:
   {
     // Extremes along the viewing axis x in a g × g grid over the (y, z) plane of the flipped cloud.
-    const std::vector<Eigen::Vector3d> f = flip (pts, everyPoint (), R);
+    const std::vector<Eigen::Vector3d> f = flip (pts, everyPoint (), R, threads);
     const Eigen::Vector3d x = centre.cast<double> ().normalized ();
     const Eigen::Vector3d e = std::abs (x.z ()) > 0.9 ? Eigen::Vector3d::UnitY () : Eigen::Vector3d::UnitZ ();
     const Eigen::Vector3d z = (e - e.dot (x) * x).normalized (), y = z.cross (x);
@@ -473,7 +515,7 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
       if (hi[c] >= 0 && hi[c] != lo[c])
         sel.push_back (hi[c]);
     }
-    if (!hullVisibility (pts, sel, R, opt.triangles || opt.normals, sub))
+    if (!hullVisibility (pts, sel, R, opt.triangles || opt.normals, sub, threads))
     {
       res.error = sub.error;
       return res;

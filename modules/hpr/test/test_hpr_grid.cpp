@@ -303,3 +303,32 @@ TEST (HPRCandidateHull, KeepsEveryExactVisiblePointAndCullsMostHidden)
   a.filter (av);
   EXPECT_EQ (a.getMethodUsed (), Filter::Method::ANGULAR_GRID);
 }
+
+TEST (HPRThreads, SameAnswerForAnyThreadCountAndAutomaticCountIsSane)
+{
+  const Scene s = torusScene (40000);
+  for (const auto m : {Filter::Method::CANDIDATE_HULL, Filter::Method::ANGULAR_GRID, Filter::Method::EXACT})
+  {
+    std::vector<pcl::Indices> out;
+    for (unsigned t : {1u, 2u, 3u, 0u})
+    {
+      Filter f;
+      f.setInputCloud (s.cloud);
+      f.setViewPoint (s.C);
+      f.setMethod (m);
+      f.setNumberOfThreads (t);
+      pcl::Indices v;
+      f.filter (v);
+      out.push_back (v);
+      if (t > 0)
+        EXPECT_EQ (f.getThreadsUsed (), int (t));
+      else
+        EXPECT_GE (f.getThreadsUsed (), 1);
+    }
+    for (std::size_t i = 1; i < out.size (); ++i)
+      EXPECT_EQ (out[i], out[0]) << "method " << int (m) << ", run " << i;
+  }
+  // Small clouds never pay for a parallel region.
+  EXPECT_EQ (pcl::hpr::autoThreads (1000), 1);
+  EXPECT_GE (pcl::hpr::autoThreads (10000000), 1);
+}

@@ -58,6 +58,9 @@ public:
   };
   Calibration calibrate () const;
 
+  // OpenMP threads for every pass (0: omp_get_max_threads ()).
+  void setThreads (int threads) { threads_ = threads; }
+
   std::size_t sectorCount () const { return cand_.size (); }
   int rows () const { return n_phi_; }
   int cols () const { return n_theta_; }
@@ -91,6 +94,8 @@ private:
   std::vector<double> cos_phi_, sin_phi_, cos_theta_, sin_theta_;  // sector centre angles
   std::vector<int> cand_;      // per sector: candidate point or −1 (the seed's MAX array)
   std::vector<double> best_;   // per sector: score of the candidate
+  int threads_ = 0;
+  int nt () const;
   int empty_factor_ = 1;       // EMPTY is kept on a grid coarser by this factor per axis
   int coarse_theta_ = 0;
   std::vector<std::uint8_t> occupied_coarse_;

@@ -111,6 +111,12 @@ public:
   // points, NaN / 0 for the others; aligned with the input cloud. Read after filter().
   void setComputeNormals (bool on) { compute_normals_ = on; }
 
+  // OpenMP threads (as pcl::NormalEstimationOMP). 0 (default): decided per call from the
+  // cloud size and the cores other processes leave free (hpr::autoThreads), so a busy
+  // machine gets one thread instead of barriers that wait for a preempted one.
+  void setNumberOfThreads (unsigned int threads = 0) { threads_ = threads; }
+  int getThreadsUsed () const { return threads_used_; }
+
   const PolygonMesh& getMesh () const { return mesh_; }
   const pcl::PointCloud<pcl::Normal>& getNormals () const { return normals_; }
   const std::vector<float>& getSplatRadii () const { return splat_radii_; }
@@ -153,6 +159,8 @@ private:
   bool reconstruct_ = false;
   float max_edge_ = 0.f;
   bool compute_normals_ = false;
+  unsigned int threads_ = 0;
+  int threads_used_ = 0;
 
   PolygonMesh mesh_;
   pcl::PointCloud<pcl::Normal> normals_;

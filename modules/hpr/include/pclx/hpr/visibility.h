@@ -33,6 +33,7 @@ struct VisibilityOptions
   // Size of the input's own coordinates (max |p| + |C| before p − C); the tolerance of the
   // flat-input test is a few float ulps of it. <= 0: max |p − C|.
   double coordinate_scale = 0;
+  int threads = 0;  // OpenMP threads; 0: autoThreads()
 };
 
 struct VisibilityResult
@@ -47,6 +48,7 @@ struct VisibilityResult
   std::size_t sectors = 0;
   int steps = 0;
   std::size_t prefilter_kept = 0;  // exact method: points left for Qhull
+  int threads = 1;                 // OpenMP threads used
 };
 
 // Calibration (seed §6): R from the angular separation α of visible points, k from the
@@ -78,6 +80,13 @@ int propagationSteps (const HPRCalibration& cal, std::size_t k);
 // flat cloud is entirely visible from any C off its plane. (Qhull, given the degenerate
 // flat case itself, returned a joggle-dependent ~63 %; the grid methods returned 100 %.)
 bool isEdgeOn (const std::vector<Eigen::Vector3d>& points, double tolerance);
+
+// Threads for one call on `points` points: at most omp_get_max_threads(), one per ~32k
+// points, and no more than the cores nobody else is running on (the instantaneous runnable
+// count of /proc/loadavg, this thread excluded). A thread that has to share its core stalls
+// every barrier of the grid passes by a scheduler time slice: on 2 cores with one busy
+// process, 2 threads were 4–5× slower than 1 (issue 12 item 2). Not Linux: the first two rules.
+int autoThreads (std::size_t points);
 
 // `points` are p − C for finite p; points at the viewpoint itself are visible.
 // Flat input seen edge-on (every point, to float precision, in one plane through C) is all

@@ -95,6 +95,7 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   opt.max_edge = max_edge_;
   opt.normals = compute_normals_;
   opt.coordinate_scale = max_coord + double (viewpoint_.norm ());
+  opt.threads = int (threads_);
 
   const hpr::VisibilityResult res = hpr::computeVisibility (rel, opt);
   if (!res.error.empty ())
@@ -104,6 +105,7 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   radius_used_ = res.radius;
   sectors_used_ = res.sectors;
   steps_used_ = res.steps;
+  threads_used_ = res.threads;
 
   // Kept = visible (or hidden when negative); NaN points are removed either way.
   // Per input point: 0 = not finite, 1 = hidden, 2 = visible.
