@@ -15,9 +15,18 @@
 #include <open3d/geometry/PointCloud.h>
 #endif
 
+#include <algorithm>
+#include <chrono>
+#include <iostream>
+#include <cmath>
+#include <memory>
+#include <csignal>
 #include <functional>
 #include <iomanip>
 #include <sstream>
+
+#include <sys/wait.h>
+#include <unistd.h>
 
 using namespace pclx::testing;
 using pclx::bench::CsvWriter;
@@ -72,6 +81,49 @@ viewpoints (const TriangleMesh& mesh, int count, float distance)
   return out;
 }
 
+// A competing busy process (the "loaded machine" of issue 12): a forked child spinning
+// until destroyed.
+class BusyChild
+{
+public:
+  BusyChild ()
+  {
+    pid_ = fork ();
+    if (pid_ == 0)
+    {
+      volatile unsigned long x = 0;
+      for (;;)
+        x = x + 1;
+    }
+  }
+  ~BusyChild ()
+  {
+    if (pid_ > 0)
+    {
+      kill (pid_, SIGKILL);
+      waitpid (pid_, nullptr, 0);
+    }
+  }
+
+private:
+  pid_t pid_ = -1;
+};
+
+// Mean wall time of `repeats` runs (best-of would hide the stalls a loaded machine causes).
+template <typename Fn>
+double
+timeMean (Fn&& fn, int repeats)
+{
+  double total = 0;
+  for (int r = 0; r < repeats; ++r)
+  {
+    const auto t0 = std::chrono::steady_clock::now ();
+    fn ();
+    total += std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count ();
+  }
+  return total / repeats;
+}
+
 class Runner
 {
 public:
@@ -81,12 +133,13 @@ public:
   // `more` adds metrics computed from the visible set (e.g. the overlap with a peer).
   std::vector<int>
   ours (const Case& c, const std::string& sweep, const std::string& method, Filter& f, const std::string& extra,
-        const std::function<Metrics (const std::vector<int>&)>& more = {})
+        const std::function<Metrics (const std::vector<int>&)>& more = {}, int mean_of = 0)
   {
     f.setInputCloud (c.cloud);
     f.setViewPoint (c.viewpoint);
     pcl::Indices vis;
-    const double t = timeBest ([&] { f.filter (vis); }, repeats_);
+    const double t = mean_of > 0 ? timeMean ([&] { f.filter (vis); }, mean_of)
+                                 : timeBest ([&] { f.filter (vis); }, repeats_);
     std::vector<int> v (vis.begin (), vis.end ());
     Metrics m = accuracy (v, c.truth);
     if (more)
@@ -97,6 +150,7 @@ public:
     m.emplace_back ("R_over_diameter", f.getRadiusUsed () / c.diameter);
     std::string params = "sweep=" + sweep + ";view=" + std::to_string (c.view) + ";R=" +
                          fmt (f.getRadiusUsed () / c.diameter) + "d";
+    m.emplace_back ("threads_used", f.getThreadsUsed ());
     if (f.getSectorCountUsed ())
       params += ";k=" + std::to_string (f.getSectorCountUsed ()) + ";steps=" +
                 std::to_string (f.getPropagationStepsUsed ());
@@ -122,6 +176,37 @@ public:
               c.cloud->size (), t, accuracy (v, c.truth));
     return v;
   }
+
+  // Open3D at each R in `radii` (R / diameter) without rows; the row of the best F1 is
+  // written as open3d_exact_bestR. Returns that R / diameter.
+  double
+  open3dBest (const Case& c, const std::string& sweep, const std::vector<double>& radii, const std::string& extra)
+  {
+    open3d::geometry::PointCloud pc;
+    pc.points_.reserve (c.cloud->size ());
+    for (const auto& p : *c.cloud)
+      pc.points_.emplace_back (p.x, p.y, p.z);
+    double best_f1 = -1, best_r = 0, best_t = 0;
+    Metrics best_m;
+    for (double r : radii)
+    {
+      std::vector<size_t> vis;
+      const double t = timeBest (
+          [&] { vis = std::get<1> (pc.HiddenPointRemoval (c.viewpoint.cast<double> (), r * c.diameter)); }, repeats_);
+      const Metrics m = accuracy (std::vector<int> (vis.begin (), vis.end ()), c.truth);
+      if (m[3].second > best_f1)
+      {
+        best_f1 = m[3].second;
+        best_r = r;
+        best_t = t;
+        best_m = m;
+      }
+    }
+    out_.row ("hpr", "open3d_exact_bestR",
+              "sweep=" + sweep + ";view=" + std::to_string (c.view) + ";R=" + fmt (best_r) + "d" + extra, c.input,
+              c.cloud->size (), best_t, best_m);
+    return best_r;
+  }
 #endif
 
 private:
@@ -138,7 +223,10 @@ main (int argc, char** argv)
   std::string csv;
   std::vector<std::size_t> sizes{100000, 1000000, 3000000};
   int views = 3, repeats = 1;
-  bool quick = false, no_sweeps = false, sweeps_only = false;
+  bool quick = false, no_sweeps = false, sweeps_only = false, distance_sweep = false, load_rows = false;
+  std::size_t sweep_points = 100000;
+  std::vector<double> distances{1.2, 2.0, 5.0, 20.0, 100.0, 1000.0};
+  std::vector<std::string> only_inputs;
   float distance = 3.f;
   app.add_option ("--csv", csv, "also write rows to this file");
   app.add_option ("--sizes", sizes, "point counts of the main sweep")->capture_default_str ();
@@ -148,6 +236,13 @@ main (int argc, char** argv)
   app.add_flag ("--quick", quick, "demo size: 100k points, one view, no 3M");
   app.add_flag ("--no-sweeps", no_sweeps, "only the main time-vs-accuracy sweep");
   app.add_flag ("--sweeps-only", sweeps_only, "only the noise and density sweeps");
+  app.add_flag ("--distance-sweep", distance_sweep,
+                "only the viewpoint-distance sweep (1.2x-1000x the diagonal, every method, Open3D at its best R)");
+  app.add_option ("--sweep-points", sweep_points, "points of the distance sweep")->capture_default_str ();
+  app.add_option ("--distances", distances, "distances of the sweep (x diagonal)")->capture_default_str ();
+  app.add_option ("--inputs", only_inputs, "only these inputs (bunny, fertility, torus_scene)");
+  app.add_flag ("--load-rows", load_rows,
+                "only the loaded-machine rows (1, 2, auto threads; with and without a busy child process)");
   CLI11_PARSE (app, argc, argv);
   if (quick)
   {
@@ -157,7 +252,11 @@ main (int argc, char** argv)
 
   std::vector<Input> inputs;
   if (auto data = pclx::bench::sharedDataDir ())
+  {
     inputs.push_back ({"bunny", loadPlyMesh (*data + "/bunny/reconstruction/bun_zipper.ply")});
+    if (distance_sweep || load_rows)  // not in the main sweep yet (its figures stay comparable)
+      inputs.push_back ({"fertility", loadPlyMesh (*data + "/meshes/fertility.ply")});
+  }
   {
     // A generated scene with concavities and occluders: a torus around a sphere on a slab.
     TriangleMesh scene = makeTorus (1.f, 0.3f, 256, 96);
@@ -168,9 +267,126 @@ main (int argc, char** argv)
     inputs.push_back ({"torus_scene", scene});
   }
 
+  if (!only_inputs.empty ())
+    inputs.erase (std::remove_if (inputs.begin (), inputs.end (),
+                                  [&] (const Input& in) {
+                                    return std::find (only_inputs.begin (), only_inputs.end (), in.name) ==
+                                           only_inputs.end ();
+                                  }),
+                  inputs.end ());
+  if (inputs.empty ())
+  {
+    std::cerr << "bench_hpr: no input left (--inputs)\n";
+    return 1;
+  }
   CsvWriter out (csv);
   Runner run (out, repeats);
   const std::vector<double> radii{1e2, 1e3, 1e4};  // R / diameter, as in Open3D's examples
+
+  if (distance_sweep)
+  {
+    // Where HPR fails: the same direction (view 0) from 1.2× to 1000× the diagonal. Every
+    // method as a user gets it (calibrated), the exact operator also at Open3D's best R
+    // (Jaccard against Open3D: the precision of the far view), Open3D at its best R per
+    // distance (R = 10^j · max|p − C|, j = 1..7: the best R grows as distance²).
+    for (const auto& in : inputs)
+    {
+      const RayCaster caster (in.mesh);
+      const double diameter = in.mesh.diagonal ();
+      const SampledCloud s = sampleUniform (in.mesh, sweep_points, 7);
+      for (double dist : distances)
+      {
+        const Eigen::Vector3f vp = viewpoints (in.mesh, 1, float (dist))[0];
+        const Case c{in.name, positions (s.cloud), caster.visibleFrom (s.cloud, vp), vp, diameter, 0};
+        const std::string tag = ";distance=" + fmt (dist);
+        double max_rho = 0;
+        for (const auto& p : *c.cloud)
+          max_rho = std::max<double> (max_rho, (p.getVector3fMap () - vp).norm ());
+        std::vector<double> radii;
+        for (int j = 1; j <= 7; ++j)
+          radii.push_back (max_rho * std::pow (10.0, j) / diameter);
+        double best_r = 0;
+#ifdef PCLX_HAVE_OPEN3D
+        best_r = run.open3dBest (c, "distance", radii, tag);
+#endif
+        const std::vector<std::pair<std::string, Filter::Method>> methods{
+            {"pclx_auto", Filter::Method::AUTO},
+            {"pclx_exact_autoR", Filter::Method::EXACT},
+            {"pclx_candidate_hull_autoR", Filter::Method::CANDIDATE_HULL},
+            {"pclx_grid_auto", Filter::Method::ANGULAR_GRID},
+            {"bfp", Filter::Method::BENTLEY_FAUST_PREPARATA},
+            {"hybrid", Filter::Method::HYBRID},
+            {"kavan", Filter::Method::KAVAN}};
+        for (const auto& [label, m] : methods)
+        {
+          Filter f;
+          f.setMethod (m);
+          if (m == Filter::Method::BENTLEY_FAUST_PREPARATA || m == Filter::Method::HYBRID)
+            f.setSectorCount (sweep_points);
+          if (m == Filter::Method::KAVAN)
+            f.setSectorCount (2000);
+          run.ours (c, "distance", label, f, tag);
+        }
+        if (best_r > 0)
+        {
+#ifdef PCLX_HAVE_OPEN3D
+          const std::vector<int> o3d = run.open3d (c, "distance_o3dR", best_r, tag);
+          Filter exact;
+          exact.setMethod (Filter::Method::EXACT);
+          exact.setRadius (best_r * diameter);
+          run.ours (c, "distance_o3dR", "pclx_exact", exact, tag, [&] (const std::vector<int>& vis) {
+            return Metrics{{"jaccard_vs_open3d", pclx::testing::jaccard (vis, o3d)}};
+          });
+#endif
+        }
+      }
+    }
+    return 0;
+  }
+
+  if (load_rows)
+  {
+    // Threads on a loaded machine: every method at 1, 2 and automatic threads, alone and
+    // with a busy child process; mean of 5 runs (best-of would hide the stalls).
+    const Input& in = inputs.front ();
+    const RayCaster caster (in.mesh);
+    const double diameter = in.mesh.diagonal ();
+    const Eigen::Vector3f vp = viewpoints (in.mesh, 1, distance)[0];
+    for (std::size_t n : sizes)
+    {
+      const SampledCloud s = sampleUniform (in.mesh, n, 7);
+      const Case c{in.name, positions (s.cloud), caster.visibleFrom (s.cloud, vp), vp, diameter, 0};
+      for (const bool busy : {false, true})
+      {
+        std::unique_ptr<BusyChild> child;
+        if (busy)
+          child = std::make_unique<BusyChild> ();
+        const std::vector<std::pair<std::string, Filter::Method>> methods{
+            {"pclx_exact_autoR", Filter::Method::EXACT},
+            {"pclx_candidate_hull_autoR", Filter::Method::CANDIDATE_HULL},
+            {"pclx_grid_auto", Filter::Method::ANGULAR_GRID},
+            {"bfp", Filter::Method::BENTLEY_FAUST_PREPARATA},
+            {"hybrid", Filter::Method::HYBRID},
+            {"kavan", Filter::Method::KAVAN}};
+        for (const auto& [label, m] : methods)
+          for (unsigned threads : {1u, 2u, 0u})
+          {
+            Filter f;
+            f.setMethod (m);
+            f.setNumberOfThreads (threads);
+            if (m == Filter::Method::BENTLEY_FAUST_PREPARATA || m == Filter::Method::HYBRID)
+              f.setSectorCount (n / 4);
+            if (m == Filter::Method::KAVAN)
+              f.setSectorCount (2000);
+            run.ours (c, "load", label, f,
+                      std::string (";busy=") + (busy ? "1" : "0") + ";threads=" +
+                          (threads ? std::to_string (threads) : std::string ("auto")),
+                      {}, 5);
+          }
+      }
+    }
+    return 0;
+  }
 
   for (const auto& in : inputs)
   {

@@ -8,4 +8,16 @@ SPECS = [
              series="method", where=dict(sweep="noise"), split="input"),
         dict(name="hpr_f1_vs_density", title="HPR: F1 against density gradient (min/max density)",
              x="p_min_ratio", y="f1", series="method", logx=True, where=dict(sweep="density"), split="input"),
+    # Issue 12: where HPR fails. F1 from 1.2x to 1000x the diagonal (same direction), every
+    # method calibrated, Open3D at its best R per distance (bench_hpr --distance-sweep).
+    dict(name="hpr_f1_vs_distance", title="HPR: F1 against viewpoint distance (x diagonal)", x="p_distance",
+         y="f1", series="method", logx=True, where=dict(sweep="distance"), split="input"),
+    dict(name="hpr_time_vs_distance", title="HPR: seconds against viewpoint distance (x diagonal)",
+         x="p_distance", y="seconds", series="method", logx=True, logy=True, where=dict(sweep="distance"),
+         split="input"),
+    # Threads on a loaded machine: mean of 5 runs at 1, 2 and automatic threads, alone (busy=0)
+    # and with a spinning child process (busy=1) (bench_hpr --load-rows).
+    dict(name="hpr_threads_under_load", kind="bars", title="HPR: seconds by thread count (busy = competing process)",
+         x="method", y="seconds", series="p_threads", series_fmt="threads={}", logy=True, where=dict(sweep="load"),
+         split=["p_busy", "points"]),
 ]
