@@ -327,7 +327,7 @@ struct Bench
     idc.getSimplification ().setCollapseTargetRatio (collapse_ratio);
     idc.getSimplification ().setCollapseMaxError (collapse_error);
     idc.setDepthRange (0.1f, float (s.depth_trunc));  // as Open3D's depth_trunc
-    std::vector<double> ms, recon_ms;
+    std::vector<double> ms, recon_ms, frontend_ms, octree_ms;
     std::size_t failed = 0;
     pcl::PolygonMesh mesh;
     for (const auto& f : s.frames)
@@ -337,6 +337,11 @@ struct Bench
                                 : idc.addFrame (*f.organized, f.pose);
       double t = msSince (t0);
       failed += !ok;
+      if (ok)
+      {
+        frontend_ms.push_back (idc.getStats ().last_frontend_ms);
+        octree_ms.push_back (idc.getStats ().last_octree_ms);
+      }
       if (incremental)
       {
         const auto t1 = Clock::now ();
@@ -361,7 +366,8 @@ struct Bench
     row (s, incremental ? "idc_incremental" : "idc", params, q, ms, extract, st.memory_bytes / 1048576.0,
          {{"leaves", double (st.leaves)}, {"escaped_vertices", double (st.escaped_vertices)},
           {"failed_frames", double (failed)},
-          {"reconstruct_ms_median", percentile (recon_ms, 0.5)}});
+          {"reconstruct_ms_median", percentile (recon_ms, 0.5)},
+          {"frontend_ms_median", percentile (frontend_ms, 0.5)}, {"octree_ms_median", percentile (octree_ms, 0.5)}});
     if (frame_rows)
       frameRows (s, incremental ? "idc_incremental" : "idc", leaf, ms);
   }
@@ -587,7 +593,7 @@ main (int argc, char** argv)
       seqs.back ().leaves = {0.004};
   }
 
-  // ε is the core's QEF error in leaf units² (see IncrementalDualContouring::setSimplificationError).
+  // ε in metres: the RMS plane distance a merged cell may have (IncrementalDualContouring::setSimplificationError).
   const std::vector<double> eps_sweep =
       quick ? std::vector<double>{0.01} : std::vector<double>{0.0003, 0.001, 0.003, 0.01, 0.03, 0.1};
   for (const auto& s : seqs)

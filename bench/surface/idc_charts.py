@@ -14,6 +14,13 @@ from collections import defaultdict
 import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.ticker import ScalarFormatter  # noqa: E402
+
+
+def plain(ax):
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_formatter(ScalarFormatter())
+        axis.get_major_formatter().set_scientific(False)
 
 
 def load(path):
@@ -72,10 +79,11 @@ def error_vs_triangles(rows, out):
             ax.plot([r["triangles"] for r in rs], [1e3 * r["chamfer"] for r in rs], linestyle="-" if key != "idc_eps" else "--",
                     **st)
             for r in rs:
-                tag = ("eps %g" % r["p_eps"]) if key == "idc_eps" else ("%g mm" % (1e3 * detail(r)))
+                tag = ("eps %g mm" % (1e3 * r["p_eps"])) if key == "idc_eps" else ("%g mm" % (1e3 * detail(r)))
                 ax.annotate(tag, (r["triangles"], 1e3 * r["chamfer"]), fontsize=7, xytext=(3, 3), textcoords="offset points")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.yaxis.set_major_formatter(ScalarFormatter())
         ax.set_xlabel("triangles")
         ax.set_ylabel("Chamfer distance to the truth (mm)")
         ax.set_title(inp)
@@ -104,7 +112,7 @@ def error_vs_eps(rows, out):
         ax.plot(xs, [1e3 * r.get(key, float("nan")) for r in rs], "o-", color="tab:blue",
                 label=("Chamfer" if key == "chamfer" else "accuracy (output to truth)") + " (mm)")
         ax.set_xscale("log")
-        ax.set_xlabel("eps (QEF error, leaf units^2; eps = 0 drawn at 1e-5)")
+        ax.set_xlabel("eps (m, RMS plane distance of a merged cell; eps = 0 drawn at 1e-5)")
         ax.set_ylabel("error (mm)")
         ax2 = ax.twinx()
         ax2.plot(xs, [r["triangles"] for r in rs], "s--", color="tab:orange", label="triangles")
@@ -136,6 +144,7 @@ def time_vs_detail(rows, out):
                             color=st["color"], alpha=0.15)
         ax.set_xscale("log")
         ax.set_yscale("log")
+        plain(ax)
         ax.set_xlabel("leaf / voxel (mm)")
         ax.set_ylabel("ms per frame (median; band to p95)")
         ax.set_title(inp)
@@ -150,6 +159,8 @@ def time_vs_frame(path, out):
     data = defaultdict(list)
     with open(path) as f:
         for r in csv.DictReader(f):
+            if not r.get("ms"):
+                continue  # a partly written file
             data[(r["input"], r["method"], float(r["leaf"]))].append((int(r["frame"]), float(r["ms"])))
     inputs = [i for i in dict.fromkeys(k[0] for k in data)]
     if not inputs:
