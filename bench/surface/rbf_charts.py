@@ -309,7 +309,10 @@ def mcrbf(rows, out):
                 base = lab.split(" h=")[0].split(" r")[0].split(" d")[0]
                 c, mk = STYLE.get(base, ("k", "o"))
                 good = sorted([r for r in lrows if ok(r)], key=lambda r: r["points"])
-                ls = ":" if (" r32" in lab or " h=" in lab) else "-"
+                # grid variants of one method: one colour, a line style and marker per setting
+                tag = setting(lrows[0])
+                ls, mk = {"h=2.5s": (":", "v"), "h=0.75s": ("--", "s"), "h=0.35s": ("-.", "D"),
+                          "r32": (":", mk)}.get(tag, ("-", mk))
                 if good:
                     ax.plot([r["points"] for r in good], [r[y] for r in good], color=c, marker=mk, ls=ls,
                             label=lab, ms=5)
@@ -325,10 +328,10 @@ def mcrbf(rows, out):
             ax.set_ylabel(ylab)
             ax.grid(True, which="both", alpha=0.3)
             ax.set_title(f"{name}: {'time' if i == 0 else 'error'} against points (small clouds)", fontsize=10)
-            ax.legend(fontsize=6)
-    suptitle(fig, "Where PCL MarchingCubesRBF (dense 2N×2N system) runs: beside RBF-POU, Open3D Poisson "
-                 "and Hoppe on small clouds")
-    fig.tight_layout(rect=(0, 0, 1, 0.96))
+    suptitle(fig, "Where PCL MarchingCubesRBF (dense 2N×2N system, fullPivLu) runs: beside RBF-POU (grid h in "
+                  "spacings s), Open3D Poisson and Hoppe on small clouds; crosses: MarchingCubesRBF failed")
+    legend_outside(fig, axes.flat)
+    fig.tight_layout(rect=(0, 0.08, 1, 0.95))
     path = os.path.join(out, "rbf_mcrbf.png")
     fig.savefig(path, dpi=110)
     plt.close(fig)
