@@ -411,7 +411,7 @@ main (int argc, char** argv)
             if (m == Filter::Method::KAVAN)
               f.setSectorCount (2000);
             run.ours (c, "load", label, f,
-                      std::string (";busy=") + (busy ? "1" : "0") + ";threads=" +
+                      std::string (";competitor=") + (busy ? "busy_child" : "none") + ";threads=" +
                           (threads ? std::to_string (threads) : std::string ("auto")),
                       {}, 5);
           }

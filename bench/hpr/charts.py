@@ -15,9 +15,9 @@ SPECS = [
     dict(name="hpr_time_vs_distance", title="HPR: seconds against viewpoint distance (x diagonal)",
          x="p_distance", y="seconds", series="method", logx=True, logy=True, where=dict(sweep="distance"),
          split="input"),
-    # Threads on a loaded machine: mean of 5 runs at 1, 2 and automatic threads, alone (busy=0)
-    # and with a spinning child process (busy=1) (bench_hpr --load-rows).
-    dict(name="hpr_threads_under_load", kind="bars", title="HPR: seconds by thread count (busy = competing process)",
-         x="method", y="seconds", series="p_threads", series_fmt="threads={}", logy=True, where=dict(sweep="load"),
-         split=["p_busy", "points"]),
+    # Threads on a loaded machine: mean of 5 runs at 1, 2 and automatic threads, alone
+    # (competitor=none) and with a spinning child process (competitor=busy_child) (bench_hpr --load-rows).
+    dict(name="hpr_threads_under_load", kind="bars", title="HPR: mean seconds by OpenMP threads",
+         x="p_threads", y="seconds", series="method", logy=True, where=dict(sweep="load"),
+         split=["p_competitor", "points"], xlabel="threads (auto = setNumberOfThreads (0))"),
 ]
