@@ -171,3 +171,34 @@ TEST (HPRFlatInput, EdgeOnPlaneIsAllVisibleForEveryMethod)
   const pcl::Indices vis = run (f);
   EXPECT_LT (vis.size (), 0.6 * two->size ());
 }
+
+TEST (HPRFarViewpoint, FilterKeepsTheDoublePrecisionOfPMinusC)
+{
+  // p − C at 1000× the diameter: in float its ulp is ~1e-4 of the diameter, comparable to
+  // the depth differences that decide hull vertices at a distance-scaled R. The filter must
+  // give the visible set of the operator on p − C formed in double.
+  const auto cloud = xyz (sampleUniform (makeTorus (1.f, 0.35f, 160, 64), 20000, 13));
+  const Eigen::Vector3f C = Eigen::Vector3f (0.37f, -0.81f, 0.45f).normalized () * 2700.f;
+  std::vector<Eigen::Vector3d> rel;
+  for (const auto& p : *cloud)
+    rel.push_back (p.getVector3fMap ().cast<double> () - C.cast<double> ());
+  for (const double R_over_d : {1e5, 1e7})
+  {
+    pcl::hpr::VisibilityOptions opt;
+    opt.method = pcl::hpr::VisibilityMethod::EXACT;
+    opt.radius = R_over_d * 2.7;
+    const pcl::hpr::VisibilityResult ref = pcl::hpr::computeVisibility (rel, opt);
+    pcl::Indices expected;
+    for (std::size_t i = 0; i < rel.size (); ++i)
+      if (ref.visible[i])
+        expected.push_back (int (i));
+    Filter f;
+    f.setInputCloud (cloud);
+    f.setViewPoint (C);
+    f.setMethod (Method::EXACT);
+    f.setRadius (opt.radius);
+    const pcl::Indices vis = run (f);
+    EXPECT_GT (expected.size (), 1000u);
+    EXPECT_GT (hprtest::jaccard (vis, expected), 0.9999) << "R = " << R_over_d << " d";
+  }
+}
