@@ -22,3 +22,10 @@ if(Open3D_FOUND)
 else()
   message(STATUS "bench_idc: Open3D not found, its peer rows are skipped")
 endif()
+
+if(PCLX_BUILD_TESTS)
+  add_test(NAME bench_idc_smoke
+    COMMAND ${CMAKE_COMMAND} -DBENCH=$<TARGET_FILE:bench_idc> -DHAVE_OPEN3D=${Open3D_FOUND}
+      -P ${CMAKE_CURRENT_SOURCE_DIR}/idc_smoke.cmake)
+  set_tests_properties(bench_idc_smoke PROPERTIES TIMEOUT 300)
+endif()
