@@ -333,7 +333,8 @@ struct RootCache
 {
   using Root = DualContouringOctree::Impl::Root;
   const DualContouringOctree::Impl& map;
-  Eigen::Vector3i centre = Eigen::Vector3i::Constant (std::numeric_limits<int>::min ());
+  // Until centreOn: far outside the root range (±2^15), so every lookup goes to the hash map.
+  Eigen::Vector3i centre = Eigen::Vector3i::Constant (1 << 24);
   std::array<const Root*, 27> nb{};
 
   explicit RootCache (const DualContouringOctree::Impl& m) : map (m) {}
@@ -688,7 +689,7 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
   Impl& m = *impl_;
   // Roots around the current crossing's root, resolved (and created) lazily: crossings come
   // sorted root by root, so the hash map is hardly touched.
-  Eigen::Vector3i centre = Eigen::Vector3i::Constant (std::numeric_limits<int>::min ());
+  Eigen::Vector3i centre = Eigen::Vector3i::Constant (1 << 24);
   std::array<Impl::Root*, 27> near{};
   auto rootOf = [&] (int x, int y, int z) -> Impl::Root* {
     const int bx = floorDiv (x), by = floorDiv (y), bz = floorDiv (z);
