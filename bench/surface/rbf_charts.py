@@ -269,12 +269,16 @@ def size(rows, out):
             ax.set_ylabel(ylab + " (log)")
             ax.grid(True, which="both", alpha=0.3)
             lo = ax.get_ylim()[0]
+            short = {"PCL MarchingCubesRBF": "MC-RBF", "PCL MarchingCubesHoppe": "Hoppe", "PCL Poisson": "PCL Poisson",
+                     "RBF-POU, our normals + MST": "ours + MST", "Open3D screened Poisson": "Open3D"}
+            failed = collections.defaultdict(list)
             for r in irows:
-                if r.get("p_status") != "ok" and not r["method"].endswith("_trim"):
-                    c, mk = STYLE.get(label(r), ("k", "o"))
-                    ax.scatter([r["points"]], [lo], color=c, marker="x", s=60, clip_on=False, zorder=5)
-                    ax.annotate(f"{label(r).replace('PCL ', '')}: {r['p_status']}", (r["points"], lo),
-                                fontsize=6, rotation=90, xytext=(2, 4), textcoords="offset points", color=c)
+                if r.get("p_status") != "ok":
+                    failed[r["points"]].append(f"{short.get(label(r), label(r))}: {r['p_status']}")
+            for x, texts in failed.items():
+                ax.scatter([x], [lo], color="k", marker="x", s=40, clip_on=False, zorder=5)
+                ax.annotate("\n".join(sorted(texts)), (x, lo), fontsize=6, xytext=(0, 6), textcoords="offset points",
+                            ha="center", va="bottom")
             if y == "peak_mb":
                 xs = sorted({r["points"] for r in irows})
                 ax.plot(xs, [x * 1024 / 2 ** 20 for x in xs], "k:", lw=1, label="1 KB per point (target)")
