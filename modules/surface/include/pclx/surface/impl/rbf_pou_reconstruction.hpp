@@ -16,6 +16,8 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <new>
+#include <type_traits>
 #include <numeric>
 
 #ifdef _OPENMP
@@ -25,13 +27,6 @@
 #include <emmintrin.h>
 #endif
 
-#ifdef PCLX_RBF_TRACE  // scratch profiling, not for commit
-#include <cstdio>
-inline std::chrono::steady_clock::time_point& traceLast () { static thread_local auto t = std::chrono::steady_clock::now (); return t; }
-#define TRACE_RBF(what) do { const auto tr_now = std::chrono::steady_clock::now (); std::fprintf (stderr, "  [trace] %-18s %.3f s\n", what, std::chrono::duration<double> (tr_now - traceLast ()).count ()); traceLast () = tr_now; } while (0)
-#else
-#define TRACE_RBF(what)
-#endif
 namespace pcl {
 namespace rbf_pou_detail {
 
@@ -97,7 +92,7 @@ dilate (std::vector<std::uint64_t>& keys, int axis, int lo, int hi)
 // Σ_j λ_j |p − c_j|³ with c_j = xyz[3 ids[j] ...] (floats, world units). SSE2 by hand: GCC does
 // not vectorise the sqrt of this reduction without -fno-math-errno, which we cannot ask of users.
 inline double
-sumR3 (const float* xyz, const std::uint32_t* ids, const double* lambda, std::uint32_t m, double px, double py,
+sumR3 (const float* xyz, const std::uint32_t* ids, const float* lambda, std::uint32_t m, double px, double py,
        double pz)
 {
   std::uint32_t j = 0;
@@ -116,8 +111,9 @@ sumR3 (const float* xyz, const std::uint32_t* ids, const double* lambda, std::ui
     const __m128d dz0 = _mm_sub_pd (z, _mm_set_pd (b[2], a[2])), dz1 = _mm_sub_pd (z, _mm_set_pd (d[2], c[2]));
     const __m128d r0 = _mm_add_pd (_mm_add_pd (_mm_mul_pd (dx0, dx0), _mm_mul_pd (dy0, dy0)), _mm_mul_pd (dz0, dz0));
     const __m128d r1 = _mm_add_pd (_mm_add_pd (_mm_mul_pd (dx1, dx1), _mm_mul_pd (dy1, dy1)), _mm_mul_pd (dz1, dz1));
-    acc0 = _mm_add_pd (acc0, _mm_mul_pd (_mm_mul_pd (_mm_loadu_pd (lambda + j), r0), _mm_sqrt_pd (r0)));
-    acc1 = _mm_add_pd (acc1, _mm_mul_pd (_mm_mul_pd (_mm_loadu_pd (lambda + j + 2), r1), _mm_sqrt_pd (r1)));
+    const __m128 l4 = _mm_loadu_ps (lambda + j);
+    acc0 = _mm_add_pd (acc0, _mm_mul_pd (_mm_mul_pd (_mm_cvtps_pd (l4), r0), _mm_sqrt_pd (r0)));
+    acc1 = _mm_add_pd (acc1, _mm_mul_pd (_mm_mul_pd (_mm_cvtps_pd (_mm_movehl_ps (l4, l4)), r1), _mm_sqrt_pd (r1)));
   }
   double lanes[2];
   _mm_storeu_pd (lanes, _mm_add_pd (acc0, acc1));
@@ -407,7 +403,6 @@ RBFPOUReconstruction<PointNT>::build ()
                 getClassName ().c_str (), stats_.normals_voted, n);
   }
   stats_.t_prepare = seconds (t0);
-  TRACE_RBF ("prepare");
 
   // --- off-surface constraints (Carr et al.: halve ε until the origin is the nearest) ---
   t0 = Clock::now ();
@@ -524,7 +519,6 @@ RBFPOUReconstruction<PointNT>::build ()
     }
   }
 
-  TRACE_RBF ("octree split");
   // Grow leaves below Tmin (factor 1.25 per step, at most 4×), shrinking back by bisection
   // when a step overshoots Tmax; leaves that cannot reach Tmin are dropped.
   pcl::PointCloud<pcl::PointXYZ>::Ptr cxyz (new pcl::PointCloud<pcl::PointXYZ>);
@@ -606,7 +600,6 @@ RBFPOUReconstruction<PointNT>::build ()
   stats_.grown = grown;
   ctree.reset ();
   cxyz.reset ();
-  TRACE_RBF ("octree grow");
   for (std::size_t l = 0; l < leaves.size (); ++l)
   {
     if (!keep[l])
@@ -654,7 +647,6 @@ RBFPOUReconstruction<PointNT>::build ()
   if (subs_.empty ())
     return fail ("no subdomain reached Tmin = " + std::to_string (t_min_) + " constraints");
 
-  TRACE_RBF ("octree subdomains");
   // Lookup buckets of the median subdomain size.
   {
     std::vector<double> sizes (subs_.size ());
@@ -679,11 +671,10 @@ RBFPOUReconstruction<PointNT>::build ()
     std::sort (buckets_.begin (), buckets_.end ());
   }
   stats_.t_octree = seconds (t0);
-  TRACE_RBF ("octree buckets");
 
   // --- local fits: [A P; Pᵀ 0] [λ; c] = [h; 0], A_jk = |q_j − q_k|³ -------------------
   t0 = Clock::now ();
-  sub_lambda_.assign (sub_centres.size (), 0.0);
+  sub_lambda_.assign (sub_centres.size (), 0.f);
   std::size_t fallbacks = 0;
 #pragma omp parallel for num_threads(nt) reduction(+ : fallbacks) schedule(dynamic, 4)
   for (std::ptrdiff_t si = 0; si < std::ptrdiff_t (subs_.size ()); ++si)
@@ -781,11 +772,10 @@ RBFPOUReconstruction<PointNT>::build ()
       poly = x.tail<4> ();
     }
     for (int j = 0; j < m; ++j)
-      sub_lambda_[s.first + j] = lambda[j];
+      sub_lambda_[s.first + j] = float (lambda[j]);
     s.poly = poly;
   }
   stats_.fit_fallbacks = fallbacks;
-  TRACE_RBF ("fits");
   stats_.t_fits = seconds (t0);
   return true;
 }
@@ -823,7 +813,6 @@ RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, 
   for (int axis = 0; axis < 3; ++axis)
     dilate (band, axis, -band_, band_);
   stats_.band_cells = band.size ();
-  TRACE_RBF ("band");
   if (!continuation_)
     frontier = band;
 
@@ -953,7 +942,6 @@ RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, 
     frontier.clear ();
     std::set_intersection (fresh_cells.begin (), fresh_cells.end (), band.begin (), band.end (), std::back_inserter (frontier));
   }
-  TRACE_RBF ("waves");
   stats_.active_cells = visited.size ();
   stats_.corners = ckeys.size ();
   stats_.uncovered_corners = uncovered;
@@ -987,7 +975,6 @@ RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, 
     const int* low = a[axis] < b[axis] ? a : b;
     return 4 * (cell + low[0] * stride[0] + low[1] * stride[1] + low[2] * stride[2]) + std::uint64_t (axis);
   };
-  TRACE_RBF ("sort cells");
   std::vector<std::uint64_t> edges;
   {
     std::vector<std::vector<std::uint64_t>> edges_t (nt);
@@ -1015,7 +1002,6 @@ RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, 
     }
   }
 
-  TRACE_RBF ("edges");
   // Vertices: linear interpolation on the edge.
   vertices.resize (edges.size ());
   auto cornerValue = [&] (std::uint64_t key) {
@@ -1034,7 +1020,6 @@ RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, 
   std::vector<std::uint64_t> ().swap (ckeys);
   std::vector<double> ().swap (cvals);
 
-  TRACE_RBF ("vertices");
   std::vector<std::size_t> first_tri (mc_cells.size () + 1, 0);
   for (std::size_t ci = 0; ci < mc_cells.size (); ++ci)
   {
@@ -1056,62 +1041,72 @@ RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, 
         v[j] = std::uint32_t (std::lower_bound (edges.begin (), edges.end (), edgeKey (mc_cells[ci], tri[i])) - edges.begin ());
     }
   }
-  TRACE_RBF ("polygons");
   stats_.vertices = vertices.size ();
   stats_.triangles = polygons.size ();
   stats_.t_extraction = seconds (t0);
   return true;
 }
 
-template <typename PointNT> template <typename Sink> void
-RBFPOUReconstruction<PointNT>::makeVertices (const std::vector<Eigen::Vector3f>& vertices,
-                                             const std::vector<Vertices>& polygons, Sink&& sink)
+template <typename PointNT> template <typename At> void
+RBFPOUReconstruction<PointNT>::makeVertices (std::vector<Eigen::Vector3f>& vertices, const std::vector<Vertices>& polygons,
+                                             At&& at)
 {
   using namespace rbf_pou_detail;
   const auto t0 = Clock::now ();
   const int nt = threadCount (threads_);
-  // Area-weighted face normals (serial: the sums, so the mesh, do not depend on threads).
-  std::vector<Eigen::Vector3f> normals (vertices.size (), Eigen::Vector3f::Zero ());
-  for (const auto& poly : polygons)
-  {
-    const Eigen::Vector3f& a = vertices[poly.vertices[0]];
-    const Eigen::Vector3f fn = (vertices[poly.vertices[1]] - a).cross (vertices[poly.vertices[2]] - a);
-    for (const auto v : poly.vertices)
-      normals[v] += fn;
-  }
   // Other fields (colour, intensity, ...) come from the nearest input point; a point type with
   // nothing but position, normal and curvature needs no search.
   bool attributes = false;
   for (const auto& f : pcl::getFields<PointNT> ())
     attributes = attributes || (f.name != "x" && f.name != "y" && f.name != "z" && f.name != "normal_x" &&
                                 f.name != "normal_y" && f.name != "normal_z" && f.name != "curvature");
-  pcl::PointCloud<pcl::PointXYZ>::Ptr xyz (new pcl::PointCloud<pcl::PointXYZ>);
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree (false);
-  if (attributes)
   {
-    xyz->resize (pts_.size ());
-    for (std::size_t i = 0; i < pts_.size (); ++i)
-      (*xyz)[i].getVector3fMap () = pts_[i];
-    tree.setInputCloud (xyz);
-  }
-#pragma omp parallel for num_threads(nt) schedule(static)
-  for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (vertices.size ()); ++i)
-  {
-    PointNT out;
+    pcl::PointCloud<pcl::PointXYZ>::Ptr xyz (new pcl::PointCloud<pcl::PointXYZ>);
+    pcl::KdTreeFLANN<pcl::PointXYZ> tree (false);
     if (attributes)
     {
-      pcl::PointXYZ q;
-      q.getVector3fMap () = vertices[i];
-      pcl::Indices nn (1);
-      std::vector<float> d (1);
-      if (tree.nearestKSearch (q, 1, nn, d) == 1)
-        out = (*input_)[src_[nn[0]]];
+      xyz->resize (pts_.size ());
+      for (std::size_t i = 0; i < pts_.size (); ++i)
+        (*xyz)[i].getVector3fMap () = pts_[i];
+      tree.setInputCloud (xyz);
     }
-    out.getVector3fMap () = vertices[i];
-    const float len = normals[i].norm ();
-    out.getNormalVector3fMap () = len > 0 ? Eigen::Vector3f (normals[i] / len) : Eigen::Vector3f::Zero ();
-    out.curvature = 0;
-    sink (std::size_t (i), out);
+#pragma omp parallel for num_threads(nt) schedule(static)
+    for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (vertices.size ()); ++i)
+    {
+      PointNT out;
+      if (attributes)
+      {
+        pcl::PointXYZ q;
+        q.getVector3fMap () = vertices[i];
+        pcl::Indices nn (1);
+        std::vector<float> d (1);
+        if (tree.nearestKSearch (q, 1, nn, d) == 1)
+          out = (*input_)[src_[nn[0]]];
+      }
+      out.getVector3fMap () = vertices[i];
+      out.getNormalVector3fMap ().setZero ();
+      out.curvature = 0;
+      at (std::size_t (i)) = out;
+    }
+  }
+  const std::size_t nv = vertices.size ();
+  std::vector<Eigen::Vector3f> ().swap (vertices);
+  // Area-weighted face normals, summed in the output itself (no extra array; serial, so the
+  // sums and the mesh do not depend on the thread count).
+  for (const auto& poly : polygons)
+  {
+    const Eigen::Vector3f a = at (poly.vertices[0]).getVector3fMap ();
+    const Eigen::Vector3f fn = (at (poly.vertices[1]).getVector3fMap () - a).cross (at (poly.vertices[2]).getVector3fMap () - a);
+    for (const auto v : poly.vertices)
+      at (v).getNormalVector3fMap () += fn;
+  }
+#pragma omp parallel for num_threads(nt) schedule(static)
+  for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (nv); ++i)
+  {
+    PointNT& p = at (std::size_t (i));
+    const float len = p.getNormalVector3fMap ().norm ();
+    if (len > 0)
+      p.getNormalVector3fMap () /= len;
   }
   stats_.t_output = seconds (t0);
 }
@@ -1131,7 +1126,7 @@ RBFPOUReconstruction<PointNT>::performReconstruction (PointCloud<PointNT>& point
   points.width = std::uint32_t (vertices.size ());
   points.height = 1;
   points.is_dense = true;
-  makeVertices (vertices, polygons, [&] (std::size_t i, const PointNT& p) { points[i] = p; });
+  makeVertices (vertices, polygons, [&] (std::size_t i) -> PointNT& { return points[i]; });
 }
 
 template <typename PointNT> void
@@ -1150,16 +1145,21 @@ RBFPOUReconstruction<PointNT>::performReconstruction (PolygonMesh& output)
     output.polygons.clear ();
     return;
   }
-  // Vertices go straight into the blob (as toPCLPointCloud2 lays them out: one PointNT each)
-  // instead of through a PointCloud and a copy.
+  // The vertices are built in the blob itself, one PointNT per point_step as toPCLPointCloud2
+  // lays them out, instead of in a PointCloud and then copied (~130 MB less at 1M points).
   auto& c = output.cloud;
   c.width = std::uint32_t (vertices.size ());
   c.height = 1;
   c.is_dense = true;
   c.row_step = c.point_step * c.width;
-  c.data.resize (std::size_t (c.row_step));
-  makeVertices (vertices, output.polygons,
-                [&] (std::size_t i, const PointNT& p) { std::memcpy (&c.data[i * c.point_step], &p, sizeof (PointNT)); });
+  c.data.assign (std::size_t (c.row_step), 0);
+  static_assert (std::is_trivially_destructible<PointNT>::value, "points live in the byte blob");
+  // operator new aligns to 16 bytes, point_step = sizeof (PointNT): every record is aligned.
+  for (std::size_t i = 0; i < vertices.size (); ++i)
+    new (&c.data[i * c.point_step]) PointNT;
+  makeVertices (vertices, output.polygons, [&] (std::size_t i) -> PointNT& {
+    return *std::launder (reinterpret_cast<PointNT*> (&c.data[i * c.point_step]));
+  });
 }
 
 }  // namespace pcl
