@@ -3,7 +3,8 @@
 # virtual camera, and runs the demo on generated data: hpr_viewer off-screen on a generated
 # cloud, on recorded frames (PCD through pcl::PCDGrabber, 16-bit PNG depth) and live from the
 # virtual camera through pcl::io::OpenNI2Grabber; normals_tool; rbf_reconstruct (normals, MST,
-# RBF partition of unity, mesh); omicron_viewer growing an LOD
+# RBF partition of unity, mesh); idc_scan (posed depth frames fused into an adaptive mesh by
+# incremental dual contouring); omicron_viewer growing an LOD
 # octree (growth pictures, Potree output); the benchmarks in their quick
 # mode (peers in the same run) and their charts. Everything lands in ${PCLX_DEMO_OUT:-demo_output}/,
 # listed at the end and on one page in index.html.
@@ -42,6 +43,12 @@ echo "== rbf_reconstruct (off-screen): our normals + MST, then the RBF partition
 xvfb-run -a ./build/apps/rbf_reconstruct/rbf_reconstruct "$OUT/scene.ply" --output "$OUT/scene_mesh.ply" \
   --screenshot "$OUT/rbf_scene.png"
 
+echo "== idc_scan (off-screen): 24 posed Kinect-like depth frames of a generated object fused into an adaptive mesh"
+rm -rf "$OUT/idc_frames"
+./build/apps/idc_scan/make_idc_frames --depth-png-dir "$OUT/idc_frames" --frames 24 --width 640 --height 480 > /dev/null
+xvfb-run -a ./build/apps/idc_scan/idc_scan --depth-dir "$OUT/idc_frames" --leaf 0.01 --epsilon 0.001 \
+  --output "$OUT/idc_mesh.ply" --screenshot "$OUT/idc_scan.png"
+
 echo "== omicron_viewer (off-screen): a 2M-point cloud drawn while its LOD octree is built"
 rm -rf "$OUT/omicron_growth" "$OUT/omicron_potree" && mkdir -p "$OUT/omicron_growth"
 ./build/apps/omicron_viewer/make_omicron_cloud --points 2000000 --color --out "$OUT/omicron_cloud.pcd" > /dev/null
@@ -56,6 +63,13 @@ if [ -x ./build/bench/omicron/bench_omicron ]; then
   ./build/bench/omicron/bench_omicron --quick --csv "$OUT/omicron.csv" > /dev/null
 fi
 
+# Surface benches keep their CSV apart: their charts come from bench/surface/*_charts.py.
+mkdir -p "$OUT/surface"
+./build/bench/surface/bench_rbf --quick --csv "$OUT/surface/rbf.csv" > /dev/null
+./build/bench/surface/bench_idc --quick --csv "$OUT/surface/idc.csv" --frames-csv "$OUT/surface/idc_frames.csv" > /dev/null
+
 echo "== charts"
 /usr/bin/python3 bench/plot.py "$OUT"/*.csv --out "$OUT/charts" > /dev/null
+/usr/bin/python3 bench/surface/rbf_charts.py "$OUT/surface/rbf.csv" --out "$OUT/charts" > /dev/null
+/usr/bin/python3 bench/surface/idc_charts.py "$OUT/surface/idc.csv" "$OUT/surface/idc_frames.csv" "$OUT/charts" > /dev/null
 /usr/bin/python3 scripts/demo_index.py "$OUT"

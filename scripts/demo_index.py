@@ -24,6 +24,12 @@ CAPTIONS = {
                          "coloured by planar region",
     "rbf_scene.png": "rbf_reconstruct on the generated cloud: our normals and MST orientation, then "
                      "RBFPOUReconstruction (partition of unity of local RBF fits, sparse-band marching cubes)",
+    "idc_scan.png": "idc_scan: 24 posed Kinect-like depth frames of a torus around a sphere fused by "
+                    "IncrementalDualContouring (1 cm leaves, octree simplification at 1 mm)",
+    "idc_mesh.ply": "the adaptive mesh idc_scan fused from the generated depth frames",
+    "idc_frames": "24 posed 16-bit PNG depth frames (7-Scenes layout) of the generated object, idc_scan's input",
+    "surface": "surface benchmark rows (quick mode): RBF-POU against PCL/Open3D Poisson, MarchingCubesHoppe/RBF "
+               "(rbf.csv); incremental dual contouring against Open3D's TSDF (idc.csv, idc_frames.csv)",
     "omicron_growth": "omicron_viewer growth pictures: the front every 2 rendered frames while the octree is built",
     "omicron_final.png": "omicron_viewer: the OMiCroN front drawn as splats once the octree is built "
                          "(2M points, coloured by normal)",
@@ -43,11 +49,27 @@ CAPTIONS = {
 }
 
 
+# Charts drawn by bench/surface/*_charts.py (not bench/plot.py specs).
+SURFACE_CHARTS = {
+    "rbf_error_vs_time_clean.png": "RBF-POU pipeline against PCL / Open3D Poisson and MarchingCubesHoppe / RBF: "
+                                   "Chamfer error against time, clean samples",
+    "rbf_error_vs_time_scan.png": "the same on scanner-like samples (noise, holes, uneven density)",
+    "rbf_error_vs_bad_normals.png": "error and open edges against the share of flipped / perturbed normals",
+    "rbf_error_vs_noise.png": "error against position noise",
+    "rbf_time_memory_vs_points.png": "time and peak memory against point count (how the cost grows)",
+    "rbf_mcrbf.png": "where PCL's MarchingCubesRBF (dense 2N x 2N system) runs, and where it stops",
+    "idc_error_vs_triangles.png": "incremental dual contouring against Open3D's TSDF: error against triangles",
+    "idc_error_vs_eps.png": "incremental dual contouring: error and triangles against the simplification error eps",
+    "idc_time_vs_detail.png": "time per frame against detail, IDC and Open3D's TSDF in the same run",
+    "idc_time_vs_frame.png": "time per frame against frame index (does the cost grow with the map?)",
+}
+
+
 def chart_titles():
     """Chart name -> title, from the specs bench/plot.py draws."""
     here = os.path.dirname(os.path.abspath(__file__))
     bench = os.path.join(here, "..", "bench")
-    titles = {}
+    titles = dict(SURFACE_CHARTS)
     for entry in sorted(os.listdir(bench)):
         path = os.path.join(bench, entry, "charts.py")
         if not os.path.isfile(path):
