@@ -256,6 +256,7 @@ main (int argc, char** argv)
   std::vector<std::size_t> sizes{100000, 1000000, 3000000};
   int views = 3, repeats = 1;
   bool quick = false, no_sweeps = false, sweeps_only = false, distance_sweep = false, load_rows = false;
+  bool no_open3d = false;
   std::size_t sweep_points = 100000;
   std::vector<double> distances{1.2, 2.0, 5.0, 20.0, 100.0, 1000.0};
   std::vector<std::string> only_inputs;
@@ -273,6 +274,7 @@ main (int argc, char** argv)
   app.add_option ("--sweep-points", sweep_points, "points of the distance sweep")->capture_default_str ();
   app.add_option ("--distances", distances, "distances of the sweep (x diagonal)")->capture_default_str ();
   app.add_option ("--inputs", only_inputs, "only these inputs (bunny, fertility, torus_scene)");
+  app.add_flag ("--no-open3d", no_open3d, "distance sweep without the Open3D rows");
   app.add_flag ("--load-rows", load_rows,
                 "only the loaded-machine rows (1, 2, auto threads; with and without a busy child process)");
   CLI11_PARSE (app, argc, argv);
@@ -339,7 +341,8 @@ main (int argc, char** argv)
           radii.push_back (max_rho * std::pow (10.0, j) / diameter);
         double best_r = 0;
 #ifdef PCLX_HAVE_OPEN3D
-        best_r = run.open3dBest (c, "distance", radii, tag);
+        if (!no_open3d)
+          best_r = run.open3dBest (c, "distance", radii, tag);
 #endif
         const std::vector<std::pair<std::string, Filter::Method>> methods{
             {"pclx_auto", Filter::Method::AUTO},

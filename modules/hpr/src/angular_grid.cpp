@@ -635,13 +635,14 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points) const
           if (nrm.dot (fa) > 0)  // make C (the origin) the positive side
             nrm = -nrm;
           T.w = nrm;
-          // Strict, with a margin of ~10⁴ double roundoffs of coordinates of size 2R (|q| < 2R).
+          // Strict, with a margin of ~10² double roundoffs of coordinates of size 2R (|q| < 2R:
+          // w·(q − f) is off by ~1.5e-15·2R·|w|; Qhull's own fuzz is of the same order).
           // It must not grow faster than that: a margin relative to w·a (the old 1e-7·w·a)
           // is ~1e-7·2R deep, and R grows as distance² (Fig. 9 at a fixed angular spacing),
           // so from 20× the diameter on it swallowed every depth difference and nothing
           // was culled.
           T.f = fa;
-          T.h = 1e-12 * R2 * nrm.norm ();
+          T.h = 1e-13 * R2 * nrm.norm ();
           ++m;
         }
       }
