@@ -11,10 +11,10 @@ SPECS = [
     # Issue 12: where HPR fails. F1 from 1.2x to 1000x the diagonal (same direction), every
     # method calibrated, Open3D at its best R per distance (bench_hpr --distance-sweep).
     dict(name="hpr_f1_vs_distance", title="HPR: F1 against viewpoint distance (x diagonal)", x="p_distance",
-         y="f1", series="method", logx=True, where=dict(sweep="distance"), split="input"),
+         y="f1", series="method", logx=True, where=dict(sweep="distance"), split=["input", "points"]),
     dict(name="hpr_time_vs_distance", title="HPR: seconds against viewpoint distance (x diagonal)",
          x="p_distance", y="seconds", series="method", logx=True, logy=True, where=dict(sweep="distance"),
-         split="input"),
+         split=["input", "points"]),
     # Threads on a loaded machine: mean of 5 runs at 1, 2 and automatic threads, alone
     # (competitor=none) and with a spinning child process (competitor=busy_child) (bench_hpr --load-rows).
     dict(name="hpr_threads_under_load", kind="bars", title="HPR: mean seconds by OpenMP threads",
