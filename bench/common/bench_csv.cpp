@@ -1,9 +1,13 @@
 #include "bench_csv.h"
 
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
+
+#include <malloc.h>
+#include <unistd.h>
 
 namespace pclx {
 namespace bench {
@@ -59,6 +63,81 @@ peakRssMiB ()
     if (line.rfind ("VmHWM:", 0) == 0)
       return std::stod (line.substr (6)) / 1024.0;  // kB
   return 0.0;
+}
+
+std::size_t
+procStatusKb (const char* key)
+{
+  std::ifstream status ("/proc/self/status");
+  std::string line;
+  const std::size_t len = std::strlen (key);
+  while (std::getline (status, line))
+    if (line.compare (0, len, key) == 0 && line.size () > len && line[len] == ':')
+      return std::stoull (line.substr (len + 1));
+  return 0;
+}
+
+std::size_t
+resetPeakMemory ()
+{
+  malloc_trim (0);
+  std::ofstream ("/proc/self/clear_refs") << "5";
+  return procStatusKb ("VmRSS") * 1024;
+}
+
+std::string
+encodeChildRow (const ChildRow& r)
+{
+  std::ostringstream s;
+  s << r.method << '\t' << r.params << '\t' << std::setprecision (9) << r.seconds << '\t';
+  for (std::size_t i = 0; i < r.metrics.size (); ++i)
+    s << (i ? ";" : "") << r.metrics[i].first << '=' << std::setprecision (9) << r.metrics[i].second;
+  return s.str ();
+}
+
+bool
+decodeChildRow (const std::string& line, ChildRow& r)
+{
+  std::istringstream s (line);
+  std::string secs, metrics;
+  if (!std::getline (s, r.method, '\t') || !std::getline (s, r.params, '\t') || !std::getline (s, secs, '\t'))
+    return false;
+  std::getline (s, metrics);
+  r.seconds = std::stod (secs);
+  r.metrics.clear ();
+  std::istringstream m (metrics);
+  std::string kv;
+  while (std::getline (m, kv, ';'))
+  {
+    const auto eq = kv.find ('=');
+    if (eq != std::string::npos)
+      r.metrics.emplace_back (kv.substr (0, eq), std::stod (kv.substr (eq + 1)));
+  }
+  return true;
+}
+
+void
+writeAll (int fd, const std::string& text)
+{
+  std::size_t off = 0;
+  while (off < text.size ())
+  {
+    const ssize_t w = write (fd, text.data () + off, text.size () - off);
+    if (w <= 0)
+      break;
+    off += std::size_t (w);
+  }
+}
+
+std::string
+readAll (int fd)
+{
+  std::string text;
+  char buf[65536];
+  ssize_t n;
+  while ((n = read (fd, buf, sizeof (buf))) > 0)
+    text.append (buf, std::size_t (n));
+  return text;
 }
 
 }  // namespace bench

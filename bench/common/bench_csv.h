@@ -49,5 +49,24 @@ std::optional<std::string> sharedDataDir ();
 // Peak resident set size of this process so far, in MiB (from /proc/self/status).
 double peakRssMiB ();
 
+// ---- Running a measurement in a forked child (its own peak memory, limits, crash isolation).
+// A key of /proc/self/status in kB (VmRSS, VmHWM, ...), 0 when absent.
+std::size_t procStatusKb (const char* key);
+// Returns freed heap to the system and resets VmHWM to the current RSS (clear_refs = 5,
+// Linux >= 4.0); returns that RSS in bytes, the baseline of a child's peak.
+std::size_t resetPeakMemory ();
+// A row sent from a child through a pipe: "method\tparams\tseconds\tkey=value;key=value".
+struct ChildRow
+{
+  std::string method, params;
+  double seconds = 0;
+  Metrics metrics;
+};
+std::string encodeChildRow (const ChildRow& r);  // one line, without the newline
+bool decodeChildRow (const std::string& line, ChildRow& r);
+// Whole-buffer pipe I/O (write retries short writes; read until EOF).
+void writeAll (int fd, const std::string& text);
+std::string readAll (int fd);
+
 }  // namespace bench
 }  // namespace pclx

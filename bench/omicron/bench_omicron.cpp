@@ -197,70 +197,11 @@ struct Input
   std::function<void (std::size_t, const std::string&)> generate;  // (n, path)
 };
 
-// ---------------------------------------------------------------------------------------------
-// Memory of this process.
-
-std::size_t
-statusKb (const char* key)
-{
-  std::ifstream status ("/proc/self/status");
-  std::string line;
-  const std::size_t len = std::strlen (key);
-  while (std::getline (status, line))
-    if (line.compare (0, len, key) == 0 && line[len] == ':')
-      return std::stoull (line.substr (len + 1));
-  return 0;
-}
-
-// Returns freed heap to the system and resets VmHWM to the current RSS (Linux >= 4.0).
-std::size_t
-resetPeak ()
-{
-  malloc_trim (0);
-  std::ofstream ("/proc/self/clear_refs") << "5";
-  return statusKb ("VmRSS") * 1024;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Rows from children: one line each, "method\tparams\tseconds\tkey=value;key=value".
-
-struct Row
-{
-  std::string method, params;
-  double seconds = 0;
-  Metrics metrics;
-};
-
-std::string
-encode (const Row& r)
-{
-  std::ostringstream s;
-  s << r.method << '\t' << r.params << '\t' << std::setprecision (9) << r.seconds << '\t';
-  for (std::size_t i = 0; i < r.metrics.size (); ++i)
-    s << (i ? ";" : "") << r.metrics[i].first << '=' << std::setprecision (9) << r.metrics[i].second;
-  return s.str ();
-}
-
-bool
-decode (const std::string& line, Row& r)
-{
-  std::istringstream s (line);
-  std::string secs, metrics;
-  if (!std::getline (s, r.method, '\t') || !std::getline (s, r.params, '\t') || !std::getline (s, secs, '\t'))
-    return false;
-  std::getline (s, metrics);
-  r.seconds = std::stod (secs);
-  r.metrics.clear ();
-  std::istringstream m (metrics);
-  std::string kv;
-  while (std::getline (m, kv, ';'))
-  {
-    const auto eq = kv.find ('=');
-    if (eq != std::string::npos)
-      r.metrics.emplace_back (kv.substr (0, eq), std::stod (kv.substr (eq + 1)));
-  }
-  return true;
-}
+// Memory of this process, and rows from children (bench/common): one line each,
+// "method\tparams\tseconds\tkey=value;key=value".
+using pclx::bench::ChildRow;
+using Row = ChildRow;
+using pclx::bench::procStatusKb;
 
 // Runs fn in a forked child (peak memory of its own); fn returns the rows to print.
 // Returns false when the child failed (crash, exception, non-zero exit).
@@ -282,32 +223,21 @@ inChild (const std::function<std::vector<Row> (std::size_t rss0)>& fn, std::vect
     std::string out;
     try
     {
-      const std::size_t rss0 = resetPeak ();
+      const std::size_t rss0 = pclx::bench::resetPeakMemory ();
       for (const Row& r : fn (rss0))
-        out += encode (r) + "\n";
+        out += pclx::bench::encodeChildRow (r) + "\n";
     }
     catch (const std::exception& e)
     {
       std::cerr << "[omicron] child failed: " << e.what () << "\n";
       code = 2;
     }
-    std::size_t off = 0;
-    while (off < out.size ())
-    {
-      const ssize_t w = write (fd[1], out.data () + off, out.size () - off);
-      if (w <= 0)
-        break;
-      off += std::size_t (w);
-    }
+    pclx::bench::writeAll (fd[1], out);
     close (fd[1]);
     _exit (code);
   }
   close (fd[1]);
-  std::string text;
-  char buf[65536];
-  ssize_t r;
-  while ((r = read (fd[0], buf, sizeof (buf))) > 0)
-    text.append (buf, std::size_t (r));
+  const std::string text = pclx::bench::readAll (fd[0]);
   close (fd[0]);
   int status = 0;
   waitpid (pid, &status, 0);
@@ -316,7 +246,7 @@ inChild (const std::function<std::vector<Row> (std::size_t rss0)>& fn, std::vect
   while (std::getline (lines, line))
   {
     Row row;
-    if (decode (line, row))
+    if (pclx::bench::decodeChildRow (line, row))
       rows.push_back (row);
   }
   const bool ok = WIFEXITED (status) && WEXITSTATUS (status) == 0;
@@ -537,7 +467,7 @@ runOurs (const Cloud::ConstPtr& cloud, const Config& c, std::size_t rss0)
     sampler.join ();
   if (!ok)
     throw std::runtime_error ("build failed: " + octree.getLastError ());
-  const std::size_t hwm = statusKb ("VmHWM") * 1024;
+  const std::size_t hwm = procStatusKb ("VmHWM") * 1024;
   const auto st = octree.getStatistics ();
   std::size_t nodes = 0;
   for (std::size_t k : st.nodes_per_level)
@@ -1049,7 +979,7 @@ main (int argc, char** argv)
               const auto t0 = Clock::now ();
               td.build (*cloud);
               const double s = since (t0);
-              const double hwm = double (statusKb ("VmHWM") * 1024);
+              const double hwm = double (procStatusKb ("VmHWM") * 1024);
               return std::vector<Row>{{"topdown_10k", "sweep=main;ratio=0.2;split=10000;threads=" + std::to_string (threads),
                                        s,
                                        {{"points_per_s", n / s},
@@ -1079,7 +1009,7 @@ main (int argc, char** argv)
               oct.defineBoundingBox (lo.x (), lo.y (), lo.z (), lo.x () + e, lo.y () + e, lo.z () + e);
               oct.addPointsFromInputCloud ();
               const double s = since (t0);
-              const double hwm = double (statusKb ("VmHWM") * 1024);
+              const double hwm = double (procStatusKb ("VmHWM") * 1024);
               return std::vector<Row>{{"pcl_octree", "sweep=main;depth=" + std::to_string (oct.getTreeDepth ()), s,
                                        {{"points_per_s", n / s},
                                         {"peak_delta_bpp", (hwm - double (rss0)) / n},

@@ -143,29 +143,9 @@ private:
   std::ofstream file_;
 };
 
-// ---------------------------------------------------------------------------------------------
-// Memory of this process.
-
-std::size_t
-statusKb (const char* key)
-{
-  std::ifstream status ("/proc/self/status");
-  std::string line;
-  const std::size_t len = std::strlen (key);
-  while (std::getline (status, line))
-    if (line.compare (0, len, key) == 0 && line[len] == ':')
-      return std::stoull (line.substr (len + 1));
-  return 0;
-}
-
-// Returns freed heap to the system and resets VmHWM to the current RSS (Linux >= 4.0).
-std::size_t
-resetPeak ()
-{
-  malloc_trim (0);
-  std::ofstream ("/proc/self/clear_refs") << "5";
-  return statusKb ("VmRSS") * 1024;
-}
+// Memory of this process and rows from children: bench/common (pclx::bench).
+using pclx::bench::ChildRow;
+using pclx::bench::procStatusKb;
 
 // ---------------------------------------------------------------------------------------------
 // Inputs: a true mesh (with its distance tree and samples) and clouds sampled from it.
@@ -247,6 +227,10 @@ struct Result
   std::vector<double> seconds;  // per mesh: the whole pipeline
   double t_normals = 0;
   Metrics extra;  // method-specific metrics (subdomains, ...)
+  // VmHWM right after the reconstruction, before the output is welded for the metrics (the
+  // weld's copy of the mesh is the bench's cost, not the method's).
+  std::size_t hwm_bytes = 0;
+  void notePeak () { hwm_bytes = procStatusKb ("VmHWM") * 1024; }
 };
 
 // Normals for the RBF rows: the case's own (true) or estimated and oriented.
@@ -337,6 +321,7 @@ rbfJob (const std::string& normals, double grid, bool orient, int threads, doubl
     const auto t0 = Clock::now ();
     rbf.reconstruct (mesh);
     const double tr = since (t0);
+    r.notePeak ();
     r.t_normals = tn;
     r.meshes.emplace_back (j.method, fromPcl (mesh, c.truth->diag));
     r.seconds.push_back (tn + tr);
@@ -363,6 +348,7 @@ pclPoissonJob (int depth, int threads, double limit)
     const auto t0 = Clock::now ();
     p.reconstruct (mesh);
     r.seconds.push_back (since (t0));
+    r.notePeak ();
     r.meshes.emplace_back (j.method, fromPcl (mesh, c.truth->diag));
   };
   return j;
@@ -388,6 +374,7 @@ hoppeJob (int res, double limit)
     const auto t0 = Clock::now ();
     mc.reconstruct (mesh);
     r.seconds.push_back (since (t0));
+    r.notePeak ();
     r.meshes.emplace_back (j.method, fromPcl (mesh, c.truth->diag));
   };
   return j;
@@ -409,6 +396,7 @@ mcRbfJob (int res, double limit)
     const auto t0 = Clock::now ();
     mc.reconstruct (mesh);
     r.seconds.push_back (since (t0));
+    r.notePeak ();
     r.meshes.emplace_back (j.method, fromPcl (mesh, c.truth->diag));
   };
   return j;
@@ -430,6 +418,7 @@ o3dJob (int depth, int threads, double limit)
       n[i] = (*c.cloud)[i].getNormalVector3fMap ().cast<double> ();
     }
     auto res = rbf_open3d::poisson (p, n, depth, threads);
+    r.notePeak ();
     const float tol = float (1e-6 * c.truth->diag);
     r.meshes.emplace_back ("o3d_poisson", rbf_bench::weld (res.vertices, res.faces, tol));
     r.seconds.push_back (res.seconds);
@@ -445,44 +434,7 @@ o3dJob (int depth, int threads, double limit)
 }
 
 // ---------------------------------------------------------------------------------------------
-// Child processes. A child sends rows back as lines "method\tseconds\tk=v;k=v".
-
-std::string
-encode (const std::string& method, double seconds, const Metrics& m)
-{
-  std::ostringstream s;
-  s << method << '\t' << std::setprecision (9) << seconds << '\t';
-  for (std::size_t i = 0; i < m.size (); ++i)
-    s << (i ? ";" : "") << m[i].first << '=' << std::setprecision (9) << m[i].second;
-  return s.str () + "\n";
-}
-
-struct ChildRow
-{
-  std::string method;
-  double seconds = 0;
-  Metrics metrics;
-};
-
-bool
-decode (const std::string& line, ChildRow& r)
-{
-  std::istringstream s (line);
-  std::string secs, metrics;
-  if (!std::getline (s, r.method, '\t') || !std::getline (s, secs, '\t'))
-    return false;
-  std::getline (s, metrics);
-  r.seconds = std::stod (secs);
-  std::istringstream m (metrics);
-  std::string kv;
-  while (std::getline (m, kv, ';'))
-  {
-    const auto eq = kv.find ('=');
-    if (eq != std::string::npos)
-      r.metrics.emplace_back (kv.substr (0, eq), std::stod (kv.substr (eq + 1)));
-  }
-  return true;
-}
+// Child processes: a child sends rows back as pclx::bench::encodeChildRow lines.
 
 // Runs the job in a child; returns the rows and the status ("ok", "oom", "timeout", "crash",
 // "error", "empty" per row via metrics).
@@ -507,7 +459,7 @@ runChild (const Job& job, const Case& c, const Options& opt, std::vector<ChildRo
     getrlimit (RLIMIT_AS, &old);
     try
     {
-      const std::size_t rss0 = resetPeak ();
+      const std::size_t rss0 = pclx::bench::resetPeakMemory ();
       rlimit lim = old;
       lim.rlim_cur = rlim_t (opt.mem_limit_gb * 1024 * 1024 * 1024);
       if (old.rlim_max != RLIM_INFINITY && lim.rlim_cur > old.rlim_max)
@@ -516,7 +468,8 @@ runChild (const Job& job, const Case& c, const Options& opt, std::vector<ChildRo
       alarm (unsigned (std::ceil (job.time_limit)));
       Result r;
       job.run (c, r);
-      const double peak = double (statusKb ("VmHWM") * 1024) - double (rss0);
+      const double hwm = double (r.hwm_bytes ? r.hwm_bytes : procStatusKb ("VmHWM") * 1024);
+      const double peak = hwm - double (rss0);
       // Quality evaluation: outside the limits, not in the peak.
       setrlimit (RLIMIT_AS, &old);
       alarm (unsigned (opt.eval_limit));
@@ -549,7 +502,7 @@ runChild (const Job& job, const Case& c, const Options& opt, std::vector<ChildRo
                                  {"watertight", topo.watertight () ? 1.0 : 0.0}});
         }
         mt.insert (mt.end (), r.extra.begin (), r.extra.end ());
-        out += encode (r.meshes[i].first, r.seconds[i], mt);
+        out += pclx::bench::encodeChildRow ({r.meshes[i].first, "", r.seconds[i], mt}) + "\n";
       }
     }
     catch (const std::bad_alloc&)
@@ -561,23 +514,12 @@ runChild (const Job& job, const Case& c, const Options& opt, std::vector<ChildRo
       std::cerr << "[bench_rbf] " << job.method << " failed: " << e.what () << "\n";
       code = 2;
     }
-    std::size_t off = 0;
-    while (off < out.size ())
-    {
-      const ssize_t w = write (fd[1], out.data () + off, out.size () - off);
-      if (w <= 0)
-        break;
-      off += std::size_t (w);
-    }
+    pclx::bench::writeAll (fd[1], out);
     close (fd[1]);
     _exit (code);
   }
   close (fd[1]);
-  std::string text;
-  char buf[65536];
-  ssize_t n;
-  while ((n = read (fd[0], buf, sizeof (buf))) > 0)
-    text.append (buf, std::size_t (n));
+  const std::string text = pclx::bench::readAll (fd[0]);
   close (fd[0]);
   int status = 0;
   waitpid (pid, &status, 0);
@@ -586,7 +528,7 @@ runChild (const Job& job, const Case& c, const Options& opt, std::vector<ChildRo
   while (std::getline (lines, line))
   {
     ChildRow row;
-    if (decode (line, row))
+    if (pclx::bench::decodeChildRow (line, row))
       rows.push_back (row);
   }
   if (WIFEXITED (status) && WEXITSTATUS (status) == 0)
