@@ -103,7 +103,16 @@ def legend_outside(fig, axes):
 
 
 def error_vs_time(rows, cond, out):
-    rows = [r for r in rows if r.get("p_sweep") == "main" and r.get("p_cond") == cond]
+    # The full run's main sweep; a --quick run (the demo) has one size per input plus a smaller
+    # MarchingCubesRBF case, left out so that one panel compares one cloud.
+    main = [r for r in rows if r.get("p_sweep") == "main" and r.get("p_cond") == cond]
+    if not main:
+        quick = [r for r in rows if r.get("p_sweep") == "quick" and r.get("p_cond") == cond]
+        largest = {}
+        for r in quick:
+            largest[r["input"]] = max(largest.get(r["input"], 0), r["points"])
+        main = [r for r in quick if r["points"] == largest[r["input"]]]
+    rows = main
     inputs = list(collections.OrderedDict.fromkeys(r["input"] for r in rows))
     if not inputs:
         return None
