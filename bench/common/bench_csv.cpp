@@ -5,8 +5,10 @@
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
+#include <stdexcept>
 
 #include <malloc.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 namespace pclx {
@@ -138,6 +140,45 @@ readAll (int fd)
   while ((n = read (fd, buf, sizeof (buf))) > 0)
     text.append (buf, std::size_t (n));
   return text;
+}
+
+int
+runInChild (const std::function<int (std::vector<ChildRow>& rows)>& body, std::vector<ChildRow>& rows)
+{
+  int fd[2];
+  if (pipe (fd) != 0)
+    throw std::runtime_error ("pipe failed");
+  std::cout.flush ();
+  std::cerr.flush ();
+  const pid_t pid = fork ();
+  if (pid < 0)
+    throw std::runtime_error ("fork failed");
+  if (pid == 0)
+  {
+    close (fd[0]);
+    std::vector<ChildRow> mine;
+    const int code = body (mine);
+    std::string out;
+    for (const ChildRow& r : mine)
+      out += encodeChildRow (r) + "\n";
+    writeAll (fd[1], out);
+    close (fd[1]);
+    _exit (code);
+  }
+  close (fd[1]);
+  const std::string text = readAll (fd[0]);
+  close (fd[0]);
+  int status = 0;
+  waitpid (pid, &status, 0);
+  std::istringstream lines (text);
+  std::string line;
+  while (std::getline (lines, line))
+  {
+    ChildRow row;
+    if (decodeChildRow (line, row))
+      rows.push_back (row);
+  }
+  return status;
 }
 
 }  // namespace bench

@@ -5,6 +5,7 @@
 // measured on the same machine at the same time.
 #include <chrono>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <optional>
 #include <string>
@@ -67,6 +68,10 @@ bool decodeChildRow (const std::string& line, ChildRow& r);
 // Whole-buffer pipe I/O (write retries short writes; read until EOF).
 void writeAll (int fd, const std::string& text);
 std::string readAll (int fd);
+// Forks; the child runs body (which appends its rows and returns its exit code; it sets its
+// own limits and catches its own exceptions), sends the rows back through a pipe and exits.
+// The parent appends the rows it received and returns the child's waitpid status.
+int runInChild (const std::function<int (std::vector<ChildRow>& rows)>& body, std::vector<ChildRow>& rows);
 
 }  // namespace bench
 }  // namespace pclx

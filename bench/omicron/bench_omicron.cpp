@@ -208,47 +208,21 @@ using pclx::bench::procStatusKb;
 bool
 inChild (const std::function<std::vector<Row> (std::size_t rss0)>& fn, std::vector<Row>& rows)
 {
-  int fd[2];
-  if (pipe (fd) != 0)
-    throw std::runtime_error ("pipe failed");
-  std::cout.flush ();
-  std::cerr.flush ();
-  const pid_t pid = fork ();
-  if (pid < 0)
-    throw std::runtime_error ("fork failed");
-  if (pid == 0)
-  {
-    close (fd[0]);
-    int code = 0;
-    std::string out;
-    try
-    {
-      const std::size_t rss0 = pclx::bench::resetPeakMemory ();
-      for (const Row& r : fn (rss0))
-        out += pclx::bench::encodeChildRow (r) + "\n";
-    }
-    catch (const std::exception& e)
-    {
-      std::cerr << "[omicron] child failed: " << e.what () << "\n";
-      code = 2;
-    }
-    pclx::bench::writeAll (fd[1], out);
-    close (fd[1]);
-    _exit (code);
-  }
-  close (fd[1]);
-  const std::string text = pclx::bench::readAll (fd[0]);
-  close (fd[0]);
-  int status = 0;
-  waitpid (pid, &status, 0);
-  std::istringstream lines (text);
-  std::string line;
-  while (std::getline (lines, line))
-  {
-    Row row;
-    if (pclx::bench::decodeChildRow (line, row))
-      rows.push_back (row);
-  }
+  const int status = pclx::bench::runInChild (
+      [&] (std::vector<Row>& out) {
+        try
+        {
+          const std::size_t rss0 = pclx::bench::resetPeakMemory ();
+          out = fn (rss0);
+          return 0;
+        }
+        catch (const std::exception& e)
+        {
+          std::cerr << "[omicron] child failed: " << e.what () << "\n";
+          return 2;
+        }
+      },
+      rows);
   const bool ok = WIFEXITED (status) && WEXITSTATUS (status) == 0;
   if (!ok)
     std::cerr << "[omicron] child " << (WIFSIGNALED (status) ? "killed by signal " + std::to_string (WTERMSIG (status))

@@ -441,19 +441,8 @@ o3dJob (int depth, int threads, double limit)
 std::string
 runChild (const Job& job, const Case& c, const Options& opt, std::vector<ChildRow>& rows)
 {
-  int fd[2];
-  if (pipe (fd) != 0)
-    throw std::runtime_error ("pipe failed");
-  std::cout.flush ();
-  std::cerr.flush ();
-  const pid_t pid = fork ();
-  if (pid < 0)
-    throw std::runtime_error ("fork failed");
-  if (pid == 0)
-  {
+  const int status = pclx::bench::runInChild ([&] (std::vector<ChildRow>& out) {
     prctl (PR_SET_PDEATHSIG, SIGKILL);  // no orphans when the bench is stopped
-    close (fd[0]);
-    std::string out;
     int code = 0;
     rlimit old{};
     getrlimit (RLIMIT_AS, &old);
@@ -502,7 +491,7 @@ runChild (const Job& job, const Case& c, const Options& opt, std::vector<ChildRo
                                  {"watertight", topo.watertight () ? 1.0 : 0.0}});
         }
         mt.insert (mt.end (), r.extra.begin (), r.extra.end ());
-        out += pclx::bench::encodeChildRow ({r.meshes[i].first, "", r.seconds[i], mt}) + "\n";
+        out.push_back ({r.meshes[i].first, "", r.seconds[i], mt});
       }
     }
     catch (const std::bad_alloc&)
@@ -514,23 +503,11 @@ runChild (const Job& job, const Case& c, const Options& opt, std::vector<ChildRo
       std::cerr << "[bench_rbf] " << job.method << " failed: " << e.what () << "\n";
       code = 2;
     }
-    pclx::bench::writeAll (fd[1], out);
-    close (fd[1]);
-    _exit (code);
-  }
-  close (fd[1]);
-  const std::string text = pclx::bench::readAll (fd[0]);
-  close (fd[0]);
-  int status = 0;
-  waitpid (pid, &status, 0);
-  std::istringstream lines (text);
-  std::string line;
-  while (std::getline (lines, line))
-  {
-    ChildRow row;
-    if (pclx::bench::decodeChildRow (line, row))
-      rows.push_back (row);
-  }
+    // The rows are encoded after this returns: no limit or alarm left for that.
+    alarm (0);
+    setrlimit (RLIMIT_AS, &old);
+    return code;
+  }, rows);
   if (WIFEXITED (status) && WEXITSTATUS (status) == 0)
     return "ok";
   if (WIFEXITED (status))
