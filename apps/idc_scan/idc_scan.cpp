@@ -8,6 +8,7 @@
 #include <pclx/apps/cloud_loader.h>
 #include <pclx/apps/depth_frames.h>
 #include <pclx/apps/frame_source.h>
+#include <pclx/apps/mesh_stats.h>
 #include <pclx/apps/view.h>
 #include <pclx/surface/incremental_dual_contouring.h>
 
@@ -27,7 +28,6 @@
 #include <mutex>
 #include <sstream>
 #include <thread>
-#include <unordered_map>
 
 namespace fs = std::filesystem;
 using PointT = pcl::PointXYZ;
@@ -126,26 +126,6 @@ bunnyFrame (const BunnyScan& s, Eigen::Matrix4d& camera_to_world)
   return cam;
 }
 
-void
-countOpenEdges (const pcl::PolygonMesh& mesh, std::size_t& boundary, std::size_t& non_manifold)
-{
-  std::unordered_map<std::uint64_t, std::uint32_t> uses;
-  for (const auto& poly : mesh.polygons)
-    for (std::size_t i = 0; i < poly.vertices.size (); ++i)
-    {
-      std::uint64_t a = poly.vertices[i], b = poly.vertices[(i + 1) % poly.vertices.size ()];
-      if (a > b)
-        std::swap (a, b);
-      ++uses[(a << 32) | b];
-    }
-  boundary = non_manifold = 0;
-  for (const auto& e : uses)
-  {
-    boundary += e.second == 1;
-    non_manifold += e.second > 2;
-  }
-}
-
 struct Options
 {
   pclx::apps::SourceOptions source;
@@ -190,7 +170,7 @@ public:
     idc_.reconstruct (mesh);
     const auto& s = idc_.getStats ();
     std::size_t boundary = 0, non_manifold = 0;
-    countOpenEdges (mesh, boundary, non_manifold);
+    pclx::apps::countOpenEdges (mesh, boundary, non_manifold);
     std::printf ("done: %zu frames fused (%zu skipped); mesh %zu vertices, %zu triangles; %zu edges used once, "
                  "%zu used > 2 times%s; %zu leaves, %.1f MB\n",
                  fused_, skipped_, s.vertices, s.triangles, boundary, non_manifold,

@@ -3,6 +3,7 @@
 // PlanarOctreeNormalEstimation + MST orientation first. Writes a binary PLY; --view shows it,
 // --screenshot renders it off-screen to a PNG.
 #include <pclx/apps/cloud_loader.h>
+#include <pclx/apps/mesh_stats.h>
 #include <pclx/apps/progress.h>
 #include <pclx/apps/view.h>
 #include <pclx/normals/mst_normal_orientation.h>
@@ -19,7 +20,6 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
-#include <unordered_map>
 
 using CloudN = pcl::PointCloud<pcl::PointNormal>;
 
@@ -29,29 +29,6 @@ double
 secondsSince (std::chrono::steady_clock::time_point t0)
 {
   return std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count ();
-}
-
-// Edges used by one triangle only (holes, or the band's rim where F is undefined) and by
-// more than two (non-manifold). Both 0: watertight.
-void
-countOpenEdges (const pcl::PolygonMesh& mesh, std::size_t& boundary, std::size_t& non_manifold)
-{
-  std::unordered_map<std::uint64_t, std::uint32_t> uses;
-  uses.reserve (mesh.polygons.size () * 2);
-  for (const auto& poly : mesh.polygons)
-    for (std::size_t i = 0; i < poly.vertices.size (); ++i)
-    {
-      std::uint64_t a = poly.vertices[i], b = poly.vertices[(i + 1) % poly.vertices.size ()];
-      if (a > b)
-        std::swap (a, b);
-      ++uses[(a << 32) | b];
-    }
-  boundary = non_manifold = 0;
-  for (const auto& e : uses)
-  {
-    boundary += e.second == 1;
-    non_manifold += e.second > 2;
-  }
 }
 
 }  // namespace
@@ -218,7 +195,7 @@ main (int argc, char** argv)
   std::printf ("grid: %zu active cells, %zu corners (%zu uncovered)\n", s.active_cells, s.corners,
                s.uncovered_corners);
   std::size_t boundary = 0, non_manifold = 0;
-  countOpenEdges (mesh, boundary, non_manifold);
+  pclx::apps::countOpenEdges (mesh, boundary, non_manifold);
   std::printf ("mesh: %zu vertices, %zu triangles; %zu edges used once, %zu used > 2 times%s\n", s.vertices,
                s.triangles, boundary, non_manifold, boundary == 0 && non_manifold == 0 ? " (watertight)" : "");
   std::printf ("times (s): prepare %.3f, off-surface %.3f, octree %.3f, fits %.3f, extraction %.3f; total %.3f\n",

@@ -4,6 +4,7 @@
 #include <pclx/apps/cloud_loader.h>
 #include <pclx/apps/depth_frames.h>
 #include <pclx/apps/frame_source.h>
+#include <pclx/apps/mesh_stats.h>
 #include <pclx/apps/progress.h>
 
 #include <pcl/io/pcd_io.h>
@@ -503,3 +504,32 @@ TEST_F (AppKit, ProgressIsQuietForShortStagesAndClosesLongOnes)
 }
 
 }  // namespace
+
+TEST (MeshStats, OpenAndNonManifoldEdges)
+{
+  auto tri = [] (pcl::index_t a, pcl::index_t b, pcl::index_t c) {
+    pcl::Vertices v;
+    v.vertices = {a, b, c};
+    return v;
+  };
+  pcl::PolygonMesh mesh;
+  std::size_t boundary = 9, non_manifold = 9;
+  pclx::apps::countOpenEdges (mesh, boundary, non_manifold);
+  EXPECT_EQ (boundary, 0u);
+  EXPECT_EQ (non_manifold, 0u);
+  // A closed tetrahedron: every edge used twice.
+  mesh.polygons = {tri (0, 1, 2), tri (0, 3, 1), tri (1, 3, 2), tri (2, 3, 0)};
+  pclx::apps::countOpenEdges (mesh, boundary, non_manifold);
+  EXPECT_EQ (boundary, 0u);
+  EXPECT_EQ (non_manifold, 0u);
+  // One face gone: its three edges are used once.
+  mesh.polygons.pop_back ();
+  pclx::apps::countOpenEdges (mesh, boundary, non_manifold);
+  EXPECT_EQ (boundary, 3u);
+  EXPECT_EQ (non_manifold, 0u);
+  // Three faces on edge (0, 1) of the open tetrahedron: non-manifold.
+  mesh.polygons.push_back (tri (1, 0, 4));
+  pclx::apps::countOpenEdges (mesh, boundary, non_manifold);
+  EXPECT_EQ (non_manifold, 1u);
+  EXPECT_EQ (boundary, 5u);
+}
