@@ -245,7 +245,7 @@ private:
     {
       v.setBackgroundColor (0.1, 0.1, 0.12);
       v.addPolygonMesh (mesh, "mesh");
-      v.initCameraParameters ();
+      pclx::apps::initCamera (v);
       // Look from the first camera (or the scan's side), slightly above it.
       const Eigen::Vector3d eye = first_pose_.topRightCorner<3, 1> ();
       const Eigen::Vector3d fwd = first_pose_.topLeftCorner<3, 3> ().col (2);

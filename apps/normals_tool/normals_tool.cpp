@@ -364,7 +364,7 @@ main (int argc, char** argv)
     viewer.setPointCloudRenderingProperties (pcl::visualization::PCL_VISUALIZER_COLOR, 0.8, 0.8, 0.9, "normals");
     viewer.addText (method + (color == "error" ? ": angle error, green 0 -> red 45+ deg" : ": planar regions (grey: none)"),
                     10, 10, 16, 1, 1, 1, "label");
-    viewer.initCameraParameters ();
+    pclx::apps::initCamera (viewer);
     const Eigen::Vector3f c = ((lo + hi) / 2).head<3> ();
     viewer.setCameraPosition (c.x () + 1.2 * diag, c.y () - 1.0 * diag, c.z () + 0.9 * diag, c.x (), c.y (), c.z (), 0, 0, 1);
     // The cloud fills the window from that direction.

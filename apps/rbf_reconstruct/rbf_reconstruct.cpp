@@ -224,7 +224,7 @@ main (int argc, char** argv)
     std::snprintf (caption, sizeof (caption), "RBF partition of unity: %zu points, %zu subdomains, %zu triangles",
                    s.input_points, s.subdomains, s.triangles);
     viewer.addText (caption, 10, 10, 16, 1, 1, 1, "caption");
-    viewer.initCameraParameters ();
+    pclx::apps::initCamera (viewer);
     // An oblique view from above; frameViewport centres the mesh and fits the distance.
     viewer.setCameraPosition (1.2, -1.0, 0.9, 0, 0, 0, 0, 0, 1);
     pclx::apps::frameViewport (viewer, 0, 0.12, {"mesh"});  // room for the caption

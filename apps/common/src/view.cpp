@@ -67,6 +67,15 @@ makeVisualizer (const std::string& name, bool offscreen, int width, int height)
   return viewer;
 }
 
+void
+initCamera (pcl::visualization::PCLVisualizer& viewer)
+{
+  const int* size = viewer.getRenderWindow ()->GetSize ();
+  const int width = size[0], height = size[1];
+  viewer.initCameraParameters ();
+  viewer.setSize (width, height);
+}
+
 vtkRenderer*
 viewportRenderer (pcl::visualization::PCLVisualizer& viewer, int viewport)
 {

@@ -17,6 +17,10 @@ namespace apps {
 pcl::visualization::PCLVisualizer::Ptr makeVisualizer (const std::string& name, bool offscreen, int width,
                                                         int height);
 
+// PCLVisualizer::initCameraParameters, keeping the window's size: PCL's default camera
+// carries a 640 x 480 window size and applies it, so screenshots ignored --width/--height.
+void initCamera (pcl::visualization::PCLVisualizer& viewer);
+
 // The renderer of a viewport created with createViewPort (0: the first one).
 vtkRenderer* viewportRenderer (pcl::visualization::PCLVisualizer& viewer, int viewport);
 
