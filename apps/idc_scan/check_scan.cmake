@@ -31,7 +31,7 @@ if(XVFB_RUN)
   run(${XVFB_RUN} -a ${APP} --depth-dir ${WORK_DIR}/depth --leaf 0.02 --output ${WORK_DIR}/depth.ply
       --screenshot ${WORK_DIR}/depth.png --width 400 --height 300)
   require_file(${WORK_DIR}/depth.png)
-  # The PNG has the asked size (PCL's initCameraParameters used to reset it to 640 x 480).
+  # The PNG has the asked size (PCL's initCameraParameters used to reset it to 640 x 512).
   file(READ ${WORK_DIR}/depth.png png_size OFFSET 16 LIMIT 8 HEX)
   if(NOT png_size STREQUAL "000001900000012c")
     message(FATAL_ERROR "depth.png is not 400 x 300 (IHDR size ${png_size})")

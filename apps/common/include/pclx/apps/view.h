@@ -18,7 +18,8 @@ pcl::visualization::PCLVisualizer::Ptr makeVisualizer (const std::string& name, 
                                                         int height);
 
 // PCLVisualizer::initCameraParameters, keeping the window's size: PCL's default camera
-// carries a 640 x 480 window size and applies it, so screenshots ignored --width/--height.
+// carries its own window size and applies it (our screenshots came out 640 x 512 whatever
+// --width/--height said).
 void initCamera (pcl::visualization::PCLVisualizer& viewer);
 
 // The renderer of a viewport created with createViewPort (0: the first one).
