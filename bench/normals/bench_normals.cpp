@@ -7,7 +7,10 @@
 //     metrics flipped (share against the outward truth of closed generated shapes)
 // params: sweep=<main|noise|shadow|density|speed>;noise=<σ/diag>;shadow=<%>;min_ratio=<r>
 // PCPNet ground truth is unoriented: it only gets estimation rows.
+// --wide / --speed / --quick: the wide protocol of issue 13 instead (wide.cpp).
 #include "bench_csv.h"
+#include "normals_bench_util.h"
+#include "wide.h"
 #ifdef PCLX_HAVE_OPEN3D
 #include "open3d_peer.h"
 #endif
@@ -32,6 +35,9 @@ using namespace pclx::testing;
 using pclx::bench::CsvWriter;
 using pclx::bench::Metrics;
 using pclx::bench::timeBest;
+using pclx::bench::errorMetrics;
+using pclx::bench::fmt;
+using pclx::bench::loadPcpnet;
 using Estimator = pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal>;
 
 namespace {
@@ -52,35 +58,6 @@ struct Case
   SampledCloud s;
   bool oriented;  // truth normals are oriented (closed generated shapes)
 };
-
-Metrics
-errorMetrics (const pclx::normals::NormalErrorStats& e)
-{
-  return {{"rms", e.rms_deg}, {"mean", e.mean_deg}, {"min", e.min_deg}, {"max", e.max_deg},
-          {"below5", e.below5}, {"below10", e.below10}};
-}
-
-std::string
-fmt (double v)
-{
-  std::ostringstream s;
-  s << v;
-  return s.str ();
-}
-
-// PCPNet: .xyz positions and .normals (unoriented truth), one point per line.
-bool
-loadPcpnet (const std::string& stem, SampledCloud& s)
-{
-  std::ifstream xyz (stem + ".xyz"), nrm (stem + ".normals");
-  if (!xyz || !nrm)
-    return false;
-  pcl::PointNormal p;
-  while (xyz >> p.x >> p.y >> p.z && nrm >> p.normal_x >> p.normal_y >> p.normal_z)
-    s.cloud.push_back (p);
-  s.face.assign (s.cloud.size (), 0);
-  return !s.cloud.empty ();
-}
 
 void
 run (const Case& c, const Options& opt, CsvWriter& out, bool orient)
@@ -194,7 +171,40 @@ main (int argc, char** argv)
   app.add_option ("--threads", opt.threads, "threads for every method (0: OpenMP default)");
   app.add_option ("--k-large", opt.k_large, "the larger k of the PCL peer")->capture_default_str ();
   app.add_flag ("!--no-open3d", opt.open3d, "skip the Open3D peer");
+  pclx::bench::WideOptions wide;
+  app.add_flag ("--wide", wide.wide,
+                "issue 13's wide protocol: 7 shapes x 4 noise levels, ours vs PCA k sweep (+oracle), CGAL jet/VCM, "
+                "Open3D, MST orientation; then the speed sweep (tens of minutes)");
+  app.add_flag ("--speed", wide.speed, "the speed sweep only: ours vs PCL k=18 at 100k/300k/1M, noisy vs oracle-k PCA");
+  app.add_flag ("--quick", wide.quick, "the wide protocol and speed sweep on small generated shapes (seconds; CTest)");
+  std::string data;
+  app.add_option ("--data", data, "shared data folder for --wide/--speed (default: ../shared/data beside the checkout)");
+  app.add_option ("--shapes", wide.shapes,
+                  "--wide/--speed: only these shapes (fertility bunny_mesh bunny100k fandisk100k 151A_100k_0 cube "
+                  "grooved_slab)");
+  app.add_option ("--peers", wide.peers, "--wide: all, or pca (ours and the PCA sweep only)")
+      ->check (CLI::IsMember ({"all", "pca"}))
+      ->capture_default_str ();
+  app.add_flag ("!--no-cgal", wide.cgal, "--wide: skip the CGAL jet / VCM peers");
   CLI11_PARSE (app, argc, argv);
+  if (wide.wide || wide.speed || wide.quick)
+  {
+    if (wide.quick)
+      wide.wide = wide.speed = true;
+    wide.threads = opt.threads > 0 ? opt.threads : 2;
+    wide.open3d = opt.open3d;
+    if (!wide.quick)
+    {
+      if (data.empty ())
+      {
+        if (auto d = pclx::bench::sharedDataDir ())
+          data = *d;
+      }
+      wide.data = data;
+    }
+    CsvWriter out (csv);
+    return pclx::bench::runWide (wide, out);
+  }
   if (opt.full)
   {
     opt.n_generated = 100000;

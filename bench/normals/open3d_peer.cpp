@@ -27,6 +27,18 @@ estimateNormals (const std::vector<Eigen::Vector3d>& points, int k, std::vector<
 }
 
 double
+estimateNormalsHybrid (const std::vector<Eigen::Vector3d>& points, double radius, int max_nn,
+                       std::vector<Eigen::Vector3d>& normals)
+{
+  open3d::geometry::PointCloud pc (points);
+  const auto t0 = std::chrono::steady_clock::now ();
+  pc.EstimateNormals (open3d::geometry::KDTreeSearchParamHybrid (radius, max_nn));
+  const double s = since (t0);
+  normals = pc.normals_;
+  return s;
+}
+
+double
 orientConsistent (const std::vector<Eigen::Vector3d>& points, std::vector<Eigen::Vector3d>& normals, int k)
 {
   open3d::geometry::PointCloud pc (points);

@@ -1,0 +1,592 @@
+// bench_normals --wide / --speed / --quick (issue 13). Rows (module normals):
+//   sweep=wide;noise=<σ/diag>: ours (PlanarOctreeNormalEstimation defaults), pca_k<K> (PCL
+//     NormalEstimationOMP), oracle_pca (the sweep's lowest RMS; params k=<K>), jet_k<K> and
+//     jet_best (CGAL jet_estimate_normals, k grown until the error rises), vcm_R<a>_r<b> and
+//     vcm_best (CGAL vcm_estimate_normals, offset / convolution radii a, b × the point spacing),
+//     open3d_k18, open3d_hybrid (radius 4 spacings, max_nn 30); metrics rms, mean, min, max,
+//     below5, below10 (unoriented angle error, degrees / shares). orient_mst_ours: MST flipped
+//     share on shapes with oriented truth (closed, consistently oriented meshes).
+//   sweep=speed;noise=<σ>: ours against pcl_omp_k18 at 100k / 300k / 1M clean points (best of 2),
+//     and at σ = 0.006 / 0.012 (100k) ours against pca_oracle (params k=<the oracle's k>).
+// Every method of a (shape, σ) case runs on the same noisy cloud (one seed), on opt.threads threads.
+#include "wide.h"
+
+#include "normals_bench_util.h"
+#ifdef PCLX_HAVE_OPEN3D
+#include "open3d_peer.h"
+#endif
+#ifdef PCLX_HAVE_CGAL_PEER
+#include "cgal_peer.h"
+#endif
+
+#include <pclx/normals/mst_normal_orientation.h>
+#include <pclx/normals/normal_error.h>
+#include <pclx/normals/planar_octree_normal_estimation.h>
+#include <pclx/testing/degradation.h>
+#include <pclx/testing/mesh_sampling.h>
+#include <pclx/testing/shapes.h>
+
+#include <pcl/common/io.h>
+#include <pcl/features/normal_3d_omp.h>
+#include <pcl/search/kdtree.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <iomanip>
+#include <iostream>
+#include <omp.h>
+#include <unordered_map>
+
+namespace pclx {
+namespace bench {
+
+namespace {
+
+using namespace pclx::testing;
+using Estimator = pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal>;
+using Normals = pcl::PointCloud<pcl::Normal>;
+
+const std::uint32_t kNoiseSeed = 13;  // one noisy cloud per (shape, σ), shared by every method
+
+// A closed slab [-1,1]² × [-0.3, profile] whose top is a fine-detail profile along x, extruded
+// along y: V-grooves, rectangular slots and thin ridges whose width and depth are a few point
+// spacings at 100k points (spacing ≈ 0.0095), and a sinusoidal ripple. The profile's creases are
+// mesh edges, so sampled face normals are the exact truth on both sides of every crease.
+TriangleMesh
+makeGroovedSlab ()
+{
+  const float s = 0.01f, bottom = -0.3f;
+  std::vector<Eigen::Vector2f> p{{-1.f, 0.f}};  // (x, z)
+  float x = -0.6f;
+  p.emplace_back (x, 0.f);
+  auto gap = [&] (float w) { x += w; p.emplace_back (x, 0.f); };
+  auto vgroove = [&] (float w, float d) {
+    p.emplace_back (x + w / 2, -d);
+    x += w;
+    p.emplace_back (x, 0.f);
+  };
+  auto slot = [&] (float w, float d) {
+    p.emplace_back (x, -d);
+    x += w;
+    p.emplace_back (x, -d);
+    p.emplace_back (x, 0.f);
+  };
+  auto ridge = [&] (float w, float h) {
+    p.emplace_back (x + w / 2, h);
+    x += w;
+    p.emplace_back (x, 0.f);
+  };
+  for (float w : {2 * s, 4 * s, 6 * s})
+  {
+    vgroove (w, 4 * s);
+    gap (12 * s);
+  }
+  for (float w : {3 * s, 5 * s})
+  {
+    slot (w, 4 * s);
+    gap (12 * s);
+  }
+  for (float w : {2 * s, 3 * s, 5 * s})
+  {
+    ridge (w, 4 * s);
+    gap (12 * s);
+  }
+  // Ripple: amplitude 1.5 s, wavelength 10 s, 4 periods.
+  const float amp = 1.5f * s, wl = 10 * s;
+  for (int i = 1; i <= 4 * 16; ++i)
+    p.emplace_back (x + wl * i / 16.f, amp * std::sin (2 * float (M_PI) * i / 16.f));
+  x += 4 * wl;
+  gap (12 * s);
+  // Deep narrow V-grooves next to each other (a comb).
+  for (int i = 0; i < 4; ++i)
+    vgroove (3 * s, 6 * s);
+  p.emplace_back (1.f, 0.f);
+
+  TriangleMesh m;
+  auto quad = [&m] (const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c,
+                    const Eigen::Vector3f& d) {
+    const int o = int (m.vertices.size ());
+    m.vertices.insert (m.vertices.end (), {a, b, c, d});
+    m.faces.emplace_back (o, o + 1, o + 2);
+    m.faces.emplace_back (o, o + 2, o + 3);
+  };
+  for (std::size_t i = 0; i + 1 < p.size (); ++i)
+  {
+    const Eigen::Vector2f a = p[i], b = p[i + 1];
+    // Top strip, outward (u × v with u along the profile, v along +y).
+    quad ({a.x (), -1, a.y ()}, {b.x (), -1, b.y ()}, {b.x (), 1, b.y ()}, {a.x (), 1, a.y ()});
+    if (b.x () > a.x ())
+    {
+      // Side walls under the strip: -y and +y.
+      quad ({a.x (), -1, bottom}, {b.x (), -1, bottom}, {b.x (), -1, b.y ()}, {a.x (), -1, a.y ()});
+      quad ({a.x (), 1, bottom}, {a.x (), 1, a.y ()}, {b.x (), 1, b.y ()}, {b.x (), 1, bottom});
+    }
+  }
+  const float z0 = p.front ().y (), z1 = p.back ().y ();
+  quad ({-1, -1, bottom}, {-1, -1, z0}, {-1, 1, z0}, {-1, 1, bottom});  // -x
+  quad ({1, -1, bottom}, {1, 1, bottom}, {1, 1, z1}, {1, -1, z1});      // +x
+  quad ({-1, -1, bottom}, {-1, 1, bottom}, {1, 1, bottom}, {1, -1, bottom});  // -z
+  return m;
+}
+
+// Every directed edge once and its reverse once: closed and consistently oriented. Then
+// `outward` tells the sign of the enclosed volume.
+bool
+consistentlyOriented (const TriangleMesh& m, bool& outward)
+{
+  std::unordered_map<std::uint64_t, int> edges;
+  auto key = [] (int a, int b) { return (std::uint64_t (std::uint32_t (a)) << 32) | std::uint32_t (b); };
+  double volume = 0;
+  for (const auto& f : m.faces)
+  {
+    for (int e = 0; e < 3; ++e)
+      if (++edges[key (f[e], f[(e + 1) % 3])] > 1)
+        return false;
+    volume += m.vertices[f[0]].cast<double> ().dot (
+        m.vertices[f[1]].cast<double> ().cross (m.vertices[f[2]].cast<double> ()));
+  }
+  for (const auto& [k, count] : edges)
+    if (!edges.count ((k << 32) | (k >> 32)))
+      return false;
+  outward = volume > 0;
+  return true;
+}
+
+// Point spacing of a clean cloud: from the distance r to the 16th neighbour (median over a
+// sample), the side of the square that holds one point: r·sqrt(π/16).
+double
+pointSpacing (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud)
+{
+  pcl::search::KdTree<pcl::PointXYZ> tree;
+  tree.setInputCloud (cloud);
+  const std::size_t step = std::max<std::size_t> (1, cloud->size () / 2000);
+  std::vector<double> r;
+  pcl::Indices idx;
+  std::vector<float> d2;
+  for (std::size_t i = 0; i < cloud->size (); i += step)
+    if (tree.nearestKSearch ((*cloud)[i], 17, idx, d2) == 17)
+      r.push_back (std::sqrt (d2.back ()));
+  if (r.empty ())
+    return 0;
+  std::nth_element (r.begin (), r.begin () + r.size () / 2, r.end ());
+  return r[r.size () / 2] * std::sqrt (M_PI / 16);
+}
+
+struct Shape
+{
+  std::string name;
+  TriangleMesh mesh;           // empty for PCPNet clouds
+  SampledCloud cloud;          // PCPNet: the cloud itself
+  bool oriented = false;       // truth normals oriented outward (closed, consistent mesh)
+};
+
+SampledCloud
+sampleShape (const Shape& s, std::size_t n, std::uint32_t seed)
+{
+  if (s.mesh.faces.empty ())
+    return s.cloud;
+  return sampleUniform (s.mesh, n, seed);
+}
+
+struct Result
+{
+  std::string method;
+  double seconds, rms;
+  Metrics m;
+};
+
+class WideRun
+{
+public:
+  WideRun (const WideOptions& opt, CsvWriter& out) : opt_ (opt), out_ (out) {}
+
+  int run ();
+
+private:
+  std::vector<Shape> shapes ();
+  std::vector<int> pcaKs () const
+  {
+    return opt_.quick ? std::vector<int>{12, 18, 50} : std::vector<int>{12, 18, 30, 50, 100, 200};
+  }
+  Result ours (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledCloud& truth, Normals* out = nullptr,
+               int repeats = 1);
+  Result pca (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledCloud& truth, int k, int repeats = 1);
+  void wideCase (const Shape& shape, const SampledCloud& clean, float sigma);
+  void speed (const std::vector<Shape>& shapes);
+  void emit (const Result& r, const std::string& params, const std::string& input, std::size_t n)
+  {
+    out_.row ("normals", r.method, params, input, n, r.seconds, r.m);
+  }
+  // The lowest-RMS row of a sweep, renamed (oracle_pca, jet_best, vcm_best).
+  void emitBest (const std::vector<Result>& sweep, const std::string& name, const std::string& params,
+                 const std::string& input, std::size_t n, const std::function<std::string (const Result&)>& choice)
+  {
+    if (sweep.empty ())
+      return;
+    const Result best = *std::min_element (sweep.begin (), sweep.end (),
+                                           [] (const Result& a, const Result& b) { return a.rms < b.rms; });
+    Result r = best;
+    r.method = name;
+    emit (r, params + ";" + choice (best), input, n);
+  }
+
+  const WideOptions& opt_;
+  CsvWriter& out_;
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now ();
+};
+
+std::string
+elapsed (std::chrono::steady_clock::time_point t0)
+{
+  std::ostringstream s;
+  s << std::fixed << std::setprecision (0)
+    << std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count () << " s";
+  return s.str ();
+}
+
+std::vector<Shape>
+WideRun::shapes ()
+{
+  std::vector<Shape> all;
+  auto wanted = [&] (const std::string& name) {
+    return opt_.shapes.empty () || std::find (opt_.shapes.begin (), opt_.shapes.end (), name) != opt_.shapes.end ();
+  };
+  namespace fs = std::filesystem;
+  const bool have_data = !opt_.quick && !opt_.data.empty () && fs::is_directory (opt_.data);
+  if (!opt_.quick && !have_data)
+    std::cerr << "[bench_normals] shared data folder '" << opt_.data
+              << "' not found (--data): generated shapes only\n";
+  if (have_data)
+  {
+    for (const auto& [name, rel] : {std::pair<std::string, std::string> ("fertility", "meshes/fertility.ply"),
+                                    std::pair<std::string, std::string> ("bunny_mesh", "bunny/reconstruction/bun_zipper.ply")})
+    {
+      if (!wanted (name))
+        continue;
+      const fs::path p = fs::path (opt_.data) / rel;
+      if (!fs::exists (p))
+      {
+        std::cerr << "[bench_normals] " << p << " missing: " << name << " skipped\n";
+        continue;
+      }
+      Shape s{name, loadPlyMesh (p.string ()), {}, false};
+      bool outward = false;
+      s.oriented = consistentlyOriented (s.mesh, outward);
+      if (s.oriented && !outward)
+        for (auto& f : s.mesh.faces)
+          std::swap (f[1], f[2]);
+      std::cerr << "[bench_normals] " << name << ": " << s.mesh.faces.size () << " faces, "
+                << (s.oriented ? (std::string ("closed and consistently oriented") + (outward ? "" : " (flipped to outward)"))
+                               : std::string ("not closed or not consistently oriented: no orientation rows"))
+                << "\n";
+      all.push_back (std::move (s));
+    }
+    for (const char* name : {"bunny100k", "fandisk100k", "151A_100k_0"})
+    {
+      if (!wanted (name))
+        continue;
+      Shape s{name, {}, {}, false};
+      if (loadPcpnet (opt_.data + "/pcpnet/" + name, s.cloud))
+        all.push_back (std::move (s));
+      else
+        std::cerr << "[bench_normals] PCPNet " << name << " missing: skipped\n";
+    }
+  }
+  if (wanted ("cube"))
+    all.push_back ({"cube", makeBox (Eigen::Vector3f::Ones (), 16), {}, true});
+  if (wanted ("grooved_slab"))
+    all.push_back ({"grooved_slab", makeGroovedSlab (), {}, true});
+  return all;
+}
+
+Result
+WideRun::ours (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledCloud& truth, Normals* out, int repeats)
+{
+  Estimator ne;
+  ne.setInputCloud (cloud);
+  ne.setNumberOfThreads (opt_.threads);
+  Normals normals;
+  const double t = timeBest ([&] { ne.compute (normals); }, repeats);
+  const auto e = pclx::normals::compareNormals (normals, truth.cloud);
+  Metrics m = errorMetrics (e);
+  const auto& st = ne.getPointStatus ();
+  m.emplace_back ("knn_share", st.empty () ? 0.0
+                                           : double (std::count (st.begin (), st.end (), std::uint8_t (Estimator::KNN_PCA))) /
+                                                 st.size ());
+  if (out)
+    *out = std::move (normals);
+  return {"ours", t, e.rms_deg, m};
+}
+
+Result
+WideRun::pca (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledCloud& truth, int k, int repeats)
+{
+  pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> ne (opt_.threads);
+  ne.setInputCloud (cloud);
+  ne.setKSearch (k);
+  Normals normals;
+  const double t = timeBest ([&] { ne.compute (normals); }, repeats);
+  const auto e = pclx::normals::compareNormals (normals, truth.cloud);
+  return {"pca_k" + std::to_string (k), t, e.rms_deg, errorMetrics (e)};
+}
+
+Normals
+toPcl (const std::vector<Eigen::Vector3f>& n)
+{
+  Normals out (n.size (), 1);
+  for (std::size_t i = 0; i < n.size (); ++i)
+    out[i].getNormalVector3fMap () = n[i];
+  return out;
+}
+
+void
+WideRun::wideCase (const Shape& shape, const SampledCloud& clean, float sigma)
+{
+  const auto t0 = std::chrono::steady_clock::now ();
+  SampledCloud s = clean;
+  if (sigma > 0)
+    addGaussianNoise (s, sigma, kNoiseSeed);
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
+  pcl::copyPointCloud (s.cloud, *cloud);
+  const std::size_t n = cloud->size ();
+  const std::string params = "sweep=wide;noise=" + fmt (sigma);
+  const std::string& input = shape.name;
+
+  Normals our_normals;
+  const Result o = ours (cloud, s, &our_normals);
+  emit (o, params, input, n);
+
+  std::vector<Result> pcas;
+  for (int k : pcaKs ())
+  {
+    pcas.push_back (pca (cloud, s, k));
+    emit (pcas.back (), params, input, n);
+  }
+  emitBest (pcas, "oracle_pca", params, input, n, [] (const Result& r) { return "k=" + r.method.substr (5); });
+  const Result oracle = *std::min_element (pcas.begin (), pcas.end (),
+                                           [] (const Result& a, const Result& b) { return a.rms < b.rms; });
+  std::string extra;
+  if (opt_.peers == "all")
+  {
+    std::vector<Eigen::Vector3f> pts (n), nrm;
+    for (std::size_t i = 0; i < n; ++i)
+      pts[i] = (*cloud)[i].getVector3fMap ();
+#ifdef PCLX_HAVE_CGAL_PEER
+    if (opt_.cgal)
+    {
+      // Jet over growing k, stopped at the first k that is worse than the one before (the
+      // error is unimodal in k here; it saves the k = 200 run on clean and mildly noisy clouds).
+      std::vector<Result> jets;
+      for (int k : opt_.quick ? std::vector<int>{18} : std::vector<int>{18, 50, 100, 200})
+      {
+        const double t = cgal_peer::jetNormals (pts, k, opt_.threads, nrm);
+        const auto e = pclx::normals::compareNormals (toPcl (nrm), s.cloud);
+        jets.push_back ({"jet_k" + std::to_string (k), t, e.rms_deg, errorMetrics (e)});
+        emit (jets.back (), params, input, n);
+        if (jets.size () > 1 && jets.back ().rms > jets[jets.size () - 2].rms)
+          break;
+      }
+      emitBest (jets, "jet_best", params, input, n, [] (const Result& r) { return "k=" + r.method.substr (5); });
+      // VCM radii in point spacings h: the offset radius R follows the feature size, the
+      // convolution radius r the noise (CGAL's documentation). R grows (2, 5, 10 h) while the
+      // best r at that R improves; r ∈ {2, 5, 10} h is convolved from one offset computation.
+      const double h = pointSpacing (positions (clean.cloud));
+      const std::vector<int> conv = opt_.quick ? std::vector<int>{2} : std::vector<int>{2, 5, 10};
+      std::vector<double> conv_h;
+      for (int b : conv)
+        conv_h.push_back (b * h);
+      std::vector<Result> vcms;
+      double best_prev = 1e300;
+      for (int a : opt_.quick ? std::vector<int>{2} : std::vector<int>{2, 5, 10})
+      {
+        std::vector<std::vector<Eigen::Vector3f>> nrms;
+        std::vector<double> secs;
+        cgal_peer::vcmNormalsSweep (pts, a * h, conv_h, nrms, secs);
+        double best_here = 1e300;
+        for (std::size_t j = 0; j < conv.size (); ++j)
+        {
+          const auto e = pclx::normals::compareNormals (toPcl (nrms[j]), s.cloud);
+          Metrics m = errorMetrics (e);
+          m.emplace_back ("offset_radius", a * h);
+          m.emplace_back ("convolution_radius", conv_h[j]);
+          vcms.push_back ({"vcm_R" + std::to_string (a) + "_r" + std::to_string (conv[j]), secs[j], e.rms_deg, m});
+          emit (vcms.back (), params, input, n);
+          best_here = std::min (best_here, e.rms_deg);
+        }
+        if (best_here > best_prev)
+          break;
+        best_prev = best_here;
+      }
+      emitBest (vcms, "vcm_best", params, input, n, [] (const Result& r) {
+        const auto u = r.method.find ("_r");
+        return "R=" + r.method.substr (5, u - 5) + ";r=" + r.method.substr (u + 2);
+      });
+      const auto bj = std::min_element (jets.begin (), jets.end (), [] (auto& a, auto& b) { return a.rms < b.rms; });
+      const auto bv = std::min_element (vcms.begin (), vcms.end (), [] (auto& a, auto& b) { return a.rms < b.rms; });
+      std::ostringstream x;
+      x << std::fixed << std::setprecision (2) << ", jet " << bj->rms << "° (" << bj->method << "), vcm " << bv->rms
+        << "° (" << bv->method << ")";
+      extra += x.str ();
+    }
+#endif
+#ifdef PCLX_HAVE_OPEN3D
+    if (opt_.open3d)
+    {
+      std::vector<Eigen::Vector3d> p3 (n), n3;
+      for (std::size_t i = 0; i < n; ++i)
+        p3[i] = pts[i].cast<double> ();
+      auto row = [&] (const std::string& name, double t, const Metrics& extra_m) {
+        std::vector<Eigen::Vector3f> nf (n);
+        for (std::size_t i = 0; i < n; ++i)
+          nf[i] = n3[i].cast<float> ();
+        const auto e = pclx::normals::compareNormals (toPcl (nf), s.cloud);
+        Metrics m = errorMetrics (e);
+        m.insert (m.end (), extra_m.begin (), extra_m.end ());
+        emit ({name, t, e.rms_deg, m}, params, input, n);
+      };
+      row ("open3d_k18", open3d_peer::estimateNormals (p3, 18, n3), {});
+      // Hybrid search as Open3D's tutorials use it: a radius of a few spacings, at most 30.
+      const double radius = 4 * pointSpacing (positions (clean.cloud));
+      row ("open3d_hybrid", open3d_peer::estimateNormalsHybrid (p3, radius, 30, n3),
+           {{"radius", radius}, {"max_nn", 30}});
+    }
+#endif
+    if (shape.oriented)
+    {
+      pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+      mst.setInputCloud (cloud);
+      mst.setKSearch (10);
+      mst.setNumberOfThreads (opt_.threads);
+      Normals oriented;
+      const double t = timeBest ([&] { oriented = our_normals; mst.orient (oriented); }, 1);
+      const auto e = pclx::normals::compareNormals (oriented, s.cloud, true);
+      out_.row ("normals", "orient_mst_ours", params + ";k=10", input, n, t,
+                {{"flipped", e.flipped}, {"rms_oriented", e.rms_deg}, {"components", double (mst.getNumberOfComponents ())}});
+      std::ostringstream x;
+      x << std::setprecision (3) << ", MST flipped " << 100 * e.flipped << " %";
+      extra += x.str ();
+    }
+  }
+  std::cerr << std::fixed << std::setprecision (2) << "[bench_normals] wide " << input << " σ=" << fmt (sigma) << ": ours "
+            << o.rms << "° " << o.seconds << " s, oracle PCA " << oracle.rms << "° (" << oracle.method << ", "
+            << oracle.seconds << " s)" << extra << "  [" << elapsed (t0) << ", total " << elapsed (start_) << "]\n"
+            << std::defaultfloat;
+}
+
+void
+WideRun::speed (const std::vector<Shape>& shapes)
+{
+  const std::vector<std::size_t> sizes =
+      opt_.quick ? std::vector<std::size_t>{3000, 6000} : std::vector<std::size_t>{100000, 300000, 1000000};
+  const int repeats = 2;
+  for (const auto& shape : shapes)
+  {
+    if (shape.mesh.faces.empty ())
+      continue;
+    for (std::size_t n : sizes)
+    {
+      const auto t0 = std::chrono::steady_clock::now ();
+      const SampledCloud s = sampleUniform (shape.mesh, n, 21);
+      const auto cloud = positions (s.cloud);
+      const Result o = ours (cloud, s, nullptr, repeats);
+      Result p = pca (cloud, s, 18, repeats);
+      p.method = "pcl_omp_k18";
+      emit (o, "sweep=speed;noise=0", shape.name, n);
+      emit (p, "sweep=speed;noise=0", shape.name, n);
+      std::cerr << std::fixed << std::setprecision (2) << "[bench_normals] speed " << shape.name << " " << n
+                << ": ours " << o.seconds << " s " << o.rms << "°, PCL k=18 " << p.seconds << " s " << p.rms
+                << "° (" << p.seconds / o.seconds << "x)  [" << elapsed (t0) << "]\n"
+                << std::defaultfloat;
+    }
+    // Noisy: ours against PCA at the k the oracle picks for this shape and σ.
+    for (float sigma : {0.006f, 0.012f})
+    {
+      const auto t0 = std::chrono::steady_clock::now ();
+      SampledCloud s = sampleUniform (shape.mesh, opt_.quick ? sizes.front () : opt_.points, 21);
+      addGaussianNoise (s, sigma, kNoiseSeed);
+      const auto cloud = positions (s.cloud);
+      Result best{"", 0, 1e300, {}};
+      int best_k = 0;
+      for (int k : pcaKs ())
+      {
+        const Result r = pca (cloud, s, k);
+        if (r.rms < best.rms)
+          best = r, best_k = k;
+      }
+      const std::string params = "sweep=speed;noise=" + fmt (sigma) + ";k=" + std::to_string (best_k);
+      const Result o = ours (cloud, s, nullptr, repeats);
+      Result p = pca (cloud, s, best_k, repeats);
+      p.method = "pca_oracle";
+      emit (o, params, shape.name, cloud->size ());
+      emit (p, params, shape.name, cloud->size ());
+      std::cerr << std::fixed << std::setprecision (2) << "[bench_normals] speed " << shape.name << " σ=" << fmt (sigma)
+                << ": ours " << o.seconds << " s " << o.rms << "°, PCA oracle k=" << best_k << " " << p.seconds << " s "
+                << p.rms << "°  [" << elapsed (t0) << "]\n"
+                << std::defaultfloat;
+    }
+  }
+}
+
+int
+WideRun::run ()
+{
+  omp_set_num_threads (opt_.threads);  // Open3D's OpenMP loops too
+#ifdef PCLX_HAVE_CGAL_PEER
+  if (opt_.cgal && opt_.peers == "all")
+    std::cerr << "[bench_normals] CGAL jet_estimate_normals: " << cgal_peer::jetConcurrency ()
+              << "; vcm_estimate_normals: sequential\n";
+#else
+  std::cerr << "[bench_normals] built without the CGAL peer: no jet / VCM rows\n";
+#endif
+#ifndef PCLX_HAVE_OPEN3D
+  std::cerr << "[bench_normals] built without Open3D: no Open3D rows\n";
+#endif
+  const std::vector<Shape> all = shapes ();
+  if (all.empty ())
+  {
+    std::cerr << "[bench_normals] no shape left (--shapes)\n";
+    return 2;
+  }
+  const std::size_t n = opt_.quick ? 4000 : opt_.points;
+  if (opt_.wide)
+  {
+    const std::vector<float> sigmas =
+        opt_.quick ? std::vector<float>{0.f, 0.006f} : std::vector<float>{0.f, 0.0012f, 0.006f, 0.012f};
+    for (const auto& shape : all)
+    {
+      const SampledCloud clean = sampleShape (shape, n, 17);
+      for (float sigma : sigmas)
+        wideCase (shape, clean, sigma);
+    }
+  }
+  if (opt_.speed)
+  {
+    // Detailed organic meshes (generated shapes when the data folder is missing).
+    std::vector<Shape> meshes;
+    for (const auto& s : all)
+      if (s.name == "fertility" || s.name == "bunny_mesh")
+        meshes.push_back (s);
+    if (meshes.empty ())
+      for (const auto& s : all)
+        if (!s.mesh.faces.empty ())
+          meshes.push_back (s);
+    speed (meshes);
+  }
+  std::cerr << "[bench_normals] done in " << elapsed (start_) << "\n";
+  return 0;
+}
+
+}  // namespace
+
+int
+runWide (const WideOptions& opt, CsvWriter& out)
+{
+  WideRun run (opt, out);
+  return run.run ();
+}
+
+}  // namespace bench
+}  // namespace pclx

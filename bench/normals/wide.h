@@ -1,0 +1,31 @@
+#pragma once
+// bench_normals --wide / --speed / --quick: the wide normals protocol of issue 13 (shapes we
+// never tuned to, PCPNet noise levels, PCA k sweep with an oracle row, CGAL jet and VCM,
+// Open3D), a speed sweep against PCL at 100k-1M points, and MST orientation on closed shapes.
+#include "bench_csv.h"
+
+#include <string>
+#include <vector>
+
+namespace pclx {
+namespace bench {
+
+struct WideOptions
+{
+  bool wide = false;   // the shape × noise table
+  bool speed = false;  // the speed sweep (100k, 300k, 1M; noisy 100k against the oracle k)
+  bool quick = false;  // generated shapes only, a few thousand points (CTest smoke)
+  int threads = 2;
+  std::string data;                 // shared data folder; empty: generated shapes only
+  std::vector<std::string> shapes;  // only these shapes (empty: all)
+  std::string peers = "all";        // all | pca (ours + the PCA sweep only: quick checks of the class)
+  bool cgal = true, open3d = true;
+  std::size_t points = 100000;
+};
+
+// Prints rows (module normals, params sweep=wide|speed|orient;noise=σ/diag) and progress on
+// stderr. Returns the process exit code.
+int runWide (const WideOptions& opt, CsvWriter& out);
+
+}  // namespace bench
+}  // namespace pclx
