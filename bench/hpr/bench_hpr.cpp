@@ -68,36 +68,27 @@ accuracy (const std::vector<int>& visible, const std::vector<bool>& truth)
 }
 
 
-// Ray-cast truth whose precision does not depend on the distance: RayCaster::visibleFrom
-// casts from C in float, and from 1000× the diagonal its float hit distances (and the
-// self-hit tolerance 1 − tol/|p − C|) are too coarse: every method, Open3D included, lost
-// ~0.07 F1 at 1000× against it. Any occluder of p lies in the bounding box, so the segment
-// from p back towards C over 2 diagonals (or all the way to C when nearer) decides the same.
-std::vector<bool>
-truthFrom (const RayCaster& caster, const pcl::PointCloud<pcl::PointNormal>& cloud, const Eigen::Vector3f& viewpoint,
-           double diagonal)
+// A generated shape with deep concavities and thin parts (issue 12): thin fins (4 % of
+// their height thick) standing on a slab with narrow slots between them, and a thin-walled
+// open box (a cup). Closed boxes that overlap; the overlapped faces are hidden from everywhere.
+TriangleMesh
+makeFinsScene ()
 {
-  std::vector<char> vis (cloud.size (), 0);
-  const std::ptrdiff_t n = std::ptrdiff_t (cloud.size ());
-  const float tol = float (1e-4 * diagonal);
-#pragma omp parallel for schedule(dynamic, 4096)
-  for (std::ptrdiff_t i = 0; i < n; ++i)
-  {
-    const Eigen::Vector3d p = cloud[i].getVector3fMap ().cast<double> ();
-    const Eigen::Vector3d d = p - viewpoint.cast<double> ();
-    const double len = d.norm ();
-    const double L = std::min (len, 2.0 * diagonal);
-    if (!(len > tol))
-    {
-      vis[i] = 1;
-      continue;
-    }
-    const Eigen::Vector3f origin = (p - d * (L / len)).cast<float> ();
-    const Eigen::Vector3f dir = cloud[i].getVector3fMap () - origin;
-    const float t = caster.cast (origin, dir);
-    vis[i] = !(t < 1.f - tol / dir.norm ());
-  }
-  return std::vector<bool> (vis.begin (), vis.end ());
+  TriangleMesh scene = makeBox (Eigen::Vector3f (2.4f, 2.f, 0.2f), 24);
+  scene.transform (Eigen::Affine3f (Eigen::Translation3f (0, 0, -0.1f)));
+  auto add = [&scene] (const Eigen::Vector3f& size, const Eigen::Vector3f& at) {
+    TriangleMesh b = makeBox (size, 16);
+    b.transform (Eigen::Affine3f (Eigen::Translation3f (at)));
+    scene.append (b);
+  };
+  for (int i = 0; i < 5; ++i)  // fins 0.04 thick, slots 0.2 wide and 1.0 deep
+    add (Eigen::Vector3f (0.04f, 1.8f, 1.05f), Eigen::Vector3f (-1.05f + 0.24f * i, 0.f, 0.475f));
+  const float wall = 0.04f, side = 0.7f, height = 0.9f, cx = 0.65f;  // the cup
+  add (Eigen::Vector3f (side, wall, height), Eigen::Vector3f (cx, -side / 2, 0.4f));
+  add (Eigen::Vector3f (side, wall, height), Eigen::Vector3f (cx, side / 2, 0.4f));
+  add (Eigen::Vector3f (wall, side, height), Eigen::Vector3f (cx - side / 2, 0.f, 0.4f));
+  add (Eigen::Vector3f (wall, side, height), Eigen::Vector3f (cx + side / 2, 0.f, 0.4f));
+  return scene;
 }
 
 // Viewpoints at `distance` × diagonal from the centre, from several sides.
@@ -209,6 +200,38 @@ public:
     return v;
   }
 
+  // Open3D at each R in `radii` (R / diameter), a row each, and the row of the best F1
+  // repeated as open3d_exact_bestR (same timing, not re-run).
+  void
+  open3dEach (const Case& c, const std::string& sweep, const std::vector<double>& radii)
+  {
+    open3d::geometry::PointCloud pc;
+    pc.points_.reserve (c.cloud->size ());
+    for (const auto& p : *c.cloud)
+      pc.points_.emplace_back (p.x, p.y, p.z);
+    double best_f1 = -1, best_r = 0, best_t = 0;
+    Metrics best_m;
+    for (double r : radii)
+    {
+      std::vector<size_t> vis;
+      const double t = timeBest (
+          [&] { vis = std::get<1> (pc.HiddenPointRemoval (c.viewpoint.cast<double> (), r * c.diameter)); }, repeats_);
+      const Metrics m = accuracy (std::vector<int> (vis.begin (), vis.end ()), c.truth);
+      const std::string params = "sweep=" + sweep + ";view=" + std::to_string (c.view) + ";R=" + fmt (r) + "d";
+      out_.row ("hpr", "open3d_exact", params, c.input, c.cloud->size (), t, m);
+      if (m[3].second > best_f1)
+      {
+        best_f1 = m[3].second;
+        best_r = r;
+        best_t = t;
+        best_m = m;
+      }
+    }
+    out_.row ("hpr", "open3d_exact_bestR",
+              "sweep=" + sweep + ";view=" + std::to_string (c.view) + ";R=" + fmt (best_r) + "d", c.input,
+              c.cloud->size (), best_t, best_m);
+  }
+
   // Open3D at each R in `radii` (R / diameter) without rows; the row of the best F1 is
   // written as open3d_exact_bestR. Returns that R / diameter.
   double
@@ -256,7 +279,7 @@ main (int argc, char** argv)
   std::vector<std::size_t> sizes{100000, 1000000, 3000000};
   int views = 3, repeats = 1;
   bool quick = false, no_sweeps = false, sweeps_only = false, distance_sweep = false, load_rows = false;
-  bool no_open3d = false;
+  bool no_open3d = false, wide = false, wide_dev = false;
   std::size_t sweep_points = 100000;
   std::vector<double> distances{1.2, 2.0, 5.0, 20.0, 100.0, 1000.0};
   std::vector<std::string> only_inputs;
@@ -274,7 +297,11 @@ main (int argc, char** argv)
   app.add_option ("--sweep-points", sweep_points, "points of the distance sweep")->capture_default_str ();
   app.add_option ("--distances", distances, "distances of the sweep (x diagonal)")->capture_default_str ();
   app.add_option ("--inputs", only_inputs, "only these inputs (bunny, fertility, torus_scene)");
-  app.add_flag ("--no-open3d", no_open3d, "distance sweep without the Open3D rows");
+  app.add_flag ("--no-open3d", no_open3d, "distance sweep / wide set without the Open3D rows");
+  app.add_flag ("--wide", wide,
+                "only the wide shape set (bunny, fertility, torus scene, fins) at --sizes and --views: every "
+                "method and Open3D at R = 10^2, 10^3, 10^4 d (its best marked open3d_exact_bestR)");
+  app.add_flag ("--wide-dev", wide_dev, "with --wide: only the candidate hull variants (development)");
   app.add_flag ("--load-rows", load_rows,
                 "only the loaded-machine rows (1, 2, auto threads; with and without a busy child process)");
   CLI11_PARSE (app, argc, argv);
@@ -288,7 +315,7 @@ main (int argc, char** argv)
   if (auto data = pclx::bench::sharedDataDir ())
   {
     inputs.push_back ({"bunny", loadPlyMesh (*data + "/bunny/reconstruction/bun_zipper.ply")});
-    if (distance_sweep || load_rows)  // not in the main sweep yet (its figures stay comparable)
+    if (distance_sweep || load_rows || wide)  // not in the main sweep (its figures stay comparable)
       inputs.push_back ({"fertility", loadPlyMesh (*data + "/meshes/fertility.ply")});
   }
   {
@@ -300,6 +327,8 @@ main (int argc, char** argv)
     scene.append (slab);
     inputs.push_back ({"torus_scene", scene});
   }
+  if (wide)
+    inputs.push_back ({"fins", makeFinsScene ()});
 
   if (!only_inputs.empty ())
     inputs.erase (std::remove_if (inputs.begin (), inputs.end (),
@@ -331,7 +360,7 @@ main (int argc, char** argv)
       for (double dist : distances)
       {
         const Eigen::Vector3f vp = viewpoints (in.mesh, 1, float (dist))[0];
-        const Case c{in.name, positions (s.cloud), truthFrom (caster, s.cloud, vp, diameter), vp, diameter, 0};
+        const Case c{in.name, positions (s.cloud), caster.visibleFrom (s.cloud, vp), vp, diameter, 0};
         const std::string tag = ";distance=" + fmt (dist);
         double max_rho = 0;
         for (const auto& p : *c.cloud)
@@ -373,6 +402,50 @@ main (int argc, char** argv)
             return Metrics{{"jaccard_vs_open3d", pclx::testing::jaccard (vis, o3d)}};
           });
 #endif
+        }
+      }
+    }
+    return 0;
+  }
+
+  if (wide)
+  {
+    // Issue 12 item 3: every shape, size and view; Open3D at R = 10^2, 10^3, 10^4 d with its
+    // best F1 repeated as open3d_exact_bestR (scripts compare against that row).
+    for (const auto& in : inputs)
+    {
+      const RayCaster caster (in.mesh);
+      const double diameter = in.mesh.diagonal ();
+      const auto vps = viewpoints (in.mesh, views, distance);
+      for (std::size_t n : sizes)
+      {
+        const SampledCloud s = sampleUniform (in.mesh, n, 7);
+        for (int v = 0; v < int (vps.size ()); ++v)
+        {
+          const Case c{in.name, positions (s.cloud), caster.visibleFrom (s.cloud, vps[v]), vps[v], diameter, v};
+#ifdef PCLX_HAVE_OPEN3D
+          if (!no_open3d && !wide_dev)
+            run.open3dEach (c, "wide", radii);
+#endif
+          std::vector<std::pair<std::string, Filter::Method>> methods{
+              {"pclx_auto", Filter::Method::AUTO},
+              {"pclx_candidate_hull_autoR", Filter::Method::CANDIDATE_HULL}};
+          if (!wide_dev)
+            methods.insert (methods.end (), {{"pclx_exact_autoR", Filter::Method::EXACT},
+                                             {"pclx_grid_auto", Filter::Method::ANGULAR_GRID},
+                                             {"bfp", Filter::Method::BENTLEY_FAUST_PREPARATA},
+                                             {"hybrid", Filter::Method::HYBRID},
+                                             {"kavan", Filter::Method::KAVAN}});
+          for (const auto& [label, m] : methods)
+          {
+            Filter f;
+            f.setMethod (m);
+            if (m == Filter::Method::BENTLEY_FAUST_PREPARATA || m == Filter::Method::HYBRID)
+              f.setSectorCount (n / 4);
+            if (m == Filter::Method::KAVAN)
+              f.setSectorCount (2000);
+            run.ours (c, "wide", label, f, "");
+          }
         }
       }
     }

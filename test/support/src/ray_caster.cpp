@@ -2,6 +2,7 @@
 
 #include <embree3/rtcore.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -98,21 +99,33 @@ RayCaster::cast (const Eigen::Vector3f& origin, const Eigen::Vector3f& dir, int*
 bool
 RayCaster::occluded (const Eigen::Vector3f& viewpoint, const Eigen::Vector3f& p, float abs_tol) const
 {
-  const Eigen::Vector3f d = p - viewpoint;
-  const float len = d.norm ();
-  if (len <= abs_tol)
+  // The segment is cast back from near the point, not from the viewpoint: from a far
+  // viewpoint (1000 x the diagonal) float hit distances along the whole ray are too coarse
+  // for the tolerance, and every method scored ~0.07 F1 lower against that truth. Every
+  // occluder lies within one diagonal of p (it is on the mesh), so the last 2 diagonals of
+  // the segment decide the same; p - C is formed in double.
+  const Eigen::Vector3d d = p.cast<double> () - viewpoint.cast<double> ();
+  const double len = d.norm ();
+  if (!(len > abs_tol))
+    return false;
+  const double L = std::min (len, 2.0 * double (impl_->diagonal));
+  const Eigen::Vector3f origin =
+      L < len ? Eigen::Vector3f ((p.cast<double> () - d * (L / len)).cast<float> ()) : viewpoint;
+  const Eigen::Vector3f dir = p - origin;
+  const float dir_len = dir.norm ();
+  if (!(dir_len > abs_tol))
     return false;
   RTCIntersectContext context;
   rtcInitIntersectContext (&context);
   RTCRay ray;
-  ray.org_x = viewpoint.x ();
-  ray.org_y = viewpoint.y ();
-  ray.org_z = viewpoint.z ();
-  ray.dir_x = d.x ();
-  ray.dir_y = d.y ();
-  ray.dir_z = d.z ();
+  ray.org_x = origin.x ();
+  ray.org_y = origin.y ();
+  ray.org_z = origin.z ();
+  ray.dir_x = dir.x ();
+  ray.dir_y = dir.y ();
+  ray.dir_z = dir.z ();
   ray.tnear = 0.f;
-  ray.tfar = 1.f - abs_tol / len;  // stop just before the point's own surface
+  ray.tfar = 1.f - abs_tol / dir_len;  // stop just before the point's own surface
   ray.mask = static_cast<unsigned> (-1);
   ray.flags = 0;
   ray.time = 0.f;
@@ -127,7 +140,7 @@ RayCaster::visibleFrom (const pcl::PointCloud<PointT>& cloud, const Eigen::Vecto
   const float abs_tol = tol * impl_->diagonal;
   std::vector<char> vis (cloud.size (), 0);
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t> (cloud.size ());
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(dynamic, 4096)
   for (std::ptrdiff_t i = 0; i < n; ++i)
   {
     const Eigen::Vector3f p = cloud[i].getVector3fMap ();

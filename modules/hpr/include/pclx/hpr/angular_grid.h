@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 namespace pcl {
@@ -21,6 +22,10 @@ public:
   // `radius` is the flip radius R (> max ρ).
   void build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre, double radius,
               std::size_t sectors);
+  // The same, with R chosen from the grid's solid angle (gridSolidAngle ()) once the grid is
+  // laid out: the candidate hull calibrates R on its own grid, without a calibration grid.
+  void build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre,
+              const std::function<double (double grid_solid_angle)>& radius_for_area, std::size_t sectors);
 
   // Adaptive propagation (§4.3.1, scatter): only sectors changed in the previous step
   // pass their candidate on; stops when stable or after `max_steps` (0 = until stable).
@@ -47,7 +52,12 @@ public:
   // (C, a, b, c) of candidate points in flipped space. Such points are interior to
   // the hull of the flipped cloud, so they cannot be hull vertices: culling them
   // before Qhull changes no visible point. `points` are the ones given to build().
-  std::vector<std::uint8_t> interiorPoints (const std::vector<Eigen::Vector3d>& points) const;
+  // When `survivors` is given it receives the points that are not interior, in sector
+  // order (indices into `points`; their positions in `survivor_points`): a finer pass over
+  // them then reads memory nearly in order.
+  std::vector<std::uint8_t> interiorPoints (const std::vector<Eigen::Vector3d>& points,
+                                            std::vector<int>* survivors = nullptr,
+                                            std::vector<Eigen::Vector3d>* survivor_points = nullptr) const;
 
   // Balls-in-bins calibration (§6) on this grid used as the coarse grid.
   struct Calibration
@@ -62,6 +72,11 @@ public:
   void setThreads (int threads) { threads_ = threads; }
 
   std::size_t sectorCount () const { return cand_.size (); }
+  double radius () const { return radius_; }  // R the candidates were scored with
+  // Per point given to build(): its sector (row-major, rows () × cols ()); per sector: its
+  // candidate point or −1.
+  const std::vector<std::uint32_t>& pointSectors () const { return sector_; }
+  const std::vector<int>& sectorCandidates () const { return cand_; }
   int rows () const { return n_phi_; }
   int cols () const { return n_theta_; }
   double cellAngle () const { return cell_; }  // angular size of one sector (rad)

@@ -49,8 +49,9 @@ public:
     EXACT,         // Katz et al.: Qhull on the flipped cloud (+ an exact interior pre-filter)
     ANGULAR_GRID,  // Machado e Silva et al.: sector candidates + propagation
     CANDIDATE_HULL,  // ours: every point not strictly inside a tetrahedron (C, a, b, c) of
-                     // neighbouring grid candidates (k = 2·n^0.7, ℓ = 4 by default); keeps all
-                     // hull vertices, so recall matches EXACT at a fraction of its time
+                     // neighbouring grid candidates (k = 2·n^0.7, ℓ = 4 by default), then the
+                     // survivors again on grids 2× and 4× finer (setRefinementPasses); keeps
+                     // all hull vertices, so recall matches EXACT at a fraction of its time
     BENTLEY_FAUST_PREPARATA,  // seed 000 §3.1: grid extremes, then exact hull of those
     KAVAN,         // seed 000 §3.2: sector candidates refined against all others, O(k²)
     HYBRID         // seed 000 §3.3: sector candidates (Kavan sampling), then exact hull
@@ -98,6 +99,12 @@ public:
 
   // Adaptive: `steps` = ℓ (0 = calibrated). Fixed: `steps` = m, the odd mask size.
   void setPropagation (Propagation mode, int steps = 0) { propagation_ = mode; steps_ = steps; }
+
+  // CANDIDATE_HULL: culling passes over the survivors of the first, on grids 2×, 4×, ...
+  // finer at the same R (default 2, 0..8). Each halves the size of the triangles, so the
+  // depth band in which hidden points survive shrinks 4×; the test stays conservative.
+  void setRefinementPasses (int passes) { refinement_ = passes; }
+  int getRefinementPasses () const { return refinement_; }
 
   // Exact method: cull points that are provably interior before Qhull (default on;
   // the visible set is the same either way).
@@ -156,6 +163,7 @@ private:
   Propagation propagation_ = Propagation::ADAPTIVE;
   int steps_ = 0;
   bool exact_prefilter_ = true;
+  int refinement_ = 2;
   bool reconstruct_ = false;
   float max_edge_ = 0.f;
   bool compute_normals_ = false;

@@ -27,6 +27,9 @@ struct VisibilityOptions
   bool fixed_propagation = false;
   int steps = 0;              // ℓ (adaptive, 0: calibrate) or m (fixed)
   bool exact_prefilter = true;
+  // Candidate hull: culling passes on the survivors after the first, on grids 2×, 4×, ...
+  // finer at the same R (0: one pass, as before; computeVisibility rejects < 0).
+  int refinement = 2;
   bool triangles = false;
   float max_edge = 0.f;       // <= 0: 5 × median edge
   bool normals = false;

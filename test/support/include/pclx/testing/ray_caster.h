@@ -26,6 +26,8 @@ public:
   // True where the segment viewpoint → point is not blocked by the mesh, ignoring
   // hits within tol · (mesh diagonal) before the point (its own face). Points must
   // lie on the mesh: compute ground truth on clean samples, before adding noise.
+  // The precision does not depend on the viewpoint's distance (the segment is cast back
+  // from within two diagonals of the point, p - C in double).
   template <typename PointT> std::vector<bool>
   visibleFrom (const pcl::PointCloud<PointT>& cloud, const Eigen::Vector3f& viewpoint,
                float tol = 1e-4f) const;

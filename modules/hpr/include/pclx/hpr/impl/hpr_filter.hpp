@@ -40,6 +40,8 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
     return reject ("fixed propagation needs an odd mask size m >= 1");
   if (steps_ < 0)
     return reject ("the number of propagation steps must be >= 0");
+  if (refinement_ < 0 || refinement_ > 8)
+    return reject ("the number of refinement passes must be in 0..8 (each doubles the culling grid)");
 
   // Finite points among the requested indices, relative to the viewpoint, in double: in
   // float, p − C loses the depth differences when C is far (at 1000× the diameter one float
@@ -91,6 +93,7 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   opt.fixed_propagation = propagation_ == Propagation::FIXED;
   opt.steps = steps_;
   opt.exact_prefilter = exact_prefilter_;
+  opt.refinement = refinement_;
   opt.triangles = reconstruct_;
   opt.max_edge = max_edge_;
   opt.normals = compute_normals_;
