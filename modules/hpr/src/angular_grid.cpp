@@ -234,7 +234,12 @@ AngularGrid::direction (std::size_t s) const
 double
 AngularGrid::score (int point, std::size_t sector) const
 {
-  const Eigen::Vector3d d = direction (sector);
+  return scoreDir (point, direction (sector));
+}
+
+double
+AngularGrid::scoreDir (int point, const Eigen::Vector3d& d) const
+{
   const double one_minus_cos = 0.5 * (unit_[point].cast<double> () - d).squaredNorm ();
   // g − ρ_min/2R: the same ranking, and the depth term keeps its digits when C is far
   // (ρ ≈ distance, depth differences ≪ ρ).
@@ -317,6 +322,7 @@ AngularGrid::propagateAdaptive (int max_steps)
         if (isEmpty (std::size_t (t)))
           continue;
         neighbours (std::size_t (t), 1, nb);
+        const Eigen::Vector3d d = direction (std::size_t (t));
         double best = best_[t];
         int who = -1;
         for (std::size_t s : nb)
@@ -324,7 +330,7 @@ AngularGrid::propagateAdaptive (int max_steps)
           const int c = cand_[s];
           if (c < 0 || c == cand_[t])
             continue;
-          const double g = score (c, std::size_t (t));
+          const double g = scoreDir (c, d);
           if (g < best || (g == best && who >= 0 && c < who))
           {
             best = g;
@@ -399,12 +405,13 @@ AngularGrid::propagateFixed (int m)
     if (isEmpty (std::size_t (t)))
       continue;
     neighbours (std::size_t (t), radius, nb);
+    const Eigen::Vector3d d = direction (std::size_t (t));
     for (std::size_t s : nb)
     {
       const int c = old[s];
       if (c < 0 || c == cand_[t])
         continue;
-      const double g = score (c, std::size_t (t));
+      const double g = scoreDir (c, d);
       if (g < best_[t])
       {
         best_[t] = g;
@@ -424,9 +431,10 @@ AngularGrid::refineGlobal ()
   {
     if (cand_[t] < 0)
       continue;
+    const Eigen::Vector3d d = direction (std::size_t (t));
     for (int c : pool)
     {
-      const double g = score (c, std::size_t (t));
+      const double g = scoreDir (c, d);
       if (g < best_[t])
       {
         best_[t] = g;
@@ -620,68 +628,93 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   };
   static const int tri[4][3] = {{0, 1, 2}, {0, 2, 3}, {0, 1, 3}, {1, 2, 3}};
 
-#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 64)
+  // The tetrahedra of the 2×2 quad whose corner sectors are (qa, qb) … (qa + 1, qb + 1),
+  // both diagonals; min ρ of their candidates.
+  auto quadTetras = [&] (int qa, int qb, Tetra* out, int& count, double& min_rho) {
+    count = 0;
+    min_rho = std::numeric_limits<double>::infinity ();
+    int a0 = qa, a1 = qa + 1;
+    const int b0 = qb, b1 = qb + 1;
+    if (wrap_phi_)
+    {
+      a0 = (a0 + n_phi_) % n_phi_;
+      a1 = a1 % n_phi_;
+    }
+    if (a0 < 0 || a1 >= n_phi_ || b0 < 0 || b1 >= n_theta_)
+      return;
+    const std::size_t sc[4] = {std::size_t (a0) * n_theta_ + b0, std::size_t (a0) * n_theta_ + b1,
+                               std::size_t (a1) * n_theta_ + b1, std::size_t (a1) * n_theta_ + b0};
+    for (const auto& t : tri)
+    {
+      const std::size_t sa = sc[t[0]], sb = sc[t[1]], sc2 = sc[t[2]];
+      const int ia = cand_[sa], ib = cand_[sb], ic = cand_[sc2];
+      if (ia < 0 || ib < 0 || ic < 0 || ia == ib || ib == ic || ia == ic)
+        continue;
+      const Eigen::Vector3d &ua = cand_dir[sa], &ub = cand_dir[sb], &uc = cand_dir[sc2];
+      const double o = ua.cross (ub).dot (uc);
+      if (std::abs (o) < 1e-18)
+        continue;
+      min_rho = std::min ({min_rho, cand_rho[sa], cand_rho[sb], cand_rho[sc2]});
+      const double sgn = o > 0 ? 1.0 : -1.0;
+      Tetra& T = out[count];
+      T.edge[0] = sgn * ua.cross (ub);
+      T.edge[1] = sgn * ub.cross (uc);
+      T.edge[2] = sgn * uc.cross (ua);
+      T.cone_eps = 1e-9 * std::abs (o);
+      const Eigen::Vector3d &fa = cand_flip[sa], &fb = cand_flip[sb], &fc = cand_flip[sc2];
+      Eigen::Vector3d nrm = (fb - fa).cross (fc - fa);
+      if (nrm.dot (fa) > 0)  // make C (the origin) the positive side
+        nrm = -nrm;
+      T.w = nrm;
+      // Strict, with a margin of ~10² double roundoffs of coordinates of size 2R (|q| < 2R:
+      // w·(q − f) is off by ~1.5e-15·2R·|w|; Qhull's own fuzz is of the same order).
+      // It must not grow faster than that: a margin relative to w·a (the old 1e-7·w·a)
+      // is ~1e-7·2R deep, and R grows as distance² (Fig. 9 at a fixed angular spacing),
+      // so from 20× the diameter on it swallowed every depth difference and nothing
+      // was culled.
+      T.f = fa;
+      T.h = 1e-13 * R2 * nrm.norm ();
+      ++count;
+    }
+  };
+
+#pragma omp parallel num_threads(nt ())
+  {
+    // The four quads around a sector, q = 2·(da + 1) + (db + 1) for the quad at (a + da, b + db);
+    // the next sector of the row shares two of them (its quads 0 and 2 are this one's 1 and 3).
+    Tetra quad[4][4];
+    int quad_count[4];
+    double quad_rho[4];
+    std::ptrdiff_t previous = -2;
+#pragma omp for schedule(dynamic, 64)
   for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
   {
     if (start[s] == start[s + 1])
       continue;
-    Tetra tets[16];
-    int m = 0, quad_end[4] = {0, 0, 0, 0};
+    const int a = int (s / n_theta_), b = int (s % n_theta_);
+    if (s == previous + 1 && b > 0)
+    {
+      std::copy (quad[1], quad[1] + quad_count[1], quad[0]);
+      std::copy (quad[3], quad[3] + quad_count[3], quad[2]);
+      quad_count[0] = quad_count[1];
+      quad_count[2] = quad_count[3];
+      quad_rho[0] = quad_rho[1];
+      quad_rho[2] = quad_rho[3];
+    }
+    else
+    {
+      quadTetras (a - 1, b - 1, quad[0], quad_count[0], quad_rho[0]);
+      quadTetras (a, b - 1, quad[2], quad_count[2], quad_rho[2]);
+    }
+    quadTetras (a - 1, b, quad[1], quad_count[1], quad_rho[1]);
+    quadTetras (a, b, quad[3], quad_count[3], quad_rho[3]);
+    previous = s;
+    if (quad_count[0] + quad_count[1] + quad_count[2] + quad_count[3] == 0)
+      continue;
     // A point inside (C, a, b, c) is deeper than the nearest of a, b, c (|q| = 2R − ρ is
     // below the plane's largest |x| over the triangle, 2R − min ρ): points no deeper than
     // every candidate of the 3×3 neighbourhood skip the tests.
-    double min_rho = std::numeric_limits<double>::infinity ();
-    const int a = int (s / n_theta_), b = int (s % n_theta_);
-    // The four 2×2 quads around the sector (q = 2·(da+1) + (db+1)), both diagonals of each.
-    for (int da = -1; da <= 0; ++da)
-      for (int db = -1; db <= 0; quad_end[2 * (da + 1) + (db + 1)] = m, ++db)
-      {
-        int a0 = a + da, a1 = a + da + 1;
-        const int b0 = b + db, b1 = b + db + 1;
-        if (wrap_phi_)
-        {
-          a0 = (a0 + n_phi_) % n_phi_;
-          a1 = a1 % n_phi_;
-        }
-        if (a0 < 0 || a1 >= n_phi_ || b0 < 0 || b1 >= n_theta_)
-          continue;
-        const std::size_t sc[4] = {std::size_t (a0) * n_theta_ + b0, std::size_t (a0) * n_theta_ + b1,
-                                   std::size_t (a1) * n_theta_ + b1, std::size_t (a1) * n_theta_ + b0};
-        for (const auto& t : tri)
-        {
-          const std::size_t sa = sc[t[0]], sb = sc[t[1]], sc2 = sc[t[2]];
-          const int ia = cand_[sa], ib = cand_[sb], ic = cand_[sc2];
-          if (ia < 0 || ib < 0 || ic < 0 || ia == ib || ib == ic || ia == ic)
-            continue;
-          min_rho = std::min ({min_rho, cand_rho[sa], cand_rho[sb], cand_rho[sc2]});
-          const Eigen::Vector3d &ua = cand_dir[sa], &ub = cand_dir[sb], &uc = cand_dir[sc2];
-          const double o = ua.cross (ub).dot (uc);
-          if (std::abs (o) < 1e-18)
-            continue;
-          const double sgn = o > 0 ? 1.0 : -1.0;
-          Tetra& T = tets[m];
-          T.edge[0] = sgn * ua.cross (ub);
-          T.edge[1] = sgn * ub.cross (uc);
-          T.edge[2] = sgn * uc.cross (ua);
-          T.cone_eps = 1e-9 * std::abs (o);
-          const Eigen::Vector3d &fa = cand_flip[sa], &fb = cand_flip[sb], &fc = cand_flip[sc2];
-          Eigen::Vector3d nrm = (fb - fa).cross (fc - fa);
-          if (nrm.dot (fa) > 0)  // make C (the origin) the positive side
-            nrm = -nrm;
-          T.w = nrm;
-          // Strict, with a margin of ~10² double roundoffs of coordinates of size 2R (|q| < 2R:
-          // w·(q − f) is off by ~1.5e-15·2R·|w|; Qhull's own fuzz is of the same order).
-          // It must not grow faster than that: a margin relative to w·a (the old 1e-7·w·a)
-          // is ~1e-7·2R deep, and R grows as distance² (Fig. 9 at a fixed angular spacing),
-          // so from 20× the diameter on it swallowed every depth difference and nothing
-          // was culled.
-          T.f = fa;
-          T.h = 1e-13 * R2 * nrm.norm ();
-          ++m;
-        }
-      }
-    if (m == 0)
-      continue;
+    const double min_rho = std::min ({quad_rho[0], quad_rho[1], quad_rho[2], quad_rho[3]});
     for (std::uint32_t r = start[s]; r < start[s + 1]; ++r)
     {
       if (cand_sorted[r])
@@ -703,10 +736,10 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       bool inside = false;
       for (int k = 0; k < 4 && !inside; ++k)
       {
-        const int quad = (first + k) % 4;
-        for (int t = quad == 0 ? 0 : quad_end[quad - 1]; t < quad_end[quad]; ++t)
+        const int qi = (first + k) % 4;
+        for (int t = 0; t < quad_count[qi]; ++t)
         {
-          const Tetra& T = tets[t];
+          const Tetra& T = quad[qi][t];
           if (T.edge[0].dot (uq) <= T.cone_eps || T.edge[1].dot (uq) <= T.cone_eps ||
               T.edge[2].dot (uq) <= T.cone_eps)
             continue;
@@ -719,6 +752,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       }
       inside_sorted[r] = inside;
     }
+  }
   }
   for (std::size_t r = 0; r < n; ++r)
     interior[order[r]] = inside_sorted[r];

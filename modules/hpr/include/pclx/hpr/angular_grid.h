@@ -91,6 +91,7 @@ private:
   // g = 1 − cos α + cos α·ρ/(2R) is the seed's DIST = (2R − ρ)·cos α rescaled so that
   // smaller is better and the tiny differences survive in floating point (R ≫ ρ).
   double score (int point, std::size_t sector) const;
+  double scoreDir (int point, const Eigen::Vector3d& sector_direction) const;  // the same, direction given
   Eigen::Vector3d direction (std::size_t sector) const;
   bool isEmpty (std::size_t sector) const;  // EMPTY map: outside the object's projection
   void neighbours (std::size_t s, int radius, std::vector<std::size_t>& out) const;
