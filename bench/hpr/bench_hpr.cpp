@@ -150,7 +150,9 @@ timeMean (Fn&& fn, int repeats)
 class Runner
 {
 public:
-  Runner (CsvWriter& out, int repeats) : out_ (out), repeats_ (repeats) {}
+  Runner (CsvWriter& out, int repeats, int repeats_ours) : out_ (out), repeats_ (repeats), repeats_ours_ (repeats_ours)
+  {
+  }
 
   // One HPRFilter configuration on one case; returns the visible indices.
   // `more` adds metrics computed from the visible set (e.g. the overlap with a peer).
@@ -162,7 +164,7 @@ public:
     f.setViewPoint (c.viewpoint);
     pcl::Indices vis;
     const double t = mean_of > 0 ? timeMean ([&] { f.filter (vis); }, mean_of)
-                                 : timeBest ([&] { f.filter (vis); }, repeats_);
+                                 : timeBest ([&] { f.filter (vis); }, repeats_ours_);
     std::vector<int> v (vis.begin (), vis.end ());
     Metrics m = accuracy (v, c.truth);
     if (more)
@@ -266,7 +268,7 @@ public:
 
 private:
   CsvWriter& out_;
-  int repeats_;
+  int repeats_, repeats_ours_;
 };
 
 }  // namespace
@@ -279,7 +281,8 @@ main (int argc, char** argv)
   std::vector<std::size_t> sizes{100000, 1000000, 3000000};
   int views = 3, repeats = 1;
   bool quick = false, no_sweeps = false, sweeps_only = false, distance_sweep = false, load_rows = false;
-  bool no_open3d = false, wide = false, wide_dev = false;
+  bool no_open3d = false, wide = false, wide_dev = false, wide_lean = false;
+  int repeats_ours = 0;
   std::size_t sweep_points = 100000;
   std::vector<double> distances{1.2, 2.0, 5.0, 20.0, 100.0, 1000.0};
   std::vector<std::string> only_inputs;
@@ -302,6 +305,11 @@ main (int argc, char** argv)
                 "only the wide shape set (bunny, fertility, torus scene, fins) at --sizes and --views: every "
                 "method and Open3D at R = 10^2, 10^3, 10^4 d (its best marked open3d_exact_bestR)");
   app.add_flag ("--wide-dev", wide_dev, "with --wide: only the candidate hull variants (development)");
+  app.add_flag ("--wide-lean", wide_lean,
+                "with --wide: only the default (AUTO), the one-pass candidate hull and Open3D (for 3M points)");
+  app.add_option ("--repeats-ours", repeats_ours,
+                  "best of N timings for our rows only (0: --repeats); Open3D keeps --repeats")
+      ->capture_default_str ();
   app.add_flag ("--load-rows", load_rows,
                 "only the loaded-machine rows (1, 2, auto threads; with and without a busy child process)");
   CLI11_PARSE (app, argc, argv);
@@ -343,7 +351,7 @@ main (int argc, char** argv)
     return 1;
   }
   CsvWriter out (csv);
-  Runner run (out, repeats);
+  Runner run (out, repeats, repeats_ours > 0 ? repeats_ours : repeats);
   const std::vector<double> radii{1e2, 1e3, 1e4};  // R / diameter, as in Open3D's examples
 
   if (distance_sweep)
@@ -427,10 +435,18 @@ main (int argc, char** argv)
           if (!no_open3d && !wide_dev)
             run.open3dEach (c, "wide", radii);
 #endif
-          std::vector<std::pair<std::string, Filter::Method>> methods{
-              {"pclx_auto", Filter::Method::AUTO},
-              {"pclx_candidate_hull_autoR", Filter::Method::CANDIDATE_HULL}};
-          if (!wide_dev)
+          std::vector<std::pair<std::string, Filter::Method>> methods{{"pclx_auto", Filter::Method::AUTO}};
+          {
+            Filter one;  // the default before the refinement passes (one culling pass)
+            one.setMethod (Filter::Method::CANDIDATE_HULL);
+            one.setRefinementPasses (0);
+            run.ours (c, "wide", "pclx_candidate_hull_1pass", one, "");
+          }
+          if (!wide_dev && !wide_lean)
+            methods.emplace_back ("pclx_candidate_hull_autoR", Filter::Method::CANDIDATE_HULL);
+          if (wide_dev)
+            methods.emplace_back ("pclx_candidate_hull_autoR", Filter::Method::CANDIDATE_HULL);
+          if (!wide_dev && !wide_lean)
             methods.insert (methods.end (), {{"pclx_exact_autoR", Filter::Method::EXACT},
                                              {"pclx_grid_auto", Filter::Method::ANGULAR_GRID},
                                              {"bfp", Filter::Method::BENTLEY_FAUST_PREPARATA},

@@ -1,0 +1,102 @@
+#!/usr/bin/env python3
+"""Issue 12 item 3: the wide-set summary of `bench_hpr --wide` rows.
+
+  /usr/bin/python3 bench/hpr/wide_summary.py docs/results/hpr/hpr_wide.csv \
+      --out docs/results/hpr/hpr_wide_summary.md --note "load average 4-5 (two other helpers)"
+
+One line per (shape, view, points): ours (pclx_auto, the default) F1 and seconds, Open3D's
+exact HPR at its best R of 10^2, 10^3, 10^4 d (the open3d_exact_bestR row: same timing as
+that R's own row), the speed-up, and MISSED where ours is < 50x faster or below F1 0.95.
+Ratios are only meaningful within one run (the machine is shared).
+"""
+import argparse
+import csv
+import sys
+
+TARGET_SPEEDUP = 50.0
+TARGET_F1 = 0.95
+
+
+def read(paths):
+    rows = []
+    for path in paths:
+        with open(path, newline="") as f:
+            for rec in csv.reader(f):
+                if not rec or rec[0] != "hpr":
+                    continue
+                params = dict(kv.split("=", 1) for kv in rec[2].split(";") if "=" in kv)
+                if params.get("sweep") != "wide":
+                    continue
+                row = dict(method=rec[1], params=params, input=rec[3], points=int(rec[4]), seconds=float(rec[5]))
+                for k in range(6, len(rec) - 1, 2):
+                    try:
+                        row[rec[k]] = float(rec[k + 1])
+                    except ValueError:
+                        row[rec[k]] = rec[k + 1]
+                rows.append(row)
+    return rows
+
+
+def fmt_n(n):
+    return f"{n // 1000000}M" if n % 1000000 == 0 else f"{n // 1000}k"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("csv", nargs="+")
+    ap.add_argument("--out", help="write the markdown here (also printed)")
+    ap.add_argument("--ours", default="pclx_auto", help="method row to compare (default: pclx_auto)")
+    ap.add_argument("--note", default="", help="a line about the run (machine load, date)")
+    args = ap.parse_args()
+    rows = read(args.csv)
+    if not rows:
+        sys.exit("wide_summary.py: no sweep=wide rows")
+    keys = []
+    for r in rows:
+        k = (r["input"], int(r["params"].get("view", 0)), r["points"])
+        if k not in keys:
+            keys.append(k)
+    keys.sort(key=lambda k: (k[0], k[2], k[1]))
+    lines = []
+    if args.note:
+        lines += [args.note, ""]
+    lines += [
+        f"| shape | view | n | ours F1 | ours P / R | ours s | Open3D best R | Open3D F1 | Open3D s | speed-up | |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    missed = 0
+    total = 0
+    for shape, view, n in keys:
+        sel = [r for r in rows if r["input"] == shape and int(r["params"].get("view", 0)) == view and r["points"] == n]
+        ours = [r for r in sel if r["method"] == args.ours]
+        o3d = [r for r in sel if r["method"] == "open3d_exact_bestR"]
+        if not ours:
+            continue
+        o = ours[-1]
+        total += 1
+        if o3d:
+            b = o3d[-1]
+            speed = b["seconds"] / o["seconds"]
+            o3d_cells = f"{b['params'].get('R', '?')} | {b['f1']:.3f} | {b['seconds']:.3g} | {speed:.1f}x"
+        else:
+            speed = None
+            o3d_cells = "- | - | - | -"
+        bad = o["f1"] < TARGET_F1 or (speed is not None and speed < TARGET_SPEEDUP)
+        why = []
+        if o["f1"] < TARGET_F1:
+            why.append(f"F1 < {TARGET_F1}")
+        if speed is not None and speed < TARGET_SPEEDUP:
+            why.append(f"< {TARGET_SPEEDUP:.0f}x")
+        missed += bad
+        lines.append(f"| {shape} | {view} | {fmt_n(n)} | {o['f1']:.3f} | {o['precision']:.3f} / {o['recall']:.3f} | "
+                     f"{o['seconds']:.3g} | {o3d_cells} | {'MISSED (' + ', '.join(why) + ')' if bad else 'ok'} |")
+    lines += ["", f"{total - missed} of {total} cases meet >= {TARGET_SPEEDUP:.0f}x Open3D (best R) at F1 >= {TARGET_F1}."]
+    text = "\n".join(lines) + "\n"
+    print(text, end="")
+    if args.out:
+        with open(args.out, "w") as f:
+            f.write(text)
+
+
+if __name__ == "__main__":
+    main()
