@@ -572,7 +572,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
                              std::vector<Eigen::Vector3d>* survivor_points) const
 {
   const std::size_t n = unit_.size (), k = cand_.size ();
-  std::vector<std::uint8_t> interior (n, 0);
+  std::vector<std::uint8_t> interior (survivors ? 0 : n, 0);
   std::vector<std::uint8_t> is_cand (n, 0);
   for (int c : cand_)
     if (c >= 0)
@@ -584,21 +584,20 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     ++start[sector_[i] + 1];
   for (std::size_t s = 0; s < k; ++s)
     start[s + 1] += start[s];
+  // The points in sector order, scattered once while sorting: the tests below then read
+  // memory in order (reading points[order[r]] there was memory-bound, 3x slower at 1M
+  // points; scattering costs less than gathering). Candidates are never interior.
+  std::vector<Eigen::Vector3d> sorted (n);
+  std::vector<std::uint8_t> inside_sorted (n, 0), cand_sorted (n);
   {
     std::vector<std::uint32_t> fill (start.begin (), start.end () - 1);
     for (std::size_t i = 0; i < n; ++i)
-      order[fill[sector_[i]]++] = std::uint32_t (i);
-  }
-  // The points in sector order, gathered once: the tests below then read memory in order
-  // (reading points[order[r]] directly was memory-bound, 3x slower at 1M points). Candidates
-  // are never interior.
-  std::vector<Eigen::Vector3d> sorted (n);
-  std::vector<std::uint8_t> inside_sorted (n, 0), cand_sorted (n);
-#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192)
-  for (std::ptrdiff_t r = 0; r < std::ptrdiff_t (n); ++r)
-  {
-    sorted[r] = points[order[r]];
-    cand_sorted[r] = is_cand[order[r]];
+    {
+      const std::uint32_t r = fill[sector_[i]]++;
+      order[r] = std::uint32_t (i);
+      sorted[r] = points[i];
+      cand_sorted[r] = is_cand[i];
+    }
   }
   // Exactly the flip the hull sees (double, from the input points): a culled point must
   // be interior to the very hull Qhull computes.
@@ -754,13 +753,17 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     }
   }
   }
-  for (std::size_t r = 0; r < n; ++r)
-    interior[order[r]] = inside_sorted[r];
   if (survivors)
   {
+    // The caller reads the survivors; the per-point mask (a random scatter) is left empty.
+    interior.clear ();
     survivors->clear ();
+    survivors->reserve (n / 2);
     if (survivor_points)
+    {
       survivor_points->clear ();
+      survivor_points->reserve (n / 2);
+    }
     for (std::size_t r = 0; r < n; ++r)
       if (!inside_sorted[r])
       {
@@ -769,6 +772,9 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
           survivor_points->push_back (sorted[r]);
       }
   }
+  else
+    for (std::size_t r = 0; r < n; ++r)
+      interior[order[r]] = inside_sorted[r];
   return interior;
 }
 

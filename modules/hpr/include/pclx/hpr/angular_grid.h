@@ -54,7 +54,7 @@ public:
   // before Qhull changes no visible point. `points` are the ones given to build().
   // When `survivors` is given it receives the points that are not interior, in sector
   // order (indices into `points`; their positions in `survivor_points`): a finer pass over
-  // them then reads memory nearly in order.
+  // them then reads memory nearly in order. The returned mask is then empty.
   std::vector<std::uint8_t> interiorPoints (const std::vector<Eigen::Vector3d>& points,
                                             std::vector<int>* survivors = nullptr,
                                             std::vector<Eigen::Vector3d>* survivor_points = nullptr) const;
