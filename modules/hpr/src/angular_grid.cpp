@@ -624,8 +624,10 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     Eigen::Vector3d w;        // plane normal, C's side positive
     Eigen::Vector3d f;        // a point of the plane (flipped a)
     double h;                 // inside when w·(q − f) > h (h > 0: the margin)
+    int diagonal;             // the edge on the quad's diagonal (the other two bound the quad)
   };
   static const int tri[4][3] = {{0, 1, 2}, {0, 2, 3}, {0, 1, 3}, {1, 2, 3}};
+  static const int tri_diagonal[4] = {2, 0, 1, 2};  // edge (ab, bc, ca) of tri[] on a diagonal
 
   // The tetrahedra of the 2×2 quad whose corner sectors are (qa, qb) … (qa + 1, qb + 1),
   // both diagonals; min ρ of their candidates.
@@ -643,8 +645,9 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       return;
     const std::size_t sc[4] = {std::size_t (a0) * n_theta_ + b0, std::size_t (a0) * n_theta_ + b1,
                                std::size_t (a1) * n_theta_ + b1, std::size_t (a1) * n_theta_ + b0};
-    for (const auto& t : tri)
+    for (int ti = 0; ti < 4; ++ti)
     {
+      const int* t = tri[ti];
       const std::size_t sa = sc[t[0]], sb = sc[t[1]], sc2 = sc[t[2]];
       const int ia = cand_[sa], ib = cand_[sb], ic = cand_[sc2];
       if (ia < 0 || ib < 0 || ic < 0 || ia == ib || ib == ic || ia == ic)
@@ -673,6 +676,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       // was culled.
       T.f = fa;
       T.h = 1e-13 * R2 * nrm.norm ();
+      T.diagonal = tri_diagonal[ti];
       ++count;
     }
   };
@@ -739,9 +743,18 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
         for (int t = 0; t < quad_count[qi]; ++t)
         {
           const Tetra& T = quad[qi][t];
-          if (T.edge[0].dot (uq) <= T.cone_eps || T.edge[1].dot (uq) <= T.cone_eps ||
-              T.edge[2].dot (uq) <= T.cone_eps)
+          int outside = -1;
+          for (int e = 0; e < 3 && outside < 0; ++e)
+            if (T.edge[e].dot (uq) <= T.cone_eps)
+              outside = e;
+          if (outside >= 0)
+          {
+            // Beyond an edge that bounds the quad: the point is outside the quad's cone (when the
+            // quad is convex), so its other tetrahedra are skipped (skipping only keeps points).
+            if (outside != T.diagonal)
+              break;
             continue;
+          }
           if (T.w.dot (q - T.f) > T.h)
           {
             inside = true;
