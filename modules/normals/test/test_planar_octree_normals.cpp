@@ -306,19 +306,20 @@ TEST (PlanarOctreeMerge, CurvedSurfaceDoesNotChainIntoOneRegion)
   EXPECT_LT (worst, 90.0);
 }
 
-TEST (PlanarOctreeMerge, NoisyPlaneMergesIntoOneRobustFit)
+TEST (PlanarOctreeMerge, NoisyFacesGetLargeSupportsAwayFromEdges)
 {
+  // On noisy input (noise > 0.15 spacing) regions are not used (shape smaller than the
+  // noise hid in their fits: fertility σ = 0.0012 lost 2°); the ladder serves every point
+  // and takes large supports on flat faces. Before the ladder, merged regions gave 90 %
+  // of these face points under 5°; the ladder gives 88 %, and 0.1–0.5° better RMS overall.
   auto s = pclx::testing::sampleUniform (pclx::testing::makeBox (Eigen::Vector3f::Ones (), 8), 30000);
   pclx::testing::addGaussianNoise (s, 0.006f);
   const auto cloud = positions (s.cloud);
-  const auto pca = compareNormals (pcaNormals<pcl::PointXYZ> (cloud, 18), s.cloud);
-  const auto merged = compareNormals (estimate (cloud, Method::MERGED), s.cloud);
-  EXPECT_LT (merged.rms_deg, pca.rms_deg);
-  // Large flat faces share one fit: away from the edges (> 5 σ) the normals are near exact,
-  // where the 18-neighbour PCA is at the noise level.
-  const float sigma = 0.006f * std::sqrt (3.f), half = 0.5f;
-  const auto n = estimate (cloud, Method::MERGED);
+  Estimator ne;
+  const auto n = estimate (cloud, Method::MERGED, &ne);
   const auto p = pcaNormals<pcl::PointXYZ> (cloud, 18);
+  EXPECT_LT (compareNormals (n, s.cloud).rms_deg, compareNormals (p, s.cloud).rms_deg);
+  const float sigma = 0.006f * std::sqrt (3.f), half = 0.5f;
   pcl::PointCloud<pcl::Normal> n_in, p_in;
   pcl::PointCloud<pcl::PointNormal> t_in;
   for (std::size_t i = 0; i < s.cloud.size (); ++i)
@@ -334,10 +335,11 @@ TEST (PlanarOctreeMerge, NoisyPlaneMergesIntoOneRobustFit)
       n_in.push_back (n[i]);
       p_in.push_back (p[i]);
       t_in.push_back (s.cloud[i]);
+      EXPECT_EQ (ne.getPointStatus ()[i], Estimator::KNN_PCA);
     }
   }
   ASSERT_GT (t_in.size (), s.cloud.size () / 2);
-  EXPECT_GT (compareNormals (n_in, t_in).below5, 0.9);
+  EXPECT_GT (compareNormals (n_in, t_in).below5, 0.85);
   EXPECT_LT (compareNormals (n_in, t_in).rms_deg, 0.25 * compareNormals (p_in, t_in).rms_deg);
 }
 
@@ -369,6 +371,108 @@ TEST (PlanarOctreeMerge, AdaptiveKnnStopsAtTheRimOfAThinPlate)
     }
   ASSERT_GT (rim, 500u);
   EXPECT_GT (static_cast<double> (kept) / rim, 0.8);
+}
+
+// --- scale selection (MERGED: Lepski ladder over kNN supports) --------------------
+
+namespace {
+double
+medianOf (std::vector<int> v)
+{
+  if (v.empty ())
+    return 0;
+  std::nth_element (v.begin (), v.begin () + v.size () / 2, v.end ());
+  return v[v.size () / 2];
+}
+}  // namespace
+
+TEST (PlanarOctreeScale, NoiseEstimateTracksTheAddedNoise)
+{
+  const auto clean = pclx::testing::sampleUniform (pclx::testing::makeSphere (1.f, 5), 20000, 3);
+  for (float fraction : {0.f, 0.002f, 0.006f})
+  {
+    auto s = clean;
+    if (fraction > 0)
+      pclx::testing::addGaussianNoise (s, fraction, 5);
+    Estimator ne;
+    estimate (positions (s.cloud), Method::MERGED, &ne);
+    const double truth = fraction * 2 * std::sqrt (3.0);  // σ = fraction × bounding-box diagonal
+    const auto& e = ne.getNoiseEstimate ();
+    EXPECT_GT (e.samples, 1000);
+    EXPECT_GT (e.spacing, 0.0);
+    if (fraction == 0)
+      EXPECT_LT (e.sigma, 0.02 * e.spacing);  // the icosphere's facets, not noise
+    else
+      EXPECT_NEAR (e.sigma, truth, 0.2 * truth) << "fraction " << fraction;
+  }
+}
+
+TEST (PlanarOctreeScale, SupportGrowsWithTheNoiseOnASphere)
+{
+  // Measured medians: 15, 18, 35, 400 (patches while the noise is < 0.15 spacing, then
+  // the ladder; on a sphere of 5000 points 800 neighbours bend too much to be taken).
+  const auto clean = pclx::testing::sampleUniform (pclx::testing::makeSphere (1.f, 5), 5000, 4);
+  double previous = 0;
+  for (float fraction : {0.f, 0.001f, 0.002f, 0.004f})
+  {
+    auto s = clean;
+    if (fraction > 0)
+      pclx::testing::addGaussianNoise (s, fraction, 9);
+    Estimator ne;
+    ne.setMaxAdaptiveNeighbours (800);  // room above the default's top rung (200)
+    const auto out = estimate (positions (s.cloud), Method::MERGED, &ne);
+    const auto& support = ne.getSupportSizes ();
+    ASSERT_EQ (support.size (), out.size ());
+    EXPECT_EQ (*std::min_element (support.begin (), support.end ()) > 0, true);
+    const double median = medianOf (support);
+    EXPECT_GT (median, previous) << "fraction " << fraction;
+    previous = median;
+    // The ladder's choice never exceeds its top rung.
+    for (std::size_t i = 0; i < out.size (); ++i)
+      if (ne.getPointStatus ()[i] == Estimator::KNN_PCA)
+        ASSERT_LE (support[i], ne.getMaxAdaptiveNeighbours ());
+  }
+  EXPECT_GE (previous, 200);  // σ = 0.004 of the diagonal: large supports
+}
+
+TEST (PlanarOctreeScale, SupportShrinksNearABoxEdge)
+{
+  // Noisy enough for the ladder to serve every point: across an edge the normals of
+  // growing supports disagree, so points near an edge stop at smaller supports.
+  auto s = pclx::testing::sampleUniform (pclx::testing::makeBox (Eigen::Vector3f::Ones (), 8), 30000, 2);
+  pclx::testing::addGaussianNoise (s, 0.002f, 3);
+  Estimator ne;
+  const auto out = estimate (positions (s.cloud), Method::MERGED, &ne);
+  const double spacing = ne.getNoiseEstimate ().spacing;
+  ASSERT_GT (spacing, 0.0);
+  std::vector<int> near_edge, centre;
+  for (std::size_t i = 0; i < out.size (); ++i)
+  {
+    if (ne.getPointStatus ()[i] != Estimator::KNN_PCA)
+      continue;
+    const Eigen::Vector3f x = s.cloud[i].getVector3fMap ();
+    const int axis = faceOf (s.cloud[i].getNormalVector3fMap ()) / 2;
+    float to_edge = 1e9f;
+    for (int a = 0; a < 3; ++a)
+      if (a != axis)
+        to_edge = std::min (to_edge, 0.5f - std::abs (x[a]));
+    if (to_edge < 2 * spacing)
+      near_edge.push_back (ne.getSupportSizes ()[i]);
+    else if (to_edge > 12 * spacing)
+      centre.push_back (ne.getSupportSizes ()[i]);
+  }
+  ASSERT_GT (near_edge.size (), 500u);
+  ASSERT_GT (centre.size (), 5000u);
+  EXPECT_LT (medianOf (near_edge), 0.5 * medianOf (centre));
+}
+
+TEST (PlanarOctreeScale, LadderRungs)
+{
+  using pclx::normals::ladderRungs;
+  EXPECT_EQ (ladderRungs (18, 200), (std::vector<int>{12, 18, 30, 50, 100, 200}));
+  EXPECT_EQ (ladderRungs (6, 50), (std::vector<int>{6, 12, 18, 30, 50}));
+  EXPECT_EQ (ladderRungs (18, 1000), (std::vector<int>{12, 18, 30, 50, 100, 200, 400, 800, 1000}));
+  EXPECT_EQ (ladderRungs (18, 40), (std::vector<int>{12, 18, 30, 40}));
 }
 
 // --- patches (MERGED) ------------------------------------------------------------
@@ -647,6 +751,9 @@ TEST (PlanarOctreeBadInput, BadThresholdsAreErrors)
   EXPECT_EQ (run ([] (Estimator& e) { e.setPatchSupport (2); }), 0u);
   EXPECT_EQ (run ([] (Estimator& e) { e.setPatchScales (0); }), 0u);
   EXPECT_EQ (run ([] (Estimator& e) { e.setMaxPatchSlopeError (0); }), 0u);
+  EXPECT_EQ (run ([] (Estimator& e) { e.setScaleAgreement (0); }), 0u);
+  EXPECT_EQ (run ([] (Estimator& e) { e.setScaleAgreement (std::nan ("")); }), 0u);
+  EXPECT_EQ (run ([] (Estimator& e) { e.setMaxPatchNoiseRatio (-0.1); }), 0u);
   EXPECT_EQ (run ([] (Estimator& e) { e.setKSearch (0); }), 0u);  // neither k nor radius
   EXPECT_EQ (run ([] (Estimator& e) { e.setRadiusSearch (0.1); }), 0u);  // both k and radius
   EXPECT_EQ (run ([] (Estimator&) {}), cloud->size ());  // and the defaults work

@@ -24,6 +24,7 @@
 // INVALID_POINT); points whose neighbourhood spans no plane get the normal of the
 // smallest enclosing octree cell that does (status NEIGHBOUR_FALLBACK).
 #include <pclx/normals/planar_octree.h>
+#include <pclx/normals/scale_selection.h>
 
 #include <pcl/features/feature.h>
 
@@ -115,13 +116,15 @@ public:
   // shape). 0 = always use.
   void setRegionValidationRatio (double r) { region_validation_ratio_ = r; }
   double getRegionValidationRatio () const { return region_validation_ratio_; }
-  // MERGED: where no region applies, the kNN neighbourhood grows (k, 2k, 4k, ... up to
-  // this many points) until it passes the planarity test λ2 > sα·λ3 (the seed's criterion
-  // on kNN sets), else the most planar one is kept; growth stops where the set turns
-  // one-sided (centroid off the point by > 0.3 of its radius: a rim or a border). <= k:
-  // plain Hoppe PCA. Default 200 (was 144: bunny σ = 0.006 20.5° -> 19.1°; without the
-  // one-sided stop, 200 turned a thin plate's rim into its sheets' plane and MST flipped
-  // one sheet).
+  // MERGED: where no region (or, on noisy input, no patch) applies, the support is chosen
+  // per point from a ladder of kNN sizes (12, 18, 30, 50, 100, 200, ... up to this many
+  // points; pclx::normals::selectScale): the largest whose PCA normal agrees with every
+  // smaller one within getScaleAgreement () standard errors, the errors computed with the
+  // noise of the whole cloud (getNoiseEstimate ()). Growth also stops where the set turns
+  // one-sided (centroid off the point by > 0.3 of its radius: a rim or a border; without
+  // that, a thin plate's rim took its sheets' plane and MST flipped one sheet).
+  // <= getKSearch (): plain Hoppe PCA. Default 200: the best fixed k at σ >= 0.006 of the
+  // diagonal on PCPNet and fertility.
   void setMaxAdaptiveNeighbours (int n) { max_adaptive_neighbours_ = n; }
   int getMaxAdaptiveNeighbours () const { return max_adaptive_neighbours_; }
   // MERGED: ... and if the region's normal there is within this angle of the point's own
@@ -142,6 +145,17 @@ public:
   double getMaxPatchSlopeError () const { return max_patch_slope_deg_; }
   void setPatchScales (int scales) { patch_scales_ = scales; }
   int getPatchScales () const { return patch_scales_; }
+  // Lepski's agreement: rung normals may differ by this many (summed) standard errors
+  // (> 0, default 2: 1.5 lost up to 0.55° at σ = 0.0012 on fertility, 2 was within 0.3°
+  // of the best fixed k on PCPNet bunny, fandisk and fertility from 0 to 0.012).
+  void setScaleAgreement (double tau) { ladder_tau_ = tau; }
+  double getScaleAgreement () const { return ladder_tau_; }
+  // Patches are skipped (their points take the ladder) when the estimated noise exceeds
+  // this share of the point spacing (>= 0, default 0.15; clean scans measure <= 0.05,
+  // σ = 0.0012 of the diagonal at 100k points 0.27-0.41, where an 18-point quadric lost
+  // to the ladder by 0.4-1.3°).
+  void setMaxPatchNoiseRatio (double r) { max_patch_noise_ratio_ = r; }
+  double getMaxPatchNoiseRatio () const { return max_patch_noise_ratio_; }
   void setGrowthPasses (int passes) { growth_passes_ = passes; }
   int getGrowthPasses () const { return growth_passes_; }
   // MERGED only (not in the seed): split a planar cell when a point lies farther than
@@ -156,6 +170,11 @@ public:
   // the merged region for MERGED (also for patch points: the region their leaf belongs
   // to), -1 where the normal did not come from a planar cell.
   const std::vector<int>& getRegionIds () const { return region_ids_; }
+  // Number of points behind each output normal: the chosen kNN rung (KNN_PCA), the patch
+  // fit's support, the region's points, the leaf's points; 0 for invalid points.
+  const std::vector<int>& getSupportSizes () const { return support_sizes_; }
+  // MERGED: noise of the search surface (sigma, spacing) as estimated by the last compute ().
+  const pclx::normals::NoiseEstimate& getNoiseEstimate () const { return noise_; }
   // The octree of the last compute () (over the search surface).
   const pclx::normals::PlanarOctree& getOctree () const { return octree_; }
 
@@ -181,8 +200,12 @@ private:
   int patch_support_ = 18;
   double max_patch_slope_deg_ = 2.0;
   int patch_scales_ = 3;
+  double ladder_tau_ = 2.0;
+  double max_patch_noise_ratio_ = 0.15;
   unsigned int threads_ = 0;
   pclx::normals::PlanarOctree octree_;
+  pclx::normals::NoiseEstimate noise_;
+  std::vector<int> support_sizes_;
   std::vector<Eigen::Vector3f> surface_points_;
   std::vector<int> surface_to_octree_;  // surface index -> octree point, -1 if not finite
   std::vector<int> octree_to_surface_;

@@ -6,6 +6,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <omp.h>
@@ -31,59 +32,6 @@ planeOfNeighbours (const PointCloud<PointT>& cloud, const Indices& nn, Eigen::Ve
   normal = es.eigenvectors ().col (0).cast<float> ();
   curvature = static_cast<float> (ev (0) / ev.sum ());
   return true;
-}
-
-// Hoppe's plane over growing prefixes (k0, 2·k0, 4·k0, ..., all) of a neighbourhood sorted
-// by distance (the point itself first): the first that passes λ2 > sα·λ3, else the one with
-// the largest λ2 / λ3; growth stops at the first one-sided prefix.
-template <typename PointT> bool
-adaptivePlane (const PointCloud<PointT>& cloud, const Indices& sorted, std::size_t k0, double s_alpha,
-               Eigen::Vector3f& normal, float& curvature, double* best_ratio = nullptr)
-{
-  if (sorted.size () < 3)
-    return false;
-  const Eigen::Vector3d ref = cloud[sorted[0]].getVector3fMap ().template cast<double> ();
-  Eigen::Vector3d s1 = Eigen::Vector3d::Zero ();
-  Eigen::Matrix3d s2 = Eigen::Matrix3d::Zero ();
-  double best = -1;
-  std::size_t next = std::max<std::size_t> (k0, 3);
-  for (std::size_t i = 0; i < sorted.size (); ++i)
-  {
-    const Eigen::Vector3d d = cloud[sorted[i]].getVector3fMap ().template cast<double> () - ref;
-    s1 += d;
-    s2.noalias () += d * d.transpose ();
-    const std::size_t n = i + 1;
-    if (n != next && n != sorted.size ())
-      continue;
-    next *= 2;
-    const Eigen::Vector3d mean = s1 / n;
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es (s2 / n - mean * mean.transpose ());
-    const Eigen::Vector3d ev = es.eigenvalues ().cwiseMax (0.0);  // ascending
-    if (!(ev (2) > 0) || ev (1) <= 1e-12 * ev (2))
-      continue;
-    const double ratio = ev (1) / std::max (ev (0), 1e-300);
-    // A grown set whose centroid lies off the point by more than 0.3 of its radius (in the
-    // plane) is one-sided: it grew past a rim or a border, where more points bring another
-    // sheet, not less noise (a half disc's centroid sits at 0.42 r, a full disc's at 0).
-    // Without this, growing to 200 turned the rim of a thin plate into its sheets' plane.
-    if (n > k0)
-    {
-      const Eigen::Vector3d v = es.eigenvectors ().col (0);
-      if ((mean - mean.dot (v) * v).norm () > 0.3 * d.norm ())
-        break;
-    }
-    if (ratio > best)
-    {
-      best = ratio;
-      normal = es.eigenvectors ().col (0).cast<float> ();
-      curvature = static_cast<float> (ev (0) / ev.sum ());
-    }
-    if (ratio > s_alpha)
-      break;
-  }
-  if (best_ratio)
-    *best_ratio = best;
-  return best >= 0;
 }
 
 // Neighbours sorted by distance (the default feature tree returns them unsorted).
@@ -152,6 +100,12 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::initCompute ()
                max_patch_slope_deg_);
     return false;
   }
+  if (!(ladder_tau_ > 0) || !std::isfinite (ladder_tau_) || !(max_patch_noise_ratio_ >= 0))
+  {
+    PCL_ERROR ("[pcl::%s] scale agreement must be > 0 and finite, patch noise ratio >= 0 (got %g, %g)\n", name,
+               ladder_tau_, max_patch_noise_ratio_);
+    return false;
+  }
   if (!Feature<PointInT, PointOutT>::initCompute ())
     return false;
 
@@ -192,15 +146,61 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       octree_.fitPatches (patch_size_, quadric_, std::tan (max_patch_slope_deg_ * M_PI / 180.0), patch_scales_, patch_support_);
   }
   const bool patches = method_ == Method::MERGED && patch_size_ > 0;
+  const auto& regions = octree_.regions ();
+  const auto& leaf_of_point = octree_.leafOfPoint ();
+  const double abs_eps = 1e-6 * nodes[0].half;
+  const int threads = threads_ > 0 ? static_cast<int> (threads_) : omp_get_max_threads ();
+  // Where no region applies, MERGED picks each point's kNN support from a ladder (Lepski's
+  // rule, pclx::normals::selectScale) under the noise of the whole cloud.
+  const bool adaptive = method_ == Method::MERGED && this->getKSearch () > 0 &&
+                        max_adaptive_neighbours_ > this->getKSearch ();
+  const std::vector<int> rungs = adaptive ? pclx::normals::ladderRungs (this->getKSearch (), max_adaptive_neighbours_)
+                                          : std::vector<int> ();
+  noise_ = pclx::normals::NoiseEstimate ();
+  if (adaptive)
+  {
+    // Noise from ~2000 sampled points (quadric residuals, pclx::normals::sampleNoise).
+    const int ns = static_cast<int> (surface_points_.size ());
+    const int step = std::max (1, ns / 2000);
+    const int count = (ns + step - 1) / step;
+    std::vector<double> residual2 (count, -1.0), spacing2 (count, -1.0);
+#pragma omp parallel num_threads(threads)
+    {
+      pcl::Indices nn;
+      std::vector<float> dist;
+      std::vector<Eigen::Vector3f> sorted;
+#pragma omp for schedule(dynamic, 16)
+      for (int s = 0; s < count; ++s)
+      {
+        const int j = octree_to_surface_[s * step];
+        if (this->searchForNeighbors (*surface_, j, 200, nn, dist) < 50)
+          continue;
+        detail::sortByDistance (nn, dist);
+        sorted.clear ();
+        for (const auto q : nn)
+          sorted.push_back ((*surface_)[q].getVector3fMap ());
+        double r2 = 0, sp2 = 0;
+        if (pclx::normals::sampleNoise (sorted, r2, sp2))
+        {
+          residual2[s] = r2;
+          spacing2[s] = sp2;
+        }
+      }
+    }
+    residual2.erase (std::remove (residual2.begin (), residual2.end (), -1.0), residual2.end ());
+    spacing2.erase (std::remove (spacing2.begin (), spacing2.end (), -1.0), spacing2.end ());
+    noise_ = pclx::normals::combineNoiseSamples (residual2, spacing2);
+  }
+  const double noise2 = noise_.sigma * noise_.sigma;
+  // Patches (quadrics over ~18 points) lose to a PCA plane over a larger support once the
+  // noise is a sizeable share of the spacing; they still validate regions.
+  const bool noisy = adaptive && noise_.ratio () > max_patch_noise_ratio_;
+  const bool use_patches = patches && !noisy;
   // The valid patch of an octree point, -1 if none.
   auto patchOf = [&] (int octree_point) {
     const int f = octree_.patchOfPoint ()[octree_point];
     return f >= 0 && octree_.patches ()[f].valid ? f : -1;
   };
-  const auto& regions = octree_.regions ();
-  const auto& leaf_of_point = octree_.leafOfPoint ();
-  const double abs_eps = 1e-6 * nodes[0].half;
-  const int threads = threads_ > 0 ? static_cast<int> (threads_) : omp_get_max_threads ();
 
   // MERGED: keep a region only if its surface fits it as well as local fits do (its
   // patches, or without patches kNN planes at up to 16 sampled points): otherwise the
@@ -228,46 +228,14 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       region_ok_[r] = regions[r].surface.rms <= region_validation_ratio_ * v[v.size () / 2] + abs_eps;
     }
   }
-  else if (method_ == Method::MERGED && region_validation_ratio_ > 0)
+  if (noisy)
   {
-    // Without patches: the median thickness of kNN planes sampled inside the region.
-    std::vector<std::vector<int>> samples (regions.size ());
-    const auto& order = octree_.order ();
-    for (int id = 0; id < static_cast<int> (nodes.size ()); ++id)
-      if (nodes[id].isLeaf () && nodes[id].region >= 0)
-        samples[nodes[id].region].push_back (id);
-#pragma omp parallel num_threads(threads)
-    {
-      pcl::Indices nn;
-      std::vector<float> dist;
-      std::vector<double> thickness;
-#pragma omp for schedule(dynamic, 4)
-      for (int r = 0; r < static_cast<int> (regions.size ()); ++r)
-      {
-        thickness.clear ();
-        const auto& leaves = samples[r];
-        const int per_leaf = std::max (1, 16 / static_cast<int> (leaves.size ()));
-        for (std::size_t l = 0; l < leaves.size () && thickness.size () < 16; ++l)
-        {
-          const auto& L = nodes[leaves[l]];
-          for (int q = 0; q < per_leaf && q < L.size (); ++q)
-          {
-            const int j = octree_to_surface_[order[L.begin + q * L.size () / per_leaf]];
-            if (this->searchForNeighbors (*surface_, j, search_parameter_, nn, dist) < 3)
-              continue;
-            Eigen::Matrix3d cov;
-            Eigen::Vector4d centroid;
-            computeMeanAndCovarianceMatrix (*surface_, nn, cov, centroid);
-            Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es (cov, Eigen::EigenvaluesOnly);
-            thickness.push_back (std::sqrt (std::max (0.0, es.eigenvalues () (0))));
-          }
-        }
-        if (thickness.empty ())
-          continue;
-        std::nth_element (thickness.begin (), thickness.begin () + thickness.size () / 2, thickness.end ());
-        region_ok_[r] = regions[r].surface.rms <= region_validation_ratio_ * thickness[thickness.size () / 2] + abs_eps;
-      }
-    }
+    // Under noise the patches' residuals are noise too, and shape smaller than the noise
+    // passes the test above (fertility σ = 0.0012: region points 7.4° against 5.2° by the
+    // ladder). Requiring the region's rms to match the estimated noise (which is within
+    // 3 % of the truth there) did not help: the shape hides inside the sampling error of
+    // the rms. On noisy input the ladder serves every point.
+    std::fill (region_ok_.begin (), region_ok_.end (), 0);
   }
 
   // Region of every search-surface point; MERGED grows regions into the non-planar cells:
@@ -304,66 +272,230 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
     }
     return region;
   };
-  // The local plane of a point where no region applies: Hoppe's kNN PCA, and for MERGED
-  // with k growing until the neighbourhood passes the planarity test (noise needs support).
-  const bool adaptive = method_ == Method::MERGED && this->getKSearch () > 0 &&
-                        max_adaptive_neighbours_ > this->getKSearch ();
-  auto localPlane = [&] (const PointCloudIn& cloud, int index, pcl::Indices& nn, std::vector<float>& dist,
-                         Eigen::Vector3f& normal, float& curvature) {
-    if (!adaptive)
-      return detail::planeOfNeighbours (*surface_, nn, normal, curvature);
-    detail::sortByDistance (nn, dist);
-    double ratio = 0;
-    bool ok = detail::adaptivePlane (*surface_, nn, nn.size (), s_alpha, normal, curvature, &ratio);
-    if (!(ok && ratio > s_alpha))
-    {
-      pcl::Indices big;
-      std::vector<float> big_dist;
-      if (this->searchForNeighbors (cloud, index, max_adaptive_neighbours_, big, big_dist) > 0)
+  (void) s_alpha;
+  // Prefix sizes the ladder reads: its rungs and Hoppe's k (for region adoption).
+  std::vector<int> boundaries = rungs;
+  boundaries.push_back (this->getKSearch ());
+  std::sort (boundaries.begin (), boundaries.end ());
+  boundaries.erase (std::unique (boundaries.begin (), boundaries.end ()), boundaries.end ());
+  // Lepski's rule over the ladder for x, from candidate neighbours (any order): sorts them
+  // by distance from x; nn keeps the first k of them (Hoppe's set, for region adoption).
+  auto ladderPlane = [&] (const Eigen::Vector3f& x, const pcl::Indices& candidates, pcl::Indices& nn,
+                          std::vector<std::pair<float, index_t>>& by_distance, std::vector<Eigen::Vector3f>& sorted,
+                          Eigen::Vector3f& normal, float& curvature, int& support,
+                          const std::vector<int>& use_rungs, bool* exhausted) {
+    by_distance.clear ();
+    for (const auto q : candidates)
+      by_distance.emplace_back (((*surface_)[q].getVector3fMap () - x).squaredNorm (), q);
+    // Only the rungs' prefixes matter (as sets, with their farthest point last): selection
+    // from the largest rung down costs a fraction of a full sort (which was 20 % of the time).
+    auto end = by_distance.end ();
+    for (auto r = boundaries.rbegin (); r != boundaries.rend (); ++r)
+      if (*r < end - by_distance.begin ())
       {
-        detail::sortByDistance (big, big_dist);
-        ok = detail::adaptivePlane (*surface_, big, this->getKSearch (), s_alpha, normal, curvature) || ok;
+        std::nth_element (by_distance.begin (), by_distance.begin () + (*r - 1), end);
+        end = by_distance.begin () + *r;
       }
+    sorted.clear ();
+    nn.clear ();
+    for (const auto& [d, q] : by_distance)
+    {
+      sorted.push_back ((*surface_)[q].getVector3fMap ());
+      if (static_cast<int> (nn.size ()) < this->getKSearch ())
+        nn.push_back (q);
     }
-    return ok;
+    const auto c = pclx::normals::selectScale (x, sorted, use_rungs, noise2, ladder_tau_);
+    if (exhausted)
+      *exhausted = c.exhausted;
+    normal = c.normal;
+    curvature = c.curvature;
+    support = c.support;
+    return c.ok;
+  };
+  // The local plane of a point where no region applies: Hoppe's kNN PCA, and for MERGED
+  // the scale-selected ladder over one search of the largest rung.
+  auto localPlane = [&] (const PointCloudIn& cloud, int index, pcl::Indices& nn, Eigen::Vector3f& normal,
+                         float& curvature, int& support) {
+    if (!adaptive)
+    {
+      support = static_cast<int> (nn.size ());
+      return detail::planeOfNeighbours (*surface_, nn, normal, curvature);
+    }
+    pcl::Indices big;
+    std::vector<float> big_dist;
+    std::vector<std::pair<float, index_t>> by_distance;
+    std::vector<Eigen::Vector3f> sorted;
+    if (this->searchForNeighbors (cloud, index, max_adaptive_neighbours_, big, big_dist) <= 0)
+      return false;
+    return ladderPlane (cloud[index].getVector3fMap (), big, nn, by_distance, sorted, normal, curvature, support,
+                        rungs, nullptr);
   };
 
   // When the input is its own search surface, orphans' results are reused as they are.
   const bool same_cloud = surface_ == input_;
   // Orphans: search-surface points in non-planar cells (or rejected regions).
-  std::vector<int> orphans, orphan_slot;
+  std::vector<int> orphans, orphan_slot, groups;
   std::vector<Eigen::Vector3f> orphan_normal;
   std::vector<float> orphan_curvature;
+  std::vector<int> orphan_support;
   std::vector<char> orphan_ok;
-  if (method_ == Method::MERGED && growth_passes_ > 0 && !regions.empty ())
+  if (method_ == Method::MERGED && (adaptive || (growth_passes_ > 0 && !regions.empty ())))
   {
     orphan_slot.assign (surface_->size (), -1);
-    for (std::size_t j = 0; j < surface_->size (); ++j)
-      if (surface_to_octree_[j] >= 0 && surface_region[j] < 0 &&
-          !(patches && patchOf (surface_to_octree_[j]) >= 0))
+    // In octree order, so that consecutive orphans are near each other (groups below).
+    for (const int o : octree_.order ())
+    {
+      const int j = octree_to_surface_[o];
+      if (surface_region[j] < 0 && !(use_patches && patchOf (o) >= 0))
       {
         orphan_slot[j] = static_cast<int> (orphans.size ());
-        orphans.push_back (static_cast<int> (j));
+        orphans.push_back (j);
       }
+    }
     const int no = static_cast<int> (orphans.size ());
     std::vector<pcl::Indices> orphan_nn (no);
     orphan_normal.resize (no);
     orphan_curvature.resize (no);
+    orphan_support.assign (no, 0);
     orphan_ok.assign (no, 0);
-#pragma omp parallel num_threads(threads)
+    if (adaptive)
     {
-      std::vector<float> dist;
-      pcl::Indices nn;
-#pragma omp for schedule(dynamic, 256)
-      for (int o = 0; o < no; ++o)
+      // One search per group of orphans (a grid cell of 3 spacings, <= 16 points) around
+      // their centroid, for half again the largest rung; each member re-sorts the shared
+      // list by its own distances. A search of 200+ per point is what made the noisy path
+      // slower than fixed-k PCA. On clean input most points stop below 50: per-point short
+      // lists first (cells of 1.2 spacings), the long one only where growth reached its end.
+      std::vector<int> short_rungs;
+      for (const int k : rungs)
+        if (k <= 50 && k < rungs.back ())
+          short_rungs.push_back (k);
+      const bool two_pass = noise_.ratio () <= max_patch_noise_ratio_ && short_rungs.size () >= 2;
+      const double cell = (two_pass ? 1.2 : 3.0) * noise_.spacing;
+      // Noise wider than a spacing: the ladder's choice is shared by a cell (below).
+      const bool share = !two_pass && noise_.ratio () > 1.0;
       {
-        this->searchForNeighbors (*surface_, orphans[o], search_parameter_, orphan_nn[o], dist);
-        nn = orphan_nn[o];
-        orphan_ok[o] = localPlane (*surface_, orphans[o], nn, dist, orphan_normal[o], orphan_curvature[o]);
+        std::vector<std::pair<std::uint64_t, int>> keyed (no);
+        for (int o = 0; o < no; ++o)
+        {
+          std::uint64_t key = static_cast<std::uint64_t> (o);  // no spacing: every point alone
+          if (cell > 0)
+          {
+            const Eigen::Vector3d c = ((*surface_)[orphans[o]].getVector3fMap ().template cast<double> () -
+                                       octree_.origin ()) / cell;
+            key = 0;
+            for (int a = 0; a < 3; ++a)
+              key = (key << 21) | (static_cast<std::uint64_t> (std::floor (c[a]) + (1 << 20)) & ((1u << 21) - 1));
+          }
+          keyed[o] = {key, orphans[o]};
+        }
+        std::sort (keyed.begin (), keyed.end ());
+        for (int o = 0; o < no; ++o)
+          orphans[o] = keyed[o].second;
+        for (int o = 0; o < no; ++o)
+          orphan_slot[orphans[o]] = o;
+        std::vector<int> group_start;
+        for (int o = 0; o < no; ++o)
+          if (o == 0 || keyed[o].first != keyed[o - 1].first || o - group_start.back () >= 16)
+            group_start.push_back (o);
+        group_start.push_back (no);
+        groups.swap (group_start);
+      }
+      const int ng = static_cast<int> (groups.size ()) - 1;
+      const std::vector<int>& group_start = groups;
+      const int nsurf = static_cast<int> (surface_points_.size ());
+      const int long_k = std::min (nsurf, max_adaptive_neighbours_ + max_adaptive_neighbours_ / 2 + 4);
+      const int short_k = std::min (nsurf, short_rungs.empty () ? 0 : short_rungs.back () + short_rungs.back () / 4 + 4);
+#pragma omp parallel num_threads(threads)
+      {
+        pcl::Indices candidates;
+        std::vector<float> dist;
+        std::vector<std::pair<float, index_t>> by_distance;
+        std::vector<Eigen::Vector3f> sorted;
+#pragma omp for schedule(dynamic, 32)
+        for (int g = 0; g < ng; ++g)
+        {
+          Eigen::Vector3f centre = Eigen::Vector3f::Zero ();
+          for (int o = group_start[g]; o < group_start[g + 1]; ++o)
+            centre += (*surface_)[orphans[o]].getVector3fMap ();
+          PointInT query = (*surface_)[orphans[group_start[g]]];
+          query.getVector3fMap () = centre / static_cast<float> (group_start[g + 1] - group_start[g]);
+          bool more = !two_pass;
+          if (two_pass && this->tree_->nearestKSearch (query, short_k, candidates, dist) > 0)
+            for (int o = group_start[g]; o < group_start[g + 1]; ++o)
+            {
+              bool exhausted = false;
+              orphan_ok[o] = ladderPlane ((*surface_)[orphans[o]].getVector3fMap (), candidates, orphan_nn[o],
+                                          by_distance, sorted, orphan_normal[o], orphan_curvature[o],
+                                          orphan_support[o], short_rungs, &exhausted);
+              more = more || !orphan_ok[o] || exhausted;
+            }
+          if (!more || this->tree_->nearestKSearch (query, long_k, candidates, dist) <= 0)
+            continue;
+          if (share)
+          {
+            // Noise wider than a spacing: the ladder runs once, at the centroid (its choice
+            // does not change across a cell); each member gets the PCA of its own neighbours
+            // at that rung.
+            Eigen::Vector3f n0;
+            float c0;
+            int k0 = 0;
+            pcl::Indices nn0;
+            if (!ladderPlane (query.getVector3fMap (), candidates, nn0, by_distance, sorted, n0, c0, k0, rungs, nullptr))
+              continue;
+            for (int o = group_start[g]; o < group_start[g + 1]; ++o)
+            {
+              const Eigen::Vector3f x = (*surface_)[orphans[o]].getVector3fMap ();
+              by_distance.clear ();
+              for (const auto q : candidates)
+                by_distance.emplace_back (((*surface_)[q].getVector3fMap () - x).squaredNorm (), q);
+              const int k = std::min<int> (k0, by_distance.size ());
+              const int kh = std::min<int> (this->getKSearch (), k);
+              std::nth_element (by_distance.begin (), by_distance.begin () + (k - 1), by_distance.end ());
+              std::nth_element (by_distance.begin (), by_distance.begin () + (kh - 1), by_distance.begin () + k);
+              orphan_nn[o].clear ();
+              for (int q = 0; q < kh; ++q)
+                orphan_nn[o].push_back (by_distance[q].second);
+              pcl::Indices support_set (k);
+              for (int q = 0; q < k; ++q)
+                support_set[q] = by_distance[q].second;
+              orphan_ok[o] = detail::planeOfNeighbours (*surface_, support_set, orphan_normal[o], orphan_curvature[o]);
+              if (!orphan_ok[o])
+              {
+                orphan_normal[o] = n0;
+                orphan_curvature[o] = c0;
+                orphan_ok[o] = true;
+              }
+              orphan_support[o] = k;
+            }
+            continue;
+          }
+          for (int o = group_start[g]; o < group_start[g + 1]; ++o)
+            orphan_ok[o] = ladderPlane ((*surface_)[orphans[o]].getVector3fMap (), candidates, orphan_nn[o],
+                                        by_distance, sorted, orphan_normal[o], orphan_curvature[o],
+                                        orphan_support[o], rungs, nullptr);
+        }
+      }
+    }
+    else
+    {
+#pragma omp parallel num_threads(threads)
+      {
+        std::vector<float> dist;
+        pcl::Indices nn;
+#pragma omp for schedule(dynamic, 256)
+        for (int o = 0; o < no; ++o)
+        {
+          this->searchForNeighbors (*surface_, orphans[o], search_parameter_, orphan_nn[o], dist);
+          nn = orphan_nn[o];
+          orphan_ok[o] = localPlane (*surface_, orphans[o], nn, orphan_normal[o], orphan_curvature[o],
+                                     orphan_support[o]);
+        }
       }
     }
     // Region growing in Jacobi passes (read the previous pass, write the next): deterministic in parallel.
-    for (int pass = 0; pass < growth_passes_; ++pass)
+    // Growing regions into noisy non-planar cells adopted points the ladder does better
+    // (fertility σ = 0.0012: 11.6° against 5.6°): on noisy input regions do not grow.
+    for (int pass = 0; pass < growth_passes_ && !regions.empty () && !noisy; ++pass)
     {
       std::vector<int> next = surface_region;
       int changed = 0;
@@ -389,6 +521,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   const int n = static_cast<int> (indices_->size ());
   status_.assign (n, INVALID_POINT);
   region_ids_.assign (n, -1);
+  support_sizes_.assign (n, 0);
   bool dense = true;
 
 #pragma omp parallel num_threads(threads) reduction(&& : dense)
@@ -415,6 +548,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       float curvature = 0.f;
       std::uint8_t status = INVALID_POINT;
       int region = -1;
+      int support = 0;
 
       if (leaf >= 0)
       {
@@ -430,8 +564,9 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
           region = L.region;
           normal = octree_.regionNormalAt (region, x);
           curvature = regions[region].surface.curvature;
+          support = regions[region].points;
         }
-        else if (patches && L.planar)
+        else if (use_patches && L.planar)
         {
           const int c = same_cloud ? patchOf (surface_to_octree_[index]) : octree_.locatePatch (x);
           if (c >= 0)
@@ -439,6 +574,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
             status = PATCH_FIT;
             normal = octree_.patchNormalAt (c, x);
             curvature = octree_.patches ()[c].curvature;
+            support = octree_.patches ()[c].support;
             region = L.region;  // the merged region the patch lies in, used or not
           }
         }
@@ -446,6 +582,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         {
           normal = L.normal;
           curvature = L.curvature;
+          support = L.size ();
           region = L.planar ? leaf : -1;
         }
       }
@@ -459,20 +596,22 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
           region = surface_region[index];
           normal = octree_.regionNormalAt (region, x);
           curvature = regions[region].surface.curvature;
+          support = regions[region].points;
         }
         else if (orphan_ok[slot])
         {
           status = KNN_PCA;
           normal = orphan_normal[slot];
           curvature = orphan_curvature[slot];
+          support = orphan_support[slot];
         }
       }
       else if (status == INVALID_POINT && this->searchForNeighbors (index, search_parameter_, nn, dist) > 0)
       {
         const pcl::Indices knn = nn;
-        if (localPlane (*input_, index, nn, dist, normal, curvature))
+        if (localPlane (*input_, index, nn, normal, curvature, support))
           status = KNN_PCA;
-        if (method_ == Method::MERGED)
+        if (method_ == Method::MERGED && !noisy)
         {
           // Planarity-aware border: join the (grown) region whose surface passes through x.
           region = bestRegion (x, status == KNN_PCA ? &normal : nullptr, knn, surface_region);
@@ -481,6 +620,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
             status = ADOPTED_REGION;
             normal = octree_.regionNormalAt (region, x);
             curvature = regions[region].surface.curvature;
+            support = regions[region].points;
           }
         }
       }
@@ -493,6 +633,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         curvature = nodes[cell].curvature;
         status = NEIGHBOUR_FALLBACK;
         region = -1;
+        support = nodes[cell].size ();
       }
       out.normal_x = normal.x ();
       out.normal_y = normal.y ();
@@ -500,6 +641,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       out.curvature = curvature;
       status_[i] = status;
       region_ids_[i] = region;
+      support_sizes_[i] = support;
     }
   }
   output.is_dense = dense;

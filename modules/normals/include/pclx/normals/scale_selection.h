@@ -1,0 +1,60 @@
+#pragma once
+// Per-point scale selection for kNN PCA normals (issue 13; not in the seed): a ladder of
+// supports (12, 18, 30, 50, 100, 200, ... nearest neighbours) read as prefixes of one
+// sorted neighbour list, and Lepski's rule: take the largest support whose normal agrees
+// with every smaller one within their standard errors. The standard error of a PCA normal
+// comes from the eigenvector perturbation formula (Anderson 1963) with the noise variance
+// of the whole cloud (estimateNoise), not the support's own λ3: a small support under
+// heavy noise has λ2 ≈ noise, its normal is meaningless and it constrains nothing.
+#include <Eigen/Core>
+
+#include <vector>
+
+namespace pclx {
+namespace normals {
+
+struct NoiseEstimate
+{
+  double sigma = 0;    // noise along the normal (robust, median over samples)
+  double spacing = 0;  // typical point spacing (median √(π d50² / 50))
+  int samples = 0;
+  // Noise that matters next to the sampling: above ~0.15 spacing, small quadric patches
+  // are worse than a PCA plane over a larger support (measured on PCPNet and fertility).
+  double ratio () const { return spacing > 0 ? sigma / spacing : 0; }
+};
+
+// Noise of one sample from its neighbours sorted by distance (the point first, >= 50 of
+// them): RMS residual (corrected for 6 unknowns) of a quadric height field over the
+// first 24, 50, 100 or 200 neighbours, the smallest support whose plane is well defined
+// (λ2 > 9 residual²): small supports keep shape (and a second sheet: a thin plate read as
+// noise from 50 points) out of the estimate on clean data, large ones are needed once the
+// noise is as wide as a small support. Returns false when the
+// neighbours span no plane. spacing2: π d50² / 50.
+bool sampleNoise (const std::vector<Eigen::Vector3f>& sorted, double& residual2, double& spacing2);
+
+// Median of the samples' values (the estimate of the whole cloud).
+NoiseEstimate combineNoiseSamples (std::vector<double> residual2, std::vector<double> spacing2);
+
+// Support sizes of the ladder: 12, 18, 30, 50, 100, 200, 400, ... from min(first, 12) up
+// to max_k (max_k itself is the last rung).
+std::vector<int> ladderRungs (int first, int max_k);
+
+struct ScaleChoice
+{
+  Eigen::Vector3f normal = Eigen::Vector3f::UnitZ ();
+  float curvature = 0;
+  int support = 0;  // neighbours of the chosen rung
+  bool ok = false;  // false: no rung spans a plane
+  bool exhausted = false;  // growth ran out of rungs or points (was not refused)
+};
+
+// Lepski's rule over the rungs for the point x, whose neighbours (positions) are sorted
+// by distance from x. Growth also stops at a one-sided rung (centroid off x by > 0.3 of
+// its radius plus 3 noise sigmas in the plane: a rim or a border, where more points bring
+// another sheet).
+// tau: agreement in standard errors (2).
+ScaleChoice selectScale (const Eigen::Vector3f& x, const std::vector<Eigen::Vector3f>& sorted,
+                         const std::vector<int>& rungs, double noise2, double tau);
+
+}  // namespace normals
+}  // namespace pclx
