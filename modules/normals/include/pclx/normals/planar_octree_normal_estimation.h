@@ -9,14 +9,17 @@
 //           regions, each with one least-squares surface (plane or quadric height field:
 //           the seed's "polynomial fit"). Planar leaves are cut into patches of a few points,
 //           each with a quadric over a kNN-sized disc (PlanarOctree::fitPatches): the normal
-//           of most points, with no kNN search. A region replaces its patches only where it
-//           explains its points as well as they do (then the rest is noise and the larger
-//           support averages it); a patch whose slope stays uncertain grows its disc while
-//           the normal agrees (Lepski's rule), else its points are left to kNN. Points of
-//           non-planar cells (and unfitted patches) get Hoppe's PCA over a kNN set grown
-//           (k, 2k, 4k, ...) until it passes the seed's planarity test λ2 > sα·λ3 — the
-//           seed's criterion applied to neighbourhoods, which makes MERGED robust to noise —
-//           or join a region whose surface passes through them.
+//           of most points on clean input, with no kNN search. A region replaces its patches
+//           only where it explains its points as well as they do. Every other point gets a
+//           kNN PCA normal whose support is chosen per point (not in the seed, issue 13): a
+//           ladder of 12, 18, 30, 50, 100, 200 neighbours, the largest whose normal agrees
+//           with every smaller one within their standard errors (Lepski's rule), the errors
+//           computed with the noise of the whole cloud, estimated once
+//           (pclx::normals::selectScale / sampleNoise). Noise makes supports grow; edges
+//           and fine detail stop them. On noisy input (noise > 0.15 point spacing) patches
+//           and regions lose to that ladder and are not used: it serves every point, which
+//           tracks the best fixed k chosen in hindsight, where the seed's planarity-driven
+//           growth fell 3-18° behind it at σ >= 0.006 of the diagonal.
 // Orientation is separate (MSTNormalOrientation, orientNormalsTowardsViewpoint): the
 // output normals here are unoriented (sign of the fitted eigenvector / surface).
 //
@@ -55,7 +58,7 @@ public:
     LEAF_PLANE = 0,          // PCA of the point's octree leaf (OCTREE, HYBRID inside)
     REGION_FIT = 1,          // surface fit of the point's merged region (MERGED)
     ADOPTED_REGION = 2,      // point of a non-planar cell that lies on an adjacent region (MERGED)
-    KNN_PCA = 3,             // Hoppe's kNN PCA (HYBRID borders, non-planar cells; MERGED: adaptive k)
+    KNN_PCA = 3,             // kNN PCA (HYBRID borders; MERGED: the ladder's k, getSupportSizes ())
     NEIGHBOUR_FALLBACK = 4,  // degenerate neighbourhood: normal of the enclosing planar-enough cell
     INVALID_POINT = 5,       // NaN / Inf input point: zero normal, zero curvature
     PATCH_FIT = 6            // MERGED: quadric of the point's patch cell and its ring (fitPatches)
