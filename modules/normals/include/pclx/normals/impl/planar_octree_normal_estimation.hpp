@@ -403,7 +403,9 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       const int ng = static_cast<int> (groups.size ()) - 1;
       const std::vector<int>& group_start = groups;
       const int nsurf = static_cast<int> (surface_points_.size ());
-      const int long_k = std::min (nsurf, max_adaptive_neighbours_ + max_adaptive_neighbours_ / 2 + 4);
+      // Members lie within a cell of the centroid: half again covers their own lists in
+      // 3-spacing cells; clean input's 1.2-spacing cells need an eighth.
+      const int long_k = std::min (nsurf, max_adaptive_neighbours_ + max_adaptive_neighbours_ / (two_pass ? 8 : 2) + 4);
       const int short_k = std::min (nsurf, short_rungs.empty () ? 0 : short_rungs.back () + short_rungs.back () / 4 + 4);
 #pragma omp parallel num_threads(threads)
       {
