@@ -186,6 +186,7 @@ main (int argc, char** argv)
       ->check (CLI::IsMember ({"all", "pca"}))
       ->capture_default_str ();
   app.add_flag ("!--no-cgal", wide.cgal, "--wide: skip the CGAL jet / VCM peers");
+  app.add_option ("--dump", wide.dump, "--wide: write each shape's clean sample as <dir>/<shape>.ply (to look at)");
   CLI11_PARSE (app, argc, argv);
   if (wide.wide || wide.speed || wide.quick)
   {

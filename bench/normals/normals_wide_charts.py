@@ -72,8 +72,11 @@ def rms_vs_noise(rows, out):
         srows = [r for r in wide if r["input"] == shape]
         sig = sorted({float(r["p_noise"]) for r in srows})
         xs = {s: i for i, s in enumerate(sig)}
-        for method, lab, color, marker in MAIN:
-            pts = sorted((xs[float(r["p_noise"])], r["rms"], r) for r in srows if r["method"] == method)
+        for mi, (method, lab, color, marker) in enumerate(MAIN):
+            # A small horizontal offset per method keeps coinciding points (oracle PCA and jet) visible.
+            dx = 0.035 * (mi - len(MAIN) / 2)
+            pts = sorted(((xs[float(r["p_noise"])] + dx, r["rms"], id(r)), r) for r in srows if r["method"] == method)
+            pts = [(x, y, r) for (x, y, _), r in pts]
             if not pts:
                 continue
             ax.plot([p[0] for p in pts], [p[1] for p in pts], marker=marker, color=color, label=lab,
@@ -137,7 +140,7 @@ def error_vs_time(rows, out):
                 ax.set_ylabel("RMS (deg)")
     axes[0][0].legend(fontsize=6)
     fig.suptitle("Normals, wide set: RMS error against time of every run (lower left is better)", fontsize=11)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.985))
     path = os.path.join(out, "normals_wide_error_vs_time.png")
     fig.savefig(path, dpi=80)
     plt.close(fig)

@@ -45,8 +45,21 @@ def main():
     ap.add_argument("csv")
     ap.add_argument("--commit", default="?", help="the modules/normals commit the run measured")
     ap.add_argument("--out", help="also write the markdown here")
+    ap.add_argument("--peers-from", help="an earlier run's CSV: its CGAL rows (jet_*, vcm_*) fill the cases this "
+                    "run has none for (e.g. a rerun with --no-cgal after a class change; same clouds, same seed)")
     a = ap.parse_args()
     rows = read(a.csv)
+    borrowed = set()
+    if a.peers_from:
+        have = {(r["input"], r.get("p_noise"), r["method"]) for r in rows}
+        ours = {(r["input"], r.get("p_noise")) for r in rows if r.get("p_sweep") == "wide" and r["method"] == "ours"}
+        for r in read(a.peers_from):
+            if r.get("p_sweep") == "wide" and r["method"].startswith(("jet_", "vcm_")) \
+                    and (r["input"], r.get("p_noise")) in ours \
+                    and (r["input"], r.get("p_noise"), r["method"]) not in have:
+                r["borrowed"] = True
+                rows.append(r)
+                borrowed.add((r["input"], r.get("p_noise")))
     lines = []
     p = lines.append
 
@@ -58,8 +71,14 @@ def main():
     p("")
     p(f"Class measured: `modules/normals` at {a.commit}. 100k points per shape, Gaussian noise σ × bounding-box "
       "diagonal on positions (truth normals unchanged, one seed for every method), 2 threads "
-      "(CGAL VCM is sequential). RMS of the unoriented angle error. Times are from one shared, "
+      "(CGAL jet in parallel with TBB, CGAL VCM is sequential). RMS of the unoriented angle error. Times are from one shared, "
       "loaded 2-core machine: compare within a row only.")
+    p("")
+    p("Reproduce: `bash bench/normals/run_wide.sh` (builds `bench_normals`, runs `--wide --speed --threads 2`, "
+      "writes `normals_wide.csv`, the `normals_wide_*.png` charts and this file). Shapes: fertility and the "
+      "Stanford bunny (`bun_zipper.ply`) sampled area-uniformly with face normals as truth, PCPNet bunny100k, "
+      "fandisk100k, 151A_100k_0 (unoriented truth), a generated cube and a generated grooved slab (V-grooves, "
+      "slots, ridges and a ripple a few point spacings wide and deep). h = point spacing of the clean cloud.")
     p("")
     p(f"Bar: ours ≤ oracle PCA + {BAR}° (oracle = the best k of {{12, 18, 30, 50, 100, 200}} chosen with "
       "hindsight per shape and σ). **MISSED** marks the cases over it.")
@@ -79,11 +98,16 @@ def main():
             missed.append((shape, sigma, d))
         jet = m.get("jet_best")
         vcm = m.get("vcm_best")
-        jet_s = f"{deg(jet)} ({jet['p_k']})" if jet else "–"
-        vcm_s = f"{deg(vcm)} ({vcm['p_R']}, {vcm['p_r']})" if vcm else "–"
+        mark = "†" if (shape, sigma) in borrowed else ""
+        jet_s = f"{deg(jet)} ({jet['p_k']}){mark}" if jet else "–"
+        vcm_s = f"{deg(vcm)} ({vcm['p_R']}, {vcm['p_r']}){mark}" if vcm else "–"
         p(f"| {shape} | {sigma} | {deg(o)} | {deg(orc)} ({orc['p_k']}) | {deg(m.get('pca_k18'))} | {jet_s} | {vcm_s} | "
           f"{deg(m.get('open3d_k18'))} | {d:+.2f}° | {o['seconds']:.2f} / {orc['seconds']:.2f} | {flag} |")
     p("")
+    if borrowed:
+        p(f"† jet / VCM rows from an earlier run of the same protocol ({a.peers_from}): the same noisy clouds "
+          "(one seed), so their errors are the same; their times are from that run.")
+        p("")
     if cases:
         p(f"Missed: {len(missed)} of {len(cases)} cases.")
         p("")
@@ -101,6 +125,8 @@ def main():
         p("")
         wins = collections.Counter()
         for (shape, sigma), m in cases.items():
+            if "ours" not in m:
+                continue
             cand = [(r["rms"], k) for k, r in m.items()
                     if k in ("ours", "oracle_pca", "jet_best", "vcm_best", "open3d_k18", "open3d_hybrid") and "rms" in r]
             if cand:
@@ -144,16 +170,23 @@ def main():
             p(f"| {shape} | {sigma} | {q.get('p_k', '?')} | {o['seconds']:.2f} | {q['seconds']:.2f} | {deg(o)} | "
               f"{deg(q)} | {'yes' if o['seconds'] <= q['seconds'] else '**no**'} |")
         p("")
-    orient = [r for r in rows if r["method"] == "orient_mst_ours"]
+    orient = collections.OrderedDict()
+    for r in rows:
+        if r["method"] in ("orient_mst_ours", "orient_mst_pca_k18"):
+            orient.setdefault((r["input"], r.get("p_noise")), {})[r["method"]] = r
     if orient:
-        p("## Orientation: MST (k = 10) on our normals, shapes with oriented truth (bar: < 1 % flipped)")
+        p("## Orientation: MST (k = 10), shapes with oriented truth (bar: < 1 % flipped)")
         p("")
-        p("| shape | σ | flipped | components | seconds |")
-        p("| --- | --- | --- | --- | --- |")
-        for r in orient:
-            f = 100 * r["flipped"]
-            p(f"| {r['input']} | {r['p_noise']} | {f:.3f} %{'' if f < 1 else ' **over 1 %**'} | "
-              f"{int(r.get('components', 0))} | {r['seconds']:.2f} |")
+        p("| shape | σ | flipped, our normals | flipped, PCA k = 18 normals | components (ours) | seconds (ours) |")
+        p("| --- | --- | --- | --- | --- | --- |")
+        for (shape, sigma), m in orient.items():
+            o, q = m.get("orient_mst_ours"), m.get("orient_mst_pca_k18")
+            if not o:
+                continue
+            f = 100 * o["flipped"]
+            qf = f"{100 * q['flipped']:.3f} %" if q else "–"
+            p(f"| {shape} | {sigma} | {f:.3f} %{'' if f < 1 else ' **over 1 %**'} | {qf} | "
+              f"{int(o.get('components', 0))} | {o['seconds']:.2f} |")
         p("")
     text = "\n".join(lines)
     print(text)

@@ -4,8 +4,9 @@
 //     jet_best (CGAL jet_estimate_normals, k grown until the error rises), vcm_R<a>_r<b> and
 //     vcm_best (CGAL vcm_estimate_normals, offset / convolution radii a, b × the point spacing),
 //     open3d_k18, open3d_hybrid (radius 4 spacings, max_nn 30); metrics rms, mean, min, max,
-//     below5, below10 (unoriented angle error, degrees / shares). orient_mst_ours: MST flipped
-//     share on shapes with oriented truth (closed, consistently oriented meshes).
+//     below5, below10 (unoriented angle error, degrees / shares). orient_mst_ours (and
+//     orient_mst_pca_k18, the reference): MST flipped share on shapes with oriented truth (closed,
+//     consistently oriented meshes).
 //   sweep=speed;noise=<σ>: ours against pcl_omp_k18 at 100k / 300k / 1M clean points (best of 2),
 //     and at σ = 0.006 / 0.012 (100k) ours against pca_oracle (params k=<the oracle's k>).
 // Every method of a (shape, σ) case runs on the same noisy cloud (one seed), on opt.threads threads.
@@ -28,6 +29,7 @@
 
 #include <pcl/common/io.h>
 #include <pcl/features/normal_3d_omp.h>
+#include <pcl/io/ply_io.h>
 #include <pcl/search/kdtree.h>
 
 #include <algorithm>
@@ -38,6 +40,7 @@
 #include <iomanip>
 #include <iostream>
 #include <omp.h>
+#include <stdexcept>
 #include <unordered_map>
 
 namespace pclx {
@@ -60,7 +63,7 @@ makeGroovedSlab ()
 {
   const float s = 0.01f, bottom = -0.3f;
   std::vector<Eigen::Vector2f> p{{-1.f, 0.f}};  // (x, z)
-  float x = -0.6f;
+  float x = -0.95f;
   p.emplace_back (x, 0.f);
   auto gap = [&] (float w) { x += w; p.emplace_back (x, 0.f); };
   auto vgroove = [&] (float w, float d) {
@@ -82,27 +85,29 @@ makeGroovedSlab ()
   for (float w : {2 * s, 4 * s, 6 * s})
   {
     vgroove (w, 4 * s);
-    gap (12 * s);
+    gap (10 * s);
   }
   for (float w : {3 * s, 5 * s})
   {
     slot (w, 4 * s);
-    gap (12 * s);
+    gap (10 * s);
   }
   for (float w : {2 * s, 3 * s, 5 * s})
   {
     ridge (w, 4 * s);
-    gap (12 * s);
+    gap (10 * s);
   }
   // Ripple: amplitude 1.5 s, wavelength 10 s, 4 periods.
   const float amp = 1.5f * s, wl = 10 * s;
   for (int i = 1; i <= 4 * 16; ++i)
     p.emplace_back (x + wl * i / 16.f, amp * std::sin (2 * float (M_PI) * i / 16.f));
   x += 4 * wl;
-  gap (12 * s);
+  gap (10 * s);
   // Deep narrow V-grooves next to each other (a comb).
   for (int i = 0; i < 4; ++i)
     vgroove (3 * s, 6 * s);
+  if (x >= 1.f)
+    throw std::logic_error ("makeGroovedSlab: the profile does not fit in [-1, 1]");
   p.emplace_back (1.f, 0.f);
 
   TriangleMesh m;
@@ -213,7 +218,8 @@ private:
   }
   Result ours (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledCloud& truth, Normals* out = nullptr,
                int repeats = 1);
-  Result pca (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledCloud& truth, int k, int repeats = 1);
+  Result pca (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledCloud& truth, int k, int repeats = 1,
+              Normals* out = nullptr);
   void wideCase (const Shape& shape, const SampledCloud& clean, float sigma);
   void speed (const std::vector<Shape>& shapes);
   void emit (const Result& r, const std::string& params, const std::string& input, std::size_t n)
@@ -322,7 +328,8 @@ WideRun::ours (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledCl
 }
 
 Result
-WideRun::pca (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledCloud& truth, int k, int repeats)
+WideRun::pca (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledCloud& truth, int k, int repeats,
+              Normals* out)
 {
   pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> ne (opt_.threads);
   ne.setInputCloud (cloud);
@@ -330,6 +337,8 @@ WideRun::pca (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledClo
   Normals normals;
   const double t = timeBest ([&] { ne.compute (normals); }, repeats);
   const auto e = pclx::normals::compareNormals (normals, truth.cloud);
+  if (out)
+    *out = std::move (normals);
   return {"pca_k" + std::to_string (k), t, e.rms_deg, errorMetrics (e)};
 }
 
@@ -360,9 +369,10 @@ WideRun::wideCase (const Shape& shape, const SampledCloud& clean, float sigma)
   emit (o, params, input, n);
 
   std::vector<Result> pcas;
+  Normals pca18;
   for (int k : pcaKs ())
   {
-    pcas.push_back (pca (cloud, s, k));
+    pcas.push_back (pca (cloud, s, k, 1, k == 18 ? &pca18 : nullptr));
     emit (pcas.back (), params, input, n);
   }
   emitBest (pcas, "oracle_pca", params, input, n, [] (const Result& r) { return "k=" + r.method.substr (5); });
@@ -391,21 +401,20 @@ WideRun::wideCase (const Shape& shape, const SampledCloud& clean, float sigma)
       }
       emitBest (jets, "jet_best", params, input, n, [] (const Result& r) { return "k=" + r.method.substr (5); });
       // VCM radii in point spacings h: the offset radius R follows the feature size, the
-      // convolution radius r the noise (CGAL's documentation). R grows (2, 5, 10 h) while the
-      // best r at that R improves; r ∈ {2, 5, 10} h is convolved from one offset computation.
+      // convolution radius r the noise (CGAL's documentation). R ∈ {2, 5} h (10 h was worse than
+      // 5 h on the cube at σ = 0.006, and each offset step costs 15-40 s at 100k points here);
+      // r ∈ {2, 5, 10} h, all convolved from one offset step.
       const double h = pointSpacing (positions (clean.cloud));
       const std::vector<int> conv = opt_.quick ? std::vector<int>{2} : std::vector<int>{2, 5, 10};
       std::vector<double> conv_h;
       for (int b : conv)
         conv_h.push_back (b * h);
       std::vector<Result> vcms;
-      double best_prev = 1e300;
-      for (int a : opt_.quick ? std::vector<int>{2} : std::vector<int>{2, 5, 10})
+      for (int a : opt_.quick ? std::vector<int>{2} : std::vector<int>{2, 5})
       {
         std::vector<std::vector<Eigen::Vector3f>> nrms;
         std::vector<double> secs;
         cgal_peer::vcmNormalsSweep (pts, a * h, conv_h, nrms, secs);
-        double best_here = 1e300;
         for (std::size_t j = 0; j < conv.size (); ++j)
         {
           const auto e = pclx::normals::compareNormals (toPcl (nrms[j]), s.cloud);
@@ -414,11 +423,7 @@ WideRun::wideCase (const Shape& shape, const SampledCloud& clean, float sigma)
           m.emplace_back ("convolution_radius", conv_h[j]);
           vcms.push_back ({"vcm_R" + std::to_string (a) + "_r" + std::to_string (conv[j]), secs[j], e.rms_deg, m});
           emit (vcms.back (), params, input, n);
-          best_here = std::min (best_here, e.rms_deg);
         }
-        if (best_here > best_prev)
-          break;
-        best_prev = best_here;
       }
       emitBest (vcms, "vcm_best", params, input, n, [] (const Result& r) {
         const auto u = r.method.find ("_r");
@@ -456,18 +461,25 @@ WideRun::wideCase (const Shape& shape, const SampledCloud& clean, float sigma)
 #endif
     if (shape.oriented)
     {
-      pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
-      mst.setInputCloud (cloud);
-      mst.setKSearch (10);
-      mst.setNumberOfThreads (opt_.threads);
-      Normals oriented;
-      const double t = timeBest ([&] { oriented = our_normals; mst.orient (oriented); }, 1);
-      const auto e = pclx::normals::compareNormals (oriented, s.cloud, true);
-      out_.row ("normals", "orient_mst_ours", params + ";k=10", input, n, t,
-                {{"flipped", e.flipped}, {"rms_oriented", e.rms_deg}, {"components", double (mst.getNumberOfComponents ())}});
-      std::ostringstream x;
-      x << std::setprecision (3) << ", MST flipped " << 100 * e.flipped << " %";
-      extra += x.str ();
+      // MST on our normals, and on PCA k = 18 normals as the reference (same cloud, same k).
+      for (const auto& [name, normals] : {std::pair<std::string, const Normals*> ("orient_mst_ours", &our_normals),
+                                          std::pair<std::string, const Normals*> ("orient_mst_pca_k18", &pca18)})
+      {
+        pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+        mst.setInputCloud (cloud);
+        mst.setKSearch (10);
+        mst.setNumberOfThreads (opt_.threads);
+        Normals oriented;
+        const double t = timeBest ([&] { oriented = *normals; mst.orient (oriented); }, 1);
+        const auto e = pclx::normals::compareNormals (oriented, s.cloud, true);
+        out_.row ("normals", name, params + ";k=10", input, n, t,
+                  {{"flipped", e.flipped}, {"rms_oriented", e.rms_deg},
+                   {"components", double (mst.getNumberOfComponents ())}});
+        std::ostringstream x;
+        x << std::setprecision (3) << ", MST flipped " << 100 * e.flipped << " %"
+          << (name == "orient_mst_ours" ? "" : " (PCA k=18)");
+        extra += x.str ();
+      }
     }
   }
   std::cerr << std::fixed << std::setprecision (2) << "[bench_normals] wide " << input << " σ=" << fmt (sigma) << ": ours "
@@ -558,6 +570,8 @@ WideRun::run ()
     for (const auto& shape : all)
     {
       const SampledCloud clean = sampleShape (shape, n, 17);
+      if (!opt_.dump.empty ())
+        pcl::io::savePLYFileBinary (opt_.dump + "/" + shape.name + ".ply", clean.cloud);
       for (float sigma : sigmas)
         wideCase (shape, clean, sigma);
     }

@@ -21,6 +21,7 @@ struct WideOptions
   std::string peers = "all";        // all | pca (ours + the PCA sweep only: quick checks of the class)
   bool cgal = true, open3d = true;
   std::size_t points = 100000;
+  std::string dump;  // write each shape's clean sample (positions + truth normals) as <dump>/<shape>.ply
 };
 
 // Prints rows (module normals, params sweep=wide|speed|orient;noise=σ/diag) and progress on
