@@ -186,9 +186,17 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("csv")
     ap.add_argument("--out", default=".")
+    ap.add_argument("--peers-from", help="an earlier run's CSV whose CGAL rows (jet_*, vcm_*) fill the cases "
+                    "this run has none for (a --no-cgal rerun; same clouds, same seed)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     rows = read(a.csv)
+    if a.peers_from:
+        have = {(r["input"], r.get("p_noise"), r["method"]) for r in rows}
+        ours = {(r["input"], r.get("p_noise")) for r in rows if r.get("p_sweep") == "wide" and r["method"] == "ours"}
+        rows += [r for r in read(a.peers_from)
+                 if r.get("p_sweep") == "wide" and r["method"].startswith(("jet_", "vcm_"))
+                 and (r["input"], r.get("p_noise")) in ours and (r["input"], r.get("p_noise"), r["method"]) not in have]
     for f in (rms_vs_noise, error_vs_time, speed):
         p = f(rows, a.out)
         if p:

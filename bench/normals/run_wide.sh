@@ -20,13 +20,13 @@ start=$(date +%s)
 "$BUILD/bench/normals/bench_normals" --wide --speed --threads 2 --csv "$OUT/normals_wide.csv" "$@" \
   > /dev/null 2> >(tee "$OUT/normals_wide.log" >&2)
 echo "[run_wide] bench wall time $(( $(date +%s) - start )) s" | tee -a "$OUT/normals_wide.log" >&2
-/usr/bin/python3 bench/normals/normals_wide_charts.py "$OUT/normals_wide.csv" --out "$OUT"
 PEERS=()
 if grep -q '^normals,jet_' "$OUT/normals_wide.csv"; then
   grep -E '^(module|normals,(jet|vcm)_)' "$OUT/normals_wide.csv" > "$OUT/normals_wide_peers.csv"
 elif [ -f "$OUT/normals_wide_peers.csv" ]; then
   PEERS=(--peers-from "$OUT/normals_wide_peers.csv")
 fi
+/usr/bin/python3 bench/normals/normals_wide_charts.py "$OUT/normals_wide.csv" "${PEERS[@]}" --out "$OUT"
 /usr/bin/python3 bench/normals/normals_wide_summary.py "$OUT/normals_wide.csv" --commit "$COMMIT$DIRTY" \
   "${PEERS[@]}" --out "$OUT/normals_wide_summary.md" > /dev/null
 echo "[run_wide] wrote $OUT/normals_wide.csv, normals_wide_*.png, normals_wide_summary.md" >&2
