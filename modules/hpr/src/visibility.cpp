@@ -343,19 +343,24 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
   res.visible.assign (n, 0);
   if (n == 0)
     return res;
-  double max_rho = 0;
+  double max_rho2 = 0, min_rho2 = std::numeric_limits<double>::infinity ();
   for (const auto& p : points)
-    max_rho = std::max<double> (max_rho, p.norm ());
+  {
+    max_rho2 = std::max (max_rho2, p.squaredNorm ());
+    min_rho2 = std::min (min_rho2, p.squaredNorm ());
+  }
+  const double max_rho = std::sqrt (max_rho2);
 
   // A point at the viewpoint is seen (and cannot be flipped): keep it out of the hull.
   const double eye_eps = 1e-9 * std::max (max_rho, 1e-30);
   std::size_t at_eye = 0;
-  for (std::size_t i = 0; i < n; ++i)
-    if (points[i].norm () <= eye_eps)
-    {
-      res.visible[i] = 1;
-      ++at_eye;
-    }
+  if (std::sqrt (min_rho2) <= eye_eps)  // rare: a second pass only then
+    for (std::size_t i = 0; i < n; ++i)
+      if (points[i].norm () <= eye_eps)
+      {
+        res.visible[i] = 1;
+        ++at_eye;
+      }
   if (n - at_eye < 4)
   {
     // With C, at most 4 points: each is a vertex of their hull unless degenerate; call all visible.

@@ -59,9 +59,11 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
       continue;
     finite.push_back (static_cast<int> (i));
     rel.push_back (p.getVector3fMap ().template cast<double> () - eye);
-    max_rho = std::max (max_rho, rel.back ().norm ());
-    max_coord = std::max<double> (max_coord, p.getVector3fMap ().norm ());
+    max_rho = std::max (max_rho, rel.back ().squaredNorm ());
+    max_coord = std::max<double> (max_coord, p.getVector3fMap ().squaredNorm ());
   }
+  max_rho = std::sqrt (max_rho);
+  max_coord = std::sqrt (max_coord);
 
   hpr::VisibilityOptions opt;
   method_used_ = method_;
