@@ -333,7 +333,8 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
 
   // When the input is its own search surface, orphans' results are reused as they are.
   const bool same_cloud = surface_ == input_;
-  // Orphans: search-surface points in non-planar cells (or rejected regions).
+  // Orphans: search-surface points in non-planar cells (or rejected regions; on noisy
+  // input every point).
   std::vector<int> orphans, orphan_slot, groups;
   std::vector<Eigen::Vector3f> orphan_normal;
   std::vector<float> orphan_curvature;
@@ -342,7 +343,6 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   if (method_ == Method::MERGED && (adaptive || (growth_passes_ > 0 && !regions.empty ())))
   {
     orphan_slot.assign (surface_->size (), -1);
-    // In octree order, so that consecutive orphans are near each other (groups below).
     for (const int o : octree_.order ())
     {
       const int j = octree_to_surface_[o];
@@ -384,7 +384,11 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
                                        octree_.origin ()) / cell;
             key = 0;
             for (int a = 0; a < 3; ++a)
-              key = (key << 21) | (static_cast<std::uint64_t> (std::floor (c[a]) + (1 << 20)) & ((1u << 21) - 1));
+            {
+              // 21 bits per axis; far cells may share a key (the distance check below splits them).
+              const auto cell_index = static_cast<std::int64_t> (std::floor (std::max (-1e15, std::min (1e15, c[a]))));
+              key = (key << 21) | (static_cast<std::uint64_t> (cell_index + (1 << 20)) & ((1u << 21) - 1));
+            }
           }
           keyed[o] = {key, orphans[o]};
         }
@@ -394,8 +398,11 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         for (int o = 0; o < no; ++o)
           orphan_slot[orphans[o]] = o;
         std::vector<int> group_start;
+        const float reach2 = static_cast<float> (4.0 * cell * cell);
         for (int o = 0; o < no; ++o)
-          if (o == 0 || keyed[o].first != keyed[o - 1].first || o - group_start.back () >= 16)
+          if (o == 0 || keyed[o].first != keyed[o - 1].first || o - group_start.back () >= 16 ||
+              ((*surface_)[orphans[o]].getVector3fMap () - (*surface_)[orphans[group_start.back ()]].getVector3fMap ())
+                      .squaredNorm () > reach2)
             group_start.push_back (o);
         group_start.push_back (no);
         groups.swap (group_start);
