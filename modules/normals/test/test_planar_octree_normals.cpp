@@ -560,6 +560,7 @@ TEST (PlanarOctreePatches, UncertainPatchesAreNotUsed)
   const auto cloud = positions (noisy.cloud);
   Estimator ne;
   ne.setMaxPatchSlopeError (1.0);
+  ne.setMaxPatchNoiseRatio (1e9);   // keep patches (and regions) on noisy input
   ne.setRegionValidationRatio (0);  // regions are always used then: only patches are judged
   estimate (cloud, Method::MERGED, &ne);
   const double limit = std::tan (1.0 * M_PI / 180.0);

@@ -153,10 +153,11 @@ public:
   // of the best fixed k on PCPNet bunny, fandisk and fertility from 0 to 0.012).
   void setScaleAgreement (double tau) { ladder_tau_ = tau; }
   double getScaleAgreement () const { return ladder_tau_; }
-  // Patches are skipped (their points take the ladder) when the estimated noise exceeds
-  // this share of the point spacing (>= 0, default 0.15; clean scans measure <= 0.05,
-  // σ = 0.0012 of the diagonal at 100k points 0.27-0.41, where an 18-point quadric lost
-  // to the ladder by 0.4-1.3°).
+  // Input is noisy when the estimated noise exceeds this share of the point spacing (>= 0,
+  // default 0.15; clean scans measure <= 0.05, σ = 0.0012 of the diagonal at 100k points
+  // 0.27-0.41). Noisy input gets no regions and no patches (they are not even built): an
+  // 18-point quadric lost to the ladder by 0.4-1.3°, region fits by 2°. A huge value keeps
+  // them whatever the noise.
   void setMaxPatchNoiseRatio (double r) { max_patch_noise_ratio_ = r; }
   double getMaxPatchNoiseRatio () const { return max_patch_noise_ratio_; }
   void setGrowthPasses (int passes) { growth_passes_ = passes; }

@@ -138,13 +138,6 @@ template <typename PointInT, typename PointOutT> void
 PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut& output)
 {
   const auto& nodes = octree_.nodes ();
-  if (method_ == Method::MERGED)
-  {
-    octree_.mergeCoplanarLeaves (merge_angle_deg_, merge_thickness_factor_);
-    octree_.fitRegions (quadric_);
-    if (patch_size_ > 0)
-      octree_.fitPatches (patch_size_, quadric_, std::tan (max_patch_slope_deg_ * M_PI / 180.0), patch_scales_, patch_support_);
-  }
   const bool patches = method_ == Method::MERGED && patch_size_ > 0;
   const auto& regions = octree_.regions ();
   const auto& leaf_of_point = octree_.leafOfPoint ();
@@ -196,6 +189,14 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   // noise is a sizeable share of the spacing; they still validate regions.
   const bool noisy = adaptive && noise_.ratio () > max_patch_noise_ratio_;
   const bool use_patches = patches && !noisy;
+  // Regions and patches serve no point on noisy input (below): they are not built.
+  if (method_ == Method::MERGED && !noisy)
+  {
+    octree_.mergeCoplanarLeaves (merge_angle_deg_, merge_thickness_factor_);
+    octree_.fitRegions (quadric_);
+    if (patch_size_ > 0)
+      octree_.fitPatches (patch_size_, quadric_, std::tan (max_patch_slope_deg_ * M_PI / 180.0), patch_scales_, patch_support_);
+  }
   // The valid patch of an octree point, -1 if none.
   auto patchOf = [&] (int octree_point) {
     const int f = octree_.patchOfPoint ()[octree_point];
