@@ -186,12 +186,18 @@ main (int argc, char** argv)
       ->check (CLI::IsMember ({"all", "pca"}))
       ->capture_default_str ();
   app.add_flag ("!--no-cgal", wide.cgal, "--wide: skip the CGAL jet / VCM peers");
+  bool no_speed = false;
+  app.add_flag ("--no-speed", no_speed, "--wide: skip the speed sweep");
   app.add_option ("--dump", wide.dump, "--wide: write each shape's clean sample as <dir>/<shape>.ply (to look at)");
   CLI11_PARSE (app, argc, argv);
   if (wide.wide || wide.speed || wide.quick)
   {
-    if (wide.quick)
-      wide.wide = wide.speed = true;
+    // --wide includes the speed sweep (unless --no-speed); --speed alone runs only that.
+    if (wide.quick || wide.wide)
+    {
+      wide.wide = true;
+      wide.speed = !no_speed;
+    }
     wide.threads = opt.threads > 0 ? opt.threads : 2;
     wide.open3d = opt.open3d;
     if (!wide.quick)
