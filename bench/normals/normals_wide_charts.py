@@ -8,6 +8,8 @@ normals_wide_rms_vs_noise.png   per shape: RMS against σ for ours, oracle PCA (
                                 PCA k = 18, jet best, VCM best, Open3D k = 18 / hybrid
 normals_wide_error_vs_time.png  per shape and σ: RMS against seconds of every run (the k / radius
                                 sweeps as lines), ours as a star
+normals_wide_delta.png          per shape and σ: ours − oracle PCA (bars) with the issue's +0.5° bar,
+                                jet best − oracle and VCM best − oracle as markers
 normals_wide_speed.png          speed sweep: seconds and RMS against points, ours vs PCL k = 18
 """
 import argparse
@@ -95,6 +97,51 @@ def rms_vs_noise(rows, out):
     fig.suptitle("Normals, wide set (issue 13): RMS error against noise, 100k points, 2 threads", fontsize=11)
     fig.tight_layout()
     path = os.path.join(out, "normals_wide_rms_vs_noise.png")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def delta(rows, out):
+    wide = [r for r in rows if r.get("p_sweep") == "wide" and "rms" in r]
+    shapes = shapes_of(wide)
+    if not shapes:
+        return None
+    sig = sorted({float(r["p_noise"]) for r in wide})
+    best = {(r["input"], float(r["p_noise"]), r["method"]): r["rms"] for r in wide}
+    fig, ax = plt.subplots(figsize=(max(8, 1.6 * len(shapes)), 4.8))
+    width = 0.8 / len(sig)
+    colors = ["#4c72b0", "#55a868", "#c44e52", "#8172b2"]
+    for j, s in enumerate(sig):
+        xs, hs = [], []
+        for i, shape in enumerate(shapes):
+            o, q = best.get((shape, s, "ours")), best.get((shape, s, "oracle_pca"))
+            if o is None or q is None:
+                continue
+            x = i - 0.4 + width * (j + 0.5)
+            xs.append(x)
+            hs.append(o - q)
+            for peer, marker in (("jet_best", "s"), ("vcm_best", "D")):
+                p = best.get((shape, s, peer))
+                if p is not None:
+                    ax.scatter([x], [p - q], marker=marker, color="k", s=14, zorder=5,
+                               label={"jet_best": "jet best − oracle", "vcm_best": "VCM best − oracle"}[peer]
+                               if (i, j) == (0, 0) else None)
+        bars = ax.bar(xs, hs, width=width, color=colors[j % len(colors)], label=f"ours − oracle, σ = {s:g}")
+        ax.bar_label(bars, fmt="%+.2f", fontsize=6, rotation=90, padding=2)
+    ax.axhline(0.5, color="r", linestyle="--", linewidth=1)
+    ax.annotate("bar: +0.5°", (0.005, 0.5), xycoords=("axes fraction", "data"), fontsize=8, color="r", va="bottom")
+    ax.axhline(0, color="k", linewidth=0.6)
+    ax.set_xticks(range(len(shapes)))
+    ax.set_xticklabels(shapes)
+    ax.set_ylabel("RMS difference to oracle PCA (deg)")
+    lo = min([0] + [b - best.get((a, c, "oracle_pca"), b) for (a, c, m), b in best.items() if m == "ours"])
+    ax.set_ylim(max(lo - 0.5, -3), None)  # the clean cube's -6° would flatten the rest
+    ax.grid(True, axis="y", alpha=0.3)
+    ax.legend(fontsize=7, ncol=3)
+    ax.set_title("Normals, wide set: ours − oracle PCA per shape and noise (lower is better; clipped at −3°)", fontsize=10)
+    fig.tight_layout()
+    path = os.path.join(out, "normals_wide_delta.png")
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
@@ -197,7 +244,7 @@ def main():
         rows += [r for r in read(a.peers_from)
                  if r.get("p_sweep") == "wide" and r["method"].startswith(("jet_", "vcm_"))
                  and (r["input"], r.get("p_noise")) in ours and (r["input"], r.get("p_noise"), r["method"]) not in have]
-    for f in (rms_vs_noise, error_vs_time, speed):
+    for f in (rms_vs_noise, delta, error_vs_time, speed):
         p = f(rows, a.out)
         if p:
             print(p)
