@@ -14,7 +14,9 @@ if [ ! -f "$BUILD/build.ninja" ] && [ ! -f "$BUILD/Makefile" ]; then
 fi
 cmake --build "$BUILD" -j2 --target bench_normals
 COMMIT=$(git log -1 --format=%h -- modules/normals)
-DIRTY=$(git status --porcelain -- modules/normals | grep -q . && echo " + uncommitted changes" || true)
+# What the bench compiles of the class: its headers and sources (not its tests).
+DIRTY=$(git status --porcelain -- modules/normals/include modules/normals/src modules/normals/CMakeLists.txt \
+  | grep -q . && echo " + uncommitted changes" || true)
 echo "[run_wide] modules/normals at $COMMIT$DIRTY; started $(date -u +%H:%M) UTC" >&2
 start=$(date +%s)
 "$BUILD/bench/normals/bench_normals" --wide --speed --threads 2 --csv "$OUT/normals_wide.csv" "$@" \
