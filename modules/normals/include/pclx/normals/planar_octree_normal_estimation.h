@@ -119,15 +119,16 @@ public:
   // shape). 0 = always use.
   void setRegionValidationRatio (double r) { region_validation_ratio_ = r; }
   double getRegionValidationRatio () const { return region_validation_ratio_; }
-  // MERGED: where no region (or, on noisy input, no patch) applies, the support is chosen
-  // per point from a ladder of kNN sizes (12, 18, 30, 50, 100, 200, ... up to this many
-  // points; pclx::normals::selectScale): the largest whose PCA normal agrees with every
-  // smaller one within getScaleAgreement () standard errors, the errors computed with the
-  // noise of the whole cloud (getNoiseEstimate ()). Growth also stops where the set turns
-  // one-sided (centroid off the point by > 0.3 of its radius: a rim or a border; without
-  // that, a thin plate's rim took its sheets' plane and MST flipped one sheet).
-  // <= getKSearch (): plain Hoppe PCA. Default 200: the best fixed k at σ >= 0.006 of the
-  // diagonal on PCPNet and fertility.
+  // MERGED: where no region or patch applies (on noisy input: every point), the support
+  // is chosen per point from a ladder of kNN sizes (12, 18, 30, 50, 100, 200, ... up to
+  // this many points; pclx::normals::selectScale): the largest whose PCA normal agrees
+  // with every smaller one within getScaleAgreement () standard errors, the errors
+  // computed with the noise of the whole cloud (getNoiseEstimate ()). Growth also stops
+  // where the set turns one-sided (centroid off the point by > 0.3 of its radius plus 3
+  // noise sigmas: a rim or a border; without that, a thin plate's rim took its sheets'
+  // plane and MST flipped one sheet). Clean input stops at 50. <= getKSearch (): plain
+  // Hoppe PCA. Default 200: the best fixed k at σ >= 0.006 of the diagonal on PCPNet and
+  // fertility.
   void setMaxAdaptiveNeighbours (int n) { max_adaptive_neighbours_ = n; }
   int getMaxAdaptiveNeighbours () const { return max_adaptive_neighbours_; }
   // MERGED: ... and if the region's normal there is within this angle of the point's own
