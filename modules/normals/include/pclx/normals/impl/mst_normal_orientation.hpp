@@ -283,13 +283,18 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
         const Eigen::Vector3f& nj = nrm[w];
         const Eigen::Vector3f d = Eigen::Map<const Eigen::Vector3f> (&pos[3 * w]) - pi;
         const float length = d.norm ();
-        float cost = std::max (0.f, 1.f - std::abs (ni.dot (nj)));
+        const float dn = ni.dot (nj);
+        float cost = std::max (0.f, 1.f - std::abs (dn));
         if (penalty > 0 && length > 0)
         {
+          const float a = std::abs (ni.dot (d)) / length, b = std::abs (nj.dot (d)) / length;
           // An edge along the normals (e.g. through a thin plate, from one sheet to the
           // other) says nothing about the relative sign of two parallel normals: make it
-          // expensive, so the tree goes around along the surface instead.
-          cost += penalty * std::max (std::abs (ni.dot (d)), std::abs (nj.dot (d))) / length;
+          // expensive, so the tree goes around along the surface instead. Across a sharp
+          // edge (normals > 60° apart) the traversal reads the sign from the edge's side,
+          // which needs e to leave both tangent planes: prefer such crossings (an edge
+          // along the crease says nothing either).
+          cost += penalty * (std::abs (dn) < 0.5f ? 1.f - std::min (a, b) : std::max (a, b));
         }
         cost += length_weight * length;
         std::uint32_t bits;
@@ -355,6 +360,23 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
   mst_detail::Buffer<std::pair<std::uint32_t, std::uint32_t>> ().swap (tree);
 
   // Depth-first from every root, as in the seed; the root's normal points to +z.
+  // A child takes its parent's sign by Hoppe's rule (ni·nj > 0) where the normals are
+  // within 60° of each other. Across a sharp edge (exact normals at 90° on a box) ni·nj ≈ 0
+  // is a coin toss; there the edge vector e = pj − pi decides: on any consistently
+  // oriented surface, convex or concave, ni·e and nj·e have opposite signs (a sphere's
+  // chord gives ni·e = −nj·e). Used only when both lean off e by > 0.2 |e|; otherwise Hoppe.
+  const auto flipAcross = [&] (std::uint32_t u, std::uint32_t w) {
+    const float d = nrm[w].dot (nrm[u]);
+    if (std::abs (d) < 0.5f)
+    {
+      const Eigen::Vector3f e = Eigen::Map<const Eigen::Vector3f> (&pos[3 * w]) -
+                                Eigen::Map<const Eigen::Vector3f> (&pos[3 * u]);
+      const float a = nrm[u].dot (e), b = nrm[w].dot (e), floor = 0.04f * e.squaredNorm ();
+      if (a * a > floor && b * b > floor)
+        return a * b > 0;
+    }
+    return d < 0;
+  };
   std::vector<char> seen (nv, 0), flip (nv, 0);
   std::vector<std::uint32_t> stack;
   for (const std::uint32_t r : root)
@@ -379,7 +401,7 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
         if (seen[w])
           continue;
         seen[w] = 1;
-        if (nrm[w].dot (nrm[u]) < 0)
+        if (flipAcross (u, w))
         {
           nrm[w] = -nrm[w];
           flip[w] = 1;
