@@ -13,10 +13,11 @@ if [ ! -f "$BUILD/build.ninja" ] && [ ! -f "$BUILD/Makefile" ]; then
   cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPCLX_BUILD_DRIVERS=OFF -DPCLX_BUILD_APPS=OFF
 fi
 cmake --build "$BUILD" -j2 --target bench_normals
-COMMIT=$(git log -1 --format=%h -- modules/normals)
+# NORMALS_COMMIT names the class commit when this runs from an exported tree (git archive) without .git.
+COMMIT=${NORMALS_COMMIT:-$(git log -1 --format=%h -- modules/normals 2>/dev/null || echo unknown)}
 # What the bench compiles of the class: its headers and sources (not its tests).
 DIRTY=$(git status --porcelain -- modules/normals/include modules/normals/src modules/normals/CMakeLists.txt \
-  | grep -q . && echo " + uncommitted changes" || true)
+  2>/dev/null | grep -q . && echo " + uncommitted changes" || true)
 echo "[run_wide] modules/normals at $COMMIT$DIRTY; started $(date -u +%H:%M) UTC" >&2
 start=$(date +%s)
 "$BUILD/bench/normals/bench_normals" --wide --speed --threads 2 --csv "$OUT/normals_wide.csv" "$@" \
