@@ -109,6 +109,32 @@ TEST (MSTOrientation, ExactNormalsAcrossSharpEdgesPointOutward)
   }
 }
 
+TEST (MSTOrientation, ExtremePointsVoteTheSignNotTheHighestPointAlone)
+{
+  // The highest point on a crease or a thin ridge gets a nearly horizontal normal, which
+  // says nothing about "up". Here the sphere's top point gets a horizontal normal (±x, so
+  // one of the two signs disagrees with the side its tree neighbour lies on); every other
+  // normal is exact (scrambled). The extremes in 21 upper directions settle the sign.
+  auto s = analyticSphere (3000, 1.f, Eigen::Vector3f (0, 0, 0), 9);
+  const auto cloud = positions (s);
+  std::size_t top = 0;
+  for (std::size_t i = 1; i < s.size (); ++i)
+    if (s[i].z > s[top].z)
+      top = i;
+  for (const float sx : {1.f, -1.f})
+  {
+    pcl::PointCloud<pcl::Normal> n (s.size (), 1);
+    for (std::size_t i = 0; i < n.size (); ++i)
+      n[i].getNormalVector3fMap () = s[i].getNormalVector3fMap ();
+    scramble (n, 11);
+    n[top].getNormalVector3fMap () = Eigen::Vector3f (sx, 0, 0);
+    pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+    mst.setInputCloud (cloud);
+    ASSERT_TRUE (mst.orient (n));
+    EXPECT_LT (flippedShare (n, s), 0.01) << "top normal " << sx << " x";
+  }
+}
+
 TEST (MSTOrientation, OurMergedNormalsOnATorusPointOutward)
 {
   const auto s = pclx::testing::sampleUniform (pclx::testing::makeTorus (1.f, 0.3f, 128, 48), 30000, 4);

@@ -3,9 +3,11 @@
 // Riemannian graph (symmetric kNN graph) with edge cost 1 − |ni·nj| (+ a tiny length
 // term that only breaks ties), its minimum
 // spanning forest (Kruskal with Boost's disjoint sets), and in every component a traversal from the
-// point of largest z, whose normal is made to point to +z; each child is flipped to
-// agree with its parent (ni·nj > 0; across a sharp edge, by the side the edge vector
-// leaves the two tangent planes: see orient ()).
+// point of largest z; each child is flipped to agree with its parent (ni·nj > 0; across a
+// sharp edge, by the side the edge vector leaves the two tangent planes: see orient ()).
+// The seed points the root's normal to +z; here the component's extreme points in 21
+// directions of the upper hemisphere vote its sign (Σ n·d > 0): outward on closed shapes,
+// "up" on open sheets, and not decided by one crease point at the top.
 #include <pcl/point_cloud.h>
 #include <pcl/search/search.h>
 

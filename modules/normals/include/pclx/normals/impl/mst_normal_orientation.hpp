@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <new>
 #include <numeric>
 #include <omp.h>
@@ -378,12 +379,13 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
     return d < 0;
   };
   std::vector<char> seen (nv, 0), flip (nv, 0);
-  std::vector<std::uint32_t> stack;
+  std::vector<std::uint32_t> stack, component (nv, 0);
   for (const std::uint32_t r : root)
   {
     if (r == UINT32_MAX)
       continue;
-    ++components_;
+    const std::uint32_t c = static_cast<std::uint32_t> (components_++);
+    component[r] = c;
     seen[r] = 1;
     if (nrm[r].z () < 0)
     {
@@ -401,6 +403,7 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
         if (seen[w])
           continue;
         seen[w] = 1;
+        component[w] = component[u];
         if (flipAcross (u, w))
         {
           nrm[w] = -nrm[w];
@@ -409,6 +412,45 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
         stack.push_back (w);
       }
     }
+  }
+  // The highest point alone is a weak witness where it sits on a crease or a thin ridge: its
+  // normal is nearly horizontal, or wrong (a grooved slab came out 86 % flipped). Each
+  // component's sign is voted by its extreme points in 21 directions d of the upper
+  // hemisphere (horizontal ring, 30°, 60°, +z), each adding n·d: outward normals on a closed
+  // surface make every term ≥ 0, and on an open sheet the upper directions still ask for
+  // "up". On a smooth top this agrees with the highest point's +z.
+  {
+    std::vector<Eigen::Vector3f> dirs;
+    for (const auto& [elevation, count] : {std::pair{0.0, 8}, std::pair{30.0, 8}, std::pair{60.0, 4}, std::pair{90.0, 1}})
+      for (int a = 0; a < count; ++a)
+      {
+        const double el = elevation * M_PI / 180, az = 2 * M_PI * (a + 0.5 * (elevation == 30.0)) / count;
+        dirs.emplace_back (Eigen::Vector3d (std::cos (el) * std::cos (az), std::cos (el) * std::sin (az), std::sin (el)).cast<float> ());
+      }
+    const std::size_t nd = dirs.size ();
+    std::vector<std::pair<float, std::uint32_t>> extreme (components_ * nd, {-std::numeric_limits<float>::infinity (), 0u});
+    for (std::uint32_t v = 0; v < nv; ++v)
+    {
+      const Eigen::Map<const Eigen::Vector3f> p (&pos[3 * v]);
+      auto* e = &extreme[std::size_t (component[v]) * nd];
+      for (std::size_t d = 0; d < nd; ++d)
+      {
+        const float h = p.dot (dirs[d]);
+        if (h > e[d].first)
+          e[d] = {h, v};
+      }
+    }
+    std::vector<char> invert (components_, 0);
+    for (std::size_t c = 0; c < components_; ++c)
+    {
+      double vote = 0;
+      for (std::size_t d = 0; d < nd; ++d)
+        vote += nrm[extreme[c * nd + d].second].dot (dirs[d]);
+      invert[c] = vote < 0;
+    }
+    for (std::uint32_t v = 0; v < nv; ++v)
+      if (invert[component[v]])
+        flip[v] = !flip[v];
   }
   for (std::size_t v = 0; v < nv; ++v)
     if (flip[v])
