@@ -2,11 +2,14 @@
 // behaviour, hybrid borders, merging, PCL feature semantics and bad inputs.
 #include "test_util.h"
 
+#include <pclx/normals/grid_knn.h>
 #include <pclx/normals/normal_error.h>
 #include <pclx/normals/planar_octree_normal_estimation.h>
 #include <pclx/testing/degradation.h>
 #include <pclx/testing/mesh_sampling.h>
 #include <pclx/testing/shapes.h>
+
+#include <pcl/search/kdtree.h>
 
 #include <gtest/gtest.h>
 
@@ -14,6 +17,7 @@
 #include <limits>
 #include <map>
 #include <numeric>
+#include <random>
 #include <set>
 
 using Estimator = pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal>;
@@ -667,6 +671,78 @@ TEST (PlanarOctreeFeature, NoSearchMethodGivenUsesADefaultKdTree)
   const auto n = estimate (cloud, Method::HYBRID, &ne);
   EXPECT_EQ (n.size (), cloud->size ());
   expectAllFinite (n);
+}
+
+TEST (PlanarOctreeFeature, DefaultSearchMatchesAUserKdTreeAndBuildsNoTreeOnCleanInput)
+{
+  // Without a search method, MERGED searches a grid and leaves the kd-tree unbuilt; a
+  // user's tree is used as given; both give the same normals.
+  const auto cloud = positions (analyticSphere (20000, 1.f, Eigen::Vector3f::Zero ()));
+  Estimator lazy;
+  const auto a = estimate (cloud, Method::MERGED, &lazy);
+  const auto tree = std::dynamic_pointer_cast<pcl::search::LazyKdTree<pcl::PointXYZ>> (lazy.getSearchMethod ());
+  ASSERT_TRUE (tree);
+  EXPECT_FALSE (tree->isBuilt ());
+  const int knn = static_cast<int> (std::count (lazy.getPointStatus ().begin (), lazy.getPointStatus ().end (),
+                                                static_cast<std::uint8_t> (Estimator::KNN_PCA)));
+  EXPECT_GT (knn, 0);  // the grid served some points
+  Estimator user;
+  pcl::search::KdTree<pcl::PointXYZ>::Ptr kd (new pcl::search::KdTree<pcl::PointXYZ>);
+  user.setSearchMethod (kd);
+  const auto b = estimate (cloud, Method::MERGED, &user);
+  EXPECT_EQ (user.getSearchMethod (), kd);
+  ASSERT_EQ (a.size (), b.size ());
+  int differ = 0;
+  for (std::size_t i = 0; i < a.size (); ++i)
+    differ += (a[i].getNormalVector3fMap () - b[i].getNormalVector3fMap ()).norm () > 1e-4f;
+  EXPECT_LE (differ, static_cast<int> (a.size () / 1000));  // equidistant neighbours may swap
+  // A second input on the same estimator rebuilds nothing stale.
+  const auto moved = positions (analyticSphere (5000, 2.f, Eigen::Vector3f (3.f, 0.f, 0.f)));
+  const auto c = estimate (moved, Method::MERGED, &lazy);
+  EXPECT_LT (compareNormals (c, analyticSphere (5000, 2.f, Eigen::Vector3f (3.f, 0.f, 0.f))).mean_deg, 2.0);
+}
+
+TEST (GridKnn, MatchesBruteForce)
+{
+  std::mt19937 rng (7);
+  std::normal_distribution<float> g (0.f, 1.f);
+  std::uniform_real_distribution<float> u (-3.f, 3.f);
+  // A sphere, a dense cluster and a far outlier: uneven density across cells.
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 20000; ++i)
+    pts.push_back (Eigen::Vector3f (g (rng), g (rng), g (rng)).normalized ());
+  for (int i = 0; i < 3000; ++i)
+    pts.push_back (Eigen::Vector3f (0.5f, 0.f, 0.f) + 1e-3f * Eigen::Vector3f (g (rng), g (rng), g (rng)));
+  pts.push_back (Eigen::Vector3f (40.f, -7.f, 3.f));
+  pclx::normals::GridKnn grid;
+  grid.build (pts, 16, 2);
+  std::vector<int> ids;
+  std::vector<float> d2;
+  std::vector<std::pair<float, int>> scratch;
+  for (int t = 0; t < 200; ++t)
+  {
+    const Eigen::Vector3f q = t % 4 == 0 ? Eigen::Vector3f (u (rng), u (rng), u (rng)) : pts[rng () % pts.size ()];
+    const int k = 1 + static_cast<int> (rng () % 300);
+    ASSERT_EQ (grid.nearestK (q, k, ids, d2, scratch), k);
+    std::vector<float> all (pts.size ());
+    for (std::size_t i = 0; i < pts.size (); ++i)
+      all[i] = (pts[i] - q).squaredNorm ();
+    std::nth_element (all.begin (), all.begin () + (k - 1), all.end ());
+    const float kth = all[k - 1];
+    for (int i = 0; i < k; ++i)
+    {
+      EXPECT_LE (d2[i], kth);
+      EXPECT_FLOAT_EQ (d2[i], (pts[ids[i]] - q).squaredNorm ());
+    }
+    EXPECT_FLOAT_EQ (*std::max_element (d2.begin (), d2.end ()), kth);
+    std::set<int> unique (ids.begin (), ids.end ());
+    EXPECT_EQ (unique.size (), ids.size ());
+  }
+  // More than the cloud holds: all of it; a query far away still terminates.
+  EXPECT_EQ (grid.nearestK (Eigen::Vector3f (1e6f, 1e6f, -1e6f), 30000, ids, d2, scratch), static_cast<int> (pts.size ()));
+  pclx::normals::GridKnn empty;
+  empty.build ({}, 16, 1);
+  EXPECT_EQ (empty.nearestK (Eigen::Vector3f::Zero (), 5, ids, d2, scratch), 0);
 }
 
 // --- bad inputs ------------------------------------------------------------------

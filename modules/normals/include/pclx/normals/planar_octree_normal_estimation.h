@@ -26,6 +26,8 @@
 // Every output normal is finite. Invalid input points get a zero normal (status
 // INVALID_POINT); points whose neighbourhood spans no plane get the normal of the
 // smallest enclosing octree cell that does (status NEIGHBOUR_FALLBACK).
+#include <pclx/normals/grid_knn.h>
+#include <pclx/normals/lazy_kd_tree.h>
 #include <pclx/normals/planar_octree.h>
 #include <pclx/normals/scale_selection.h>
 
@@ -209,6 +211,10 @@ private:
   double max_patch_noise_ratio_ = 0.15;
   unsigned int threads_ = 0;
   pclx::normals::PlanarOctree octree_;
+  // Installed when no search method is set (non-organized input): MERGED's own searches
+  // then use a grid (pclx::normals::GridKnn), and the kd-tree is built only if another
+  // path needs it.
+  typename pcl::search::LazyKdTree<PointInT>::Ptr lazy_tree_;
   pclx::normals::NoiseEstimate noise_;
   std::vector<int> support_sizes_;
   std::vector<Eigen::Vector3f> surface_points_;
