@@ -77,8 +77,8 @@ def main():
             one = [r for r in grows if r["method"] == "pclx_candidate_hull_1pass" and int(r["params"].get("view", 0)) == v]
             best = [r for r in grows if r["method"] == "open3d_exact_bestR" and int(r["params"].get("view", 0)) == v]
             if ours and best:
-                cases.append((f"{shape}\n{fmt_n(n)} v{v}", best[0]["seconds"] / ours[0]["seconds"],
-                              best[0]["seconds"] / one[0]["seconds"] if one else None, ours[0]["f1"], best[0]["f1"]))
+                cases.append((f"{shape}\n{fmt_n(n)} v{v}", best[0]["seconds"] / ours[-1]["seconds"],
+                              best[0]["seconds"] / one[-1]["seconds"] if one else None, ours[-1]["f1"], best[0]["f1"]))
     if not cases:
         return
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(max(8, 0.75 * len(cases)), 8), sharex=True)
