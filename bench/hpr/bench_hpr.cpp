@@ -68,29 +68,6 @@ accuracy (const std::vector<int>& visible, const std::vector<bool>& truth)
 }
 
 
-// A generated shape with deep concavities and thin parts (issue 12): thin fins (4 % of
-// their height thick) standing on a slab with narrow slots between them, and a thin-walled
-// open box (a cup). Closed boxes that overlap; the overlapped faces are hidden from everywhere.
-TriangleMesh
-makeFinsScene ()
-{
-  TriangleMesh scene = makeBox (Eigen::Vector3f (2.4f, 2.f, 0.2f), 24);
-  scene.transform (Eigen::Affine3f (Eigen::Translation3f (0, 0, -0.1f)));
-  auto add = [&scene] (const Eigen::Vector3f& size, const Eigen::Vector3f& at) {
-    TriangleMesh b = makeBox (size, 16);
-    b.transform (Eigen::Affine3f (Eigen::Translation3f (at)));
-    scene.append (b);
-  };
-  for (int i = 0; i < 5; ++i)  // fins 0.04 thick, slots 0.2 wide and 1.0 deep
-    add (Eigen::Vector3f (0.04f, 1.8f, 1.05f), Eigen::Vector3f (-1.05f + 0.24f * i, 0.f, 0.475f));
-  const float wall = 0.04f, side = 0.7f, height = 0.9f, cx = 0.65f;  // the cup
-  add (Eigen::Vector3f (side, wall, height), Eigen::Vector3f (cx, -side / 2, 0.4f));
-  add (Eigen::Vector3f (side, wall, height), Eigen::Vector3f (cx, side / 2, 0.4f));
-  add (Eigen::Vector3f (wall, side, height), Eigen::Vector3f (cx - side / 2, 0.f, 0.4f));
-  add (Eigen::Vector3f (wall, side, height), Eigen::Vector3f (cx + side / 2, 0.f, 0.4f));
-  return scene;
-}
-
 // Viewpoints at `distance` × diagonal from the centre, from several sides.
 std::vector<Eigen::Vector3f>
 viewpoints (const TriangleMesh& mesh, int count, float distance)
@@ -202,47 +179,18 @@ public:
     return v;
   }
 
-  // Open3D at each R in `radii` (R / diameter), a row each, and the row of the best F1
-  // repeated as open3d_exact_bestR (same timing, not re-run).
-  void
-  open3dEach (const Case& c, const std::string& sweep, const std::vector<double>& radii)
-  {
-    open3d::geometry::PointCloud pc;
-    pc.points_.reserve (c.cloud->size ());
-    for (const auto& p : *c.cloud)
-      pc.points_.emplace_back (p.x, p.y, p.z);
-    double best_f1 = -1, best_r = 0, best_t = 0;
-    Metrics best_m;
-    for (double r : radii)
-    {
-      std::vector<size_t> vis;
-      const double t = timeBest (
-          [&] { vis = std::get<1> (pc.HiddenPointRemoval (c.viewpoint.cast<double> (), r * c.diameter)); }, repeats_);
-      const Metrics m = accuracy (std::vector<int> (vis.begin (), vis.end ()), c.truth);
-      const std::string params = "sweep=" + sweep + ";view=" + std::to_string (c.view) + ";R=" + fmt (r) + "d";
-      out_.row ("hpr", "open3d_exact", params, c.input, c.cloud->size (), t, m);
-      if (m[3].second > best_f1)
-      {
-        best_f1 = m[3].second;
-        best_r = r;
-        best_t = t;
-        best_m = m;
-      }
-    }
-    out_.row ("hpr", "open3d_exact_bestR",
-              "sweep=" + sweep + ";view=" + std::to_string (c.view) + ";R=" + fmt (best_r) + "d", c.input,
-              c.cloud->size (), best_t, best_m);
-  }
-
-  // Open3D at each R in `radii` (R / diameter) without rows; the row of the best F1 is
-  // written as open3d_exact_bestR. Returns that R / diameter.
+  // Open3D at each R in `radii` (R / diameter); the row of the best F1 is written as
+  // open3d_exact_bestR (same timing, not re-run), and with `each_row` every R gets its own
+  // open3d_exact row too. Returns the best R / diameter.
   double
-  open3dBest (const Case& c, const std::string& sweep, const std::vector<double>& radii, const std::string& extra)
+  open3dBest (const Case& c, const std::string& sweep, const std::vector<double>& radii, const std::string& extra,
+              bool each_row = false)
   {
     open3d::geometry::PointCloud pc;
     pc.points_.reserve (c.cloud->size ());
     for (const auto& p : *c.cloud)
       pc.points_.emplace_back (p.x, p.y, p.z);
+    const std::string prefix = "sweep=" + sweep + ";view=" + std::to_string (c.view) + ";R=";
     double best_f1 = -1, best_r = 0, best_t = 0;
     Metrics best_m;
     for (double r : radii)
@@ -251,6 +199,8 @@ public:
       const double t = timeBest (
           [&] { vis = std::get<1> (pc.HiddenPointRemoval (c.viewpoint.cast<double> (), r * c.diameter)); }, repeats_);
       const Metrics m = accuracy (std::vector<int> (vis.begin (), vis.end ()), c.truth);
+      if (each_row)
+        out_.row ("hpr", "open3d_exact", prefix + fmt (r) + "d" + extra, c.input, c.cloud->size (), t, m);
       if (m[3].second > best_f1)
       {
         best_f1 = m[3].second;
@@ -259,9 +209,8 @@ public:
         best_m = m;
       }
     }
-    out_.row ("hpr", "open3d_exact_bestR",
-              "sweep=" + sweep + ";view=" + std::to_string (c.view) + ";R=" + fmt (best_r) + "d" + extra, c.input,
-              c.cloud->size (), best_t, best_m);
+    out_.row ("hpr", "open3d_exact_bestR", prefix + fmt (best_r) + "d" + extra, c.input, c.cloud->size (), best_t,
+              best_m);
     return best_r;
   }
 #endif
@@ -438,7 +387,7 @@ main (int argc, char** argv)
           const Case c{in.name, positions (s.cloud), caster.visibleFrom (s.cloud, vps[v]), vps[v], diameter, v};
 #ifdef PCLX_HAVE_OPEN3D
           if (!no_open3d && !wide_dev)
-            run.open3dEach (c, "wide", wide_radii);
+            run.open3dBest (c, "wide", wide_radii, "", true);
 #endif
           std::vector<std::pair<std::string, Filter::Method>> methods{{"pclx_auto", Filter::Method::AUTO}};
           {

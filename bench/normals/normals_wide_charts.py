@@ -14,13 +14,16 @@ normals_wide_speed.png          speed sweep: seconds and RMS against points, our
 """
 import argparse
 import collections
-import csv
 import os
+import sys
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from normals_wide_summary import read  # noqa: E402  (one CSV reader for both scripts)
 
 SIGMAS = [0.0, 0.0012, 0.006, 0.012]
 MAIN = [("ours", "ours (default)", "tab:red", "*"),
@@ -30,26 +33,6 @@ MAIN = [("ours", "ours (default)", "tab:red", "*"),
         ("vcm_best", "CGAL VCM, best radii", "tab:orange", "D"),
         ("open3d_k18", "Open3D k = 18", "tab:gray", "x"),
         ("open3d_hybrid", "Open3D hybrid", "tab:olive", "+")]
-
-
-def read(path):
-    rows = []
-    with open(path, newline="") as f:
-        for rec in csv.reader(f):
-            if not rec or rec[0] != "normals":
-                continue
-            r = dict(method=rec[1], params=rec[2], input=rec[3], points=int(rec[4]), seconds=float(rec[5]))
-            for k in range(6, len(rec) - 1, 2):
-                try:
-                    r[rec[k]] = float(rec[k + 1])
-                except ValueError:
-                    r[rec[k]] = rec[k + 1]
-            for kv in rec[2].split(";"):
-                if "=" in kv:
-                    key, val = kv.split("=", 1)
-                    r["p_" + key] = val
-            rows.append(r)
-    return rows
 
 
 def shapes_of(rows):

@@ -16,32 +16,9 @@ using namespace pclx::testing;
 using hprtest::xyz;
 using Filter = pcl::HPRFilter<pcl::PointXYZ>;
 
-namespace {
-// A slab with thin fins (4 % of their height thick, slots 0.2 wide and 1 deep) and a
-// thin-walled open box: the back of every wall is hidden a wall thickness behind its front.
-TriangleMesh
-finsScene ()
-{
-  TriangleMesh scene = makeBox (Eigen::Vector3f (2.4f, 2.f, 0.2f), 12);
-  scene.transform (Eigen::Affine3f (Eigen::Translation3f (0, 0, -0.1f)));
-  auto add = [&scene] (const Eigen::Vector3f& size, const Eigen::Vector3f& at) {
-    TriangleMesh b = makeBox (size, 8);
-    b.transform (Eigen::Affine3f (Eigen::Translation3f (at)));
-    scene.append (b);
-  };
-  for (int i = 0; i < 5; ++i)
-    add (Eigen::Vector3f (0.04f, 1.8f, 1.05f), Eigen::Vector3f (-1.05f + 0.24f * i, 0.f, 0.475f));
-  add (Eigen::Vector3f (0.7f, 0.04f, 0.9f), Eigen::Vector3f (0.65f, -0.35f, 0.4f));
-  add (Eigen::Vector3f (0.7f, 0.04f, 0.9f), Eigen::Vector3f (0.65f, 0.35f, 0.4f));
-  add (Eigen::Vector3f (0.04f, 0.7f, 0.9f), Eigen::Vector3f (0.3f, 0.f, 0.4f));
-  add (Eigen::Vector3f (0.04f, 0.7f, 0.9f), Eigen::Vector3f (1.0f, 0.f, 0.4f));
-  return scene;
-}
-}  // namespace
-
 TEST (HPRCandidateHull, RefinementCullsHiddenPointsBehindThinWallsAndStaysConservative)
 {
-  const TriangleMesh mesh = finsScene ();
+  const TriangleMesh mesh = makeFinsScene (12, 8);
   const SampledCloud samples = sampleUniform (mesh, 60000, 5);
   const auto cloud = xyz (samples);
   // From the side the fins face: the back of each fin is 0.04 behind its front.

@@ -130,5 +130,25 @@ makeThinPlate (float size, float thickness, int grid)
   return boxMesh (Eigen::Vector3f (size, size, thickness), grid);
 }
 
+TriangleMesh
+makeFinsScene (int slab_grid, int part_grid)
+{
+  TriangleMesh scene = makeBox (Eigen::Vector3f (2.4f, 2.f, 0.2f), slab_grid);
+  scene.transform (Eigen::Affine3f (Eigen::Translation3f (0, 0, -0.1f)));
+  auto add = [&scene, part_grid] (const Eigen::Vector3f& size, const Eigen::Vector3f& at) {
+    TriangleMesh b = makeBox (size, part_grid);
+    b.transform (Eigen::Affine3f (Eigen::Translation3f (at)));
+    scene.append (b);
+  };
+  for (int i = 0; i < 5; ++i)  // fins 0.04 thick, slots 0.2 wide and 1.0 deep
+    add (Eigen::Vector3f (0.04f, 1.8f, 1.05f), Eigen::Vector3f (-1.05f + 0.24f * i, 0.f, 0.475f));
+  const float wall = 0.04f, side = 0.7f, height = 0.9f, cx = 0.65f;  // the cup
+  add (Eigen::Vector3f (side, wall, height), Eigen::Vector3f (cx, -side / 2, 0.4f));
+  add (Eigen::Vector3f (side, wall, height), Eigen::Vector3f (cx, side / 2, 0.4f));
+  add (Eigen::Vector3f (wall, side, height), Eigen::Vector3f (cx - side / 2, 0.f, 0.4f));
+  add (Eigen::Vector3f (wall, side, height), Eigen::Vector3f (cx + side / 2, 0.f, 0.4f));
+  return scene;
+}
+
 }  // namespace testing
 }  // namespace pclx
