@@ -261,6 +261,13 @@ main (int argc, char** argv)
   app.add_option ("--repeats-ours", repeats_ours,
                   "best of N timings for our rows only (0: --repeats); Open3D keeps --repeats")
       ->capture_default_str ();
+  std::vector<int> dev_threads;
+  app.add_option ("--dev-threads", dev_threads, "with --wide-dev: the default at these forced thread counts only");
+  std::vector<double> dev_depths;
+  std::vector<int> dev_passes;
+  app.add_option ("--dev-depths", dev_depths,
+                  "with --wide-dev: the candidate hull at these occlusion depths (R is linear in it)");
+  app.add_option ("--dev-passes", dev_passes, "with --wide-dev: ... and these refinement passes");
   app.add_flag ("--load-rows", load_rows,
                 "only the loaded-machine rows (1, 2, auto threads; with and without a busy child process)");
   CLI11_PARSE (app, argc, argv);
@@ -389,6 +396,28 @@ main (int argc, char** argv)
           if (!no_open3d && !wide_dev)
             run.open3dBest (c, "wide", wide_radii, "", true);
 #endif
+          if (wide_dev && (!dev_threads.empty () || !dev_depths.empty ()))
+          {
+            // Development rows: the default at forced thread counts (profiling), or the
+            // candidate hull over occlusion depth x refinement passes (the R rule).
+            for (int t : dev_threads)
+            {
+              Filter f;
+              f.setNumberOfThreads (t);
+              run.ours (c, "wide_dev", "pclx_auto_t" + std::to_string (t), f, ";threads=" + std::to_string (t));
+            }
+            for (double dd : dev_depths)
+              for (int np : dev_passes.empty () ? std::vector<int>{2} : dev_passes)
+              {
+                Filter f;
+                f.setMethod (Filter::Method::CANDIDATE_HULL);
+                f.setAutoRadius (dd);
+                f.setRefinementPasses (np);
+                run.ours (c, "wide_dev", "pclx_ch_depth" + fmt (dd) + "_p" + std::to_string (np), f,
+                          ";depth=" + fmt (dd) + ";passes=" + std::to_string (np));
+              }
+            continue;
+          }
           std::vector<std::pair<std::string, Filter::Method>> methods{{"pclx_auto", Filter::Method::AUTO}};
           {
             Filter one;  // the default before the refinement passes (one culling pass)

@@ -1,5 +1,7 @@
 #include <pclx/hpr/angular_grid.h>
 
+#include "stage_profile.h"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -51,6 +53,7 @@ void
 AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre,
                     const std::function<double (double)>& radius_for_area, std::size_t sectors)
 {
+  HPR_LAPS ();
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t> (points.size ());
   if (n == 0 || sectors == 0)
     throw std::invalid_argument ("AngularGrid: needs points and k > 0");
@@ -69,13 +72,21 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   frame_.row (1) = y;
   frame_.row (2) = z;
 
-  // Directions in frame coordinates (all later tests are rotation invariant).
+  // Directions in frame coordinates (all later tests are rotation invariant), and the
+  // gnomonic sector coordinates (see below) in the same pass: they are what almost every
+  // view uses, and a second pass over the directions cost ~30 % of this one.
   unit_.resize (n);
   rho_.resize (n);
   sector_.resize (n);
+  // Wide views only: (φ, θ) per point (atan2 and acos are worth storing; the gnomonic
+  // coordinates are two divisions, recomputed where needed rather than written and read back).
+  std::vector<float> ca, cb;
   float min_x = 1.f;
   double rho0 = std::numeric_limits<double>::infinity ();
-#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192) reduction(min : min_x, rho0)
+  float a_min = std::numeric_limits<float>::max (), a_max = std::numeric_limits<float>::lowest ();
+  float b_min = a_min, b_max = a_max;
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192) reduction(min : min_x, rho0, a_min, b_min) \
+    reduction(max : a_max, b_max)
   for (std::ptrdiff_t i = 0; i < n; ++i)
   {
     const double r = points[i].norm ();
@@ -84,8 +95,15 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
     rho_[i] = r;
     min_x = std::min (min_x, u.x ());
     rho0 = std::min (rho0, r);
+    // Meaningless when u.x () <= 0.5 somewhere: then the wide tiling recomputes them.
+    const float ga = u.y () / u.x (), gb = u.z () / u.x ();
+    a_min = std::min (a_min, ga);
+    a_max = std::max (a_max, ga);
+    b_min = std::min (b_min, gb);
+    b_max = std::max (b_max, gb);
   }
   rho0_ = rho0;
+  HPR_LAP ("build.unit_rho");
 
   // Sector coordinates. Narrow views (every point within 60° of the axis) use the
   // gnomonic tiling (a, b) = (y/x, z/x): sectors are pyramids bounded by planes through
@@ -93,28 +111,25 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   // divisions per point. Wide views (C inside or beside the cloud) use the seed's
   // spherical angles (φ, θ), with φ wrapping around the viewer.
   gnomonic_ = min_x > 0.5f;
-  std::vector<float> ca (n), cb (n);
-  float a_min = std::numeric_limits<float>::max (), a_max = std::numeric_limits<float>::lowest ();
-  float b_min = a_min, b_max = a_max;
-#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192) reduction(min : a_min, b_min) reduction(max : a_max, b_max)
-  for (std::ptrdiff_t i = 0; i < n; ++i)
+  if (!gnomonic_)
   {
-    const Eigen::Vector3f& u = unit_[i];
-    if (gnomonic_)
+    ca.resize (n);
+    cb.resize (n);
+    a_min = b_min = std::numeric_limits<float>::max ();
+    a_max = b_max = std::numeric_limits<float>::lowest ();
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192) reduction(min : a_min, b_min) reduction(max : a_max, b_max)
+    for (std::ptrdiff_t i = 0; i < n; ++i)
     {
-      ca[i] = u.y () / u.x ();
-      cb[i] = u.z () / u.x ();
-    }
-    else
-    {
+      const Eigen::Vector3f& u = unit_[i];
       ca[i] = std::atan2 (u.y (), u.x ());
       cb[i] = std::acos (std::clamp (u.z (), -1.f, 1.f));
+      a_min = std::min (a_min, ca[i]);
+      a_max = std::max (a_max, ca[i]);
+      b_min = std::min (b_min, cb[i]);
+      b_max = std::max (b_max, cb[i]);
     }
-    a_min = std::min (a_min, ca[i]);
-    a_max = std::max (a_max, ca[i]);
-    b_min = std::min (b_min, cb[i]);
-    b_max = std::max (b_max, cb[i]);
   }
+  HPR_LAP ("build.sector_coords");
   // The grid covers the cloud's extent (tighter than the enclosing-sphere frustum of
   // Eq. 2–3; the same for round clouds), with square cells.
   wrap_phi_ = !gnomonic_ && (a_max - a_min) > kPi;
@@ -161,16 +176,20 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
 
   radius_ = radius_for_area (gridSolidAngle ());
 
+  HPR_LAP ("build.layout");
   // §4.2: sector of every point and the extreme (best scored) point per sector.
   std::vector<std::uint64_t> keys (k, std::numeric_limits<std::uint64_t>::max ());
   const float inv_a = float (1.0 / cell_phi_), inv_b = float (1.0 / cell_theta_);
   const float a0 = float (phi0_), b0 = float (theta0_);
   const double inv_2r = 1.0 / (2.0 * radius_);
+  const bool one_thread = nt () == 1;
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192)
   for (std::ptrdiff_t i = 0; i < n; ++i)
   {
-    const int a = std::clamp (int ((ca[i] - a0) * inv_a), 0, n_phi_ - 1);
-    const int b = std::clamp (int ((cb[i] - b0) * inv_b), 0, n_theta_ - 1);
+    const Eigen::Vector3f& u = unit_[i];
+    const float pa = gnomonic_ ? u.y () / u.x () : ca[i], pb = gnomonic_ ? u.z () / u.x () : cb[i];
+    const int a = std::clamp (int ((pa - a0) * inv_a), 0, n_phi_ - 1);
+    const int b = std::clamp (int ((pb - b0) * inv_b), 0, n_theta_ - 1);
     const std::size_t s = std::size_t (a) * n_theta_ + b;
     sector_[i] = static_cast<std::uint32_t> (s);
     Eigen::Vector3f d;
@@ -184,8 +203,13 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
     const float one_minus_cos = 0.5f * (unit_[i] - d).squaredNorm ();
     // See score(): the depth enters as (ρ − ρ_min)/2R, exact in float at any distance.
     const float g = one_minus_cos * float (1.0 - rho_[i] * inv_2r) + float ((rho_[i] - rho0_) * inv_2r);
-    atomicMin (keys[s], packKey (g, std::uint32_t (i)));
+    const std::uint64_t key = packKey (g, std::uint32_t (i));
+    if (one_thread)  // a locked compare-exchange per point costs ~8 % of the pass
+      keys[s] = std::min (keys[s], key);
+    else
+      atomicMin (keys[s], key);
   }
+  HPR_LAP ("build.assign_score");
   cand_.assign (k, -1);
   best_.assign (k, std::numeric_limits<double>::infinity ());
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192)
@@ -210,6 +234,7 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
       const int a = int (s / n_theta_), b = int (s % n_theta_);
       occupied_coarse_[std::size_t (a / empty_factor_) * coarse_theta_ + b / empty_factor_] = 1;
     }
+  HPR_LAP ("build.candidates_empty");
 }
 
 int
@@ -571,34 +596,46 @@ std::vector<std::uint8_t>
 AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::vector<int>* survivors,
                              std::vector<Eigen::Vector3d>* survivor_points) const
 {
+  HPR_LAPS ();
   const std::size_t n = unit_.size (), k = cand_.size ();
   std::vector<std::uint8_t> interior (survivors ? 0 : n, 0);
   std::vector<std::uint8_t> is_cand (n, 0);
   for (int c : cand_)
     if (c >= 0)
       is_cand[c] = 1;
-  // Points bucketed by sector (counting sort), so the triangles of a sector's
-  // neighbourhood are set up once for all its points.
-  std::vector<std::uint32_t> start (k + 1, 0), order (n);
+  // Points bucketed by sector row (counting sort over the n_phi rows): the tests below set
+  // up the tetrahedra of two rows of quads once, and read the points in order. Bucketing by
+  // sector (k buckets) cost more than the tests at 1M points: k interleaved write streams
+  // miss the cache on every point; n_phi ≈ √k streams stay in it.
+  const int cols = n_theta_;
+  const double inv_cols = 1.0 / cols;
+  // Exact: s + 0.5 keeps the product off the integers for every s < 2^31.
+  auto rowOf = [inv_cols] (std::uint32_t s) { return std::uint32_t ((double (s) + 0.5) * inv_cols); };
+  std::vector<std::uint32_t> start (std::size_t (n_phi_) + 1, 0), order (n);
   for (std::size_t i = 0; i < n; ++i)
-    ++start[sector_[i] + 1];
-  for (std::size_t s = 0; s < k; ++s)
-    start[s + 1] += start[s];
-  // The points in sector order, scattered once while sorting: the tests below then read
-  // memory in order (reading points[order[r]] there was memory-bound, 3x slower at 1M
-  // points; scattering costs less than gathering). Candidates are never interior.
+    ++start[rowOf (sector_[i]) + 1];
+  for (int r = 0; r < n_phi_; ++r)
+    start[r + 1] += start[r];
+  HPR_LAP ("interior.count");
+  // The points in row order, scattered once while sorting: the tests then read memory in
+  // order (reading points[order[r]] there was memory-bound, 3x slower at 1M points).
+  // Candidates are never interior.
   std::vector<Eigen::Vector3d> sorted (n);
   std::vector<std::uint8_t> inside_sorted (n, 0), cand_sorted (n);
+  std::vector<std::uint32_t> col_sorted (n);
   {
     std::vector<std::uint32_t> fill (start.begin (), start.end () - 1);
     for (std::size_t i = 0; i < n; ++i)
     {
-      const std::uint32_t r = fill[sector_[i]]++;
+      const std::uint32_t s = sector_[i], row = rowOf (s);
+      const std::uint32_t r = fill[row]++;
       order[r] = std::uint32_t (i);
       sorted[r] = points[i];
       cand_sorted[r] = is_cand[i];
+      col_sorted[r] = s - row * std::uint32_t (cols);
     }
   }
+  HPR_LAP ("interior.scatter");
   // Exactly the flip the hull sees (double, from the input points): a culled point must
   // be interior to the very hull Qhull computes.
   const double R2 = 2.0 * radius_;
@@ -615,6 +652,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       cand_dir[s] = p / cand_rho[s];
       cand_flip[s] = p * (R2 / cand_rho[s] - 1.0);
     }
+  HPR_LAP ("interior.cand_flip");
   // Tetrahedron (C, a, b, c) in flipped space: q is strictly inside when it is strictly
   // inside the cone of the three directions and strictly on C's side of plane(a, b, c).
   struct Tetra
@@ -683,45 +721,50 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
 
 #pragma omp parallel num_threads(nt ())
   {
-    // The four quads around a sector, q = 2·(da + 1) + (db + 1) for the quad at (a + da, b + db);
-    // the next sector of the row shares two of them (its quads 0 and 2 are this one's 1 and 3).
-    Tetra quad[4][4];
-    int quad_count[4];
-    double quad_rho[4];
-    std::ptrdiff_t previous = -2;
-#pragma omp for schedule(dynamic, 64)
-  for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
+    // The quads of the rows above (qa = a − 1) and below (qa = a) the sector row a, indexed by
+    // qb + 1 (qb = −1 … cols − 1): a point of sector (a, b) tests the quads (a − 1, b − 1),
+    // (a − 1, b), (a, b − 1), (a, b), numbered q = 2·(da + 1) + (db + 1). A thread that takes
+    // row a + 1 next reuses row a's quads as its upper row.
+    struct QuadSet
+    {
+      Tetra t[4];
+      int count;
+      double min_rho;
+    };
+    std::vector<QuadSet> upper (std::size_t (cols) + 1), lower (std::size_t (cols) + 1);
+    int lower_row = -2;
+    auto buildRow = [&] (int qa, std::vector<QuadSet>& quads) {
+      for (int qb = -1; qb < cols; ++qb)
+      {
+        QuadSet& Q = quads[std::size_t (qb + 1)];
+        quadTetras (qa, qb, Q.t, Q.count, Q.min_rho);
+      }
+    };
+#pragma omp for schedule(dynamic, 2)
+  for (std::ptrdiff_t row = 0; row < std::ptrdiff_t (n_phi_); ++row)
   {
-    if (start[s] == start[s + 1])
+    if (start[row] == start[row + 1])
       continue;
-    const int a = int (s / n_theta_), b = int (s % n_theta_);
-    if (s == previous + 1 && b > 0)
-    {
-      std::copy (quad[1], quad[1] + quad_count[1], quad[0]);
-      std::copy (quad[3], quad[3] + quad_count[3], quad[2]);
-      quad_count[0] = quad_count[1];
-      quad_count[2] = quad_count[3];
-      quad_rho[0] = quad_rho[1];
-      quad_rho[2] = quad_rho[3];
-    }
+    const int a = int (row);
+    if (lower_row == a - 1)
+      upper.swap (lower);
     else
-    {
-      quadTetras (a - 1, b - 1, quad[0], quad_count[0], quad_rho[0]);
-      quadTetras (a, b - 1, quad[2], quad_count[2], quad_rho[2]);
-    }
-    quadTetras (a - 1, b, quad[1], quad_count[1], quad_rho[1]);
-    quadTetras (a, b, quad[3], quad_count[3], quad_rho[3]);
-    previous = s;
-    if (quad_count[0] + quad_count[1] + quad_count[2] + quad_count[3] == 0)
-      continue;
-    // A point inside (C, a, b, c) is deeper than the nearest of a, b, c (|q| = 2R − ρ is
-    // below the plane's largest |x| over the triangle, 2R − min ρ): points no deeper than
-    // every candidate of the 3×3 neighbourhood skip the tests.
-    const double min_rho = std::min ({quad_rho[0], quad_rho[1], quad_rho[2], quad_rho[3]});
-    for (std::uint32_t r = start[s]; r < start[s + 1]; ++r)
+      buildRow (a - 1, upper);
+    buildRow (a, lower);
+    lower_row = a;
+    for (std::uint32_t r = start[row]; r < start[row + 1]; ++r)
     {
       if (cand_sorted[r])
         continue;
+      const int b = int (col_sorted[r]);
+      const QuadSet* quad[4] = {&upper[std::size_t (b)], &upper[std::size_t (b) + 1], &lower[std::size_t (b)],
+                                &lower[std::size_t (b) + 1]};
+      if (quad[0]->count + quad[1]->count + quad[2]->count + quad[3]->count == 0)
+        continue;
+      // A point inside (C, a, b, c) is deeper than the nearest of a, b, c (|q| = 2R − ρ is
+      // below the plane's largest |x| over the triangle, 2R − min ρ): points no deeper than
+      // every candidate of the 3×3 neighbourhood skip the tests.
+      const double min_rho = std::min ({quad[0]->min_rho, quad[1]->min_rho, quad[2]->min_rho, quad[3]->min_rho});
       const Eigen::Vector3d& p = sorted[r];
       const double rho = p.norm ();
       if (rho <= min_rho)
@@ -736,13 +779,17 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
         const double fa = (u.y () / u.x () - phi0_) / cell_phi_ - a, fb = (u.z () / u.x () - theta0_) / cell_theta_ - b;
         first = 2 * (fa >= 0.5) + (fb >= 0.5);
       }
-      bool inside = false;
-      for (int k = 0; k < 4 && !inside; ++k)
+      // Once the point is inside the cone of a tetrahedron of one quad and above the planes of
+      // that quad's tetrahedra, the other quads are not tried: they would have to overlap this
+      // one to contain it (stopping only keeps points; F1 unchanged to 4 digits on the wide
+      // bench, 1M points), and a visible point otherwise paid for all 16 tetrahedra.
+      bool inside = false, in_cone = false;
+      for (int kq = 0; kq < 4 && !inside && !in_cone; ++kq)
       {
-        const int qi = (first + k) % 4;
-        for (int t = 0; t < quad_count[qi]; ++t)
+        const QuadSet& Q = *quad[(first + kq) % 4];
+        for (int t = 0; t < Q.count; ++t)
         {
-          const Tetra& T = quad[qi][t];
+          const Tetra& T = Q.t[t];
           int outside = -1;
           for (int e = 0; e < 3 && outside < 0; ++e)
             if (T.edge[e].dot (uq) <= T.cone_eps)
@@ -755,6 +802,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
               break;
             continue;
           }
+          in_cone = true;
           if (T.w.dot (q - T.f) > T.h)
           {
             inside = true;
@@ -766,28 +814,30 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     }
   }
   }
+  HPR_LAP ("interior.tests");
   if (survivors)
   {
     // The caller reads the survivors; the per-point mask (a random scatter) is left empty.
+    // Sized exactly first: growing from a guess re-copied up to 24 MB at 1M points.
     interior.clear ();
-    survivors->clear ();
-    survivors->reserve (n / 2);
+    const std::size_t kept = n - std::size_t (std::count (inside_sorted.begin (), inside_sorted.end (), 1));
+    survivors->resize (kept);
     if (survivor_points)
-    {
-      survivor_points->clear ();
-      survivor_points->reserve (n / 2);
-    }
+      survivor_points->resize (kept);
+    std::size_t j = 0;
     for (std::size_t r = 0; r < n; ++r)
       if (!inside_sorted[r])
       {
-        survivors->push_back (int (order[r]));
+        (*survivors)[j] = int (order[r]);
         if (survivor_points)
-          survivor_points->push_back (sorted[r]);
+          (*survivor_points)[j] = sorted[r];
+        ++j;
       }
   }
   else
     for (std::size_t r = 0; r < n; ++r)
       interior[order[r]] = inside_sorted[r];
+  HPR_LAP ("interior.output");
   return interior;
 }
 

@@ -2,6 +2,8 @@
 #include <pclx/hpr/qhull_visibility.h>
 #include <pclx/hpr/visibility.h>
 
+#include "stage_profile.h"
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
@@ -264,18 +266,32 @@ isEdgeOn (const std::vector<Eigen::Vector3d>& points, double tolerance)
 namespace {
 // The distances of a calibration (cloud radius, reference and largest distance from C).
 HPRCalibration
-distancesOf (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre)
+distancesOf (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre, int threads)
 {
   HPRCalibration cal;
   const std::size_t n = points.size ();
-  double max_rho = 0, r = 0, mean_rho = 0;
-  for (const auto& p : points)
+  // Sums per fixed block, added in block order: independent of the thread count.
+  constexpr std::size_t kBlock = 65536;
+  const std::size_t blocks = (n + kBlock - 1) / kBlock;
+  std::vector<double> block_rho (blocks, 0.0);
+  double max_rho = 0, r = 0;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) reduction(max : max_rho, r)
+  for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
   {
-    const double rho = p.norm ();
-    max_rho = std::max (max_rho, rho);
-    r = std::max<double> (r, (p - centre).squaredNorm ());
-    mean_rho += rho;
+    double sum = 0;
+    for (std::size_t i = std::size_t (b) * kBlock, e = std::min (n, i + kBlock); i < e; ++i)
+    {
+      const Eigen::Vector3d& p = points[i];
+      const double rho = p.norm ();
+      max_rho = std::max (max_rho, rho);
+      r = std::max<double> (r, (p - centre).squaredNorm ());
+      sum += rho;
+    }
+    block_rho[b] = sum;
   }
+  double mean_rho = 0;
+  for (double b : block_rho)
+    mean_rho += b;
   r = std::sqrt (r);
   mean_rho /= double (std::max<std::size_t> (n, 1));
   cal.cloud_radius = r;
@@ -291,12 +307,13 @@ calibrateHPR (const std::vector<Eigen::Vector3d>& points, const VisibilityOption
 {
   const std::size_t n = points.size ();
   const Eigen::Vector3d centre = centroidOf (points);
-  HPRCalibration cal = distancesOf (points, centre);
+  const int threads = options.threads > 0 ? options.threads : autoThreads (n);
+  HPRCalibration cal = distancesOf (points, centre, threads);
   const double max_rho = cal.max_distance;
 
   // A coarse grid, ~16 points per sector, is the balls-in-bins sample.
   AngularGrid coarse;
-  coarse.setThreads (options.threads > 0 ? options.threads : autoThreads (n));
+  coarse.setThreads (threads);
   coarse.build (points, centre, 1e3 * max_rho + 1.0, std::clamp<std::size_t> (n / 16, 16, std::size_t (1) << 20));
   const AngularGrid::Calibration c = coarse.calibrate ();
   cal.alpha = c.alpha;
@@ -338,18 +355,39 @@ propagationSteps (const HPRCalibration& cal, std::size_t k)
 VisibilityResult
 computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityOptions& opt)
 {
+  HPR_PASS (0);
+  HPR_LAPS ();
   VisibilityResult res;
   const std::size_t n = points.size ();
   res.visible.assign (n, 0);
   if (n == 0)
     return res;
+  // Extremes of ρ and the centroid in one pass (they were two serial passes). The sums are
+  // per fixed block, added in block order: the centroid does not depend on the thread count.
+  const int threads = opt.threads > 0 ? opt.threads : autoThreads (n);
+  constexpr std::size_t kBlock = 65536;
+  const std::size_t blocks = (n + kBlock - 1) / kBlock;
+  std::vector<Eigen::Vector3d> block_sum (blocks, Eigen::Vector3d::Zero ());
   double max_rho2 = 0, min_rho2 = std::numeric_limits<double>::infinity ();
-  for (const auto& p : points)
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) reduction(max : max_rho2) reduction(min : min_rho2)
+  for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
   {
-    max_rho2 = std::max (max_rho2, p.squaredNorm ());
-    min_rho2 = std::min (min_rho2, p.squaredNorm ());
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero ();
+    for (std::size_t i = std::size_t (b) * kBlock, e = std::min (n, i + kBlock); i < e; ++i)
+    {
+      const Eigen::Vector3d& p = points[i];
+      const double r2 = p.squaredNorm ();
+      max_rho2 = std::max (max_rho2, r2);
+      min_rho2 = std::min (min_rho2, r2);
+      sum += p;
+    }
+    block_sum[b] = sum;
   }
+  Eigen::Vector3d point_sum = Eigen::Vector3d::Zero ();
+  for (const auto& b : block_sum)
+    point_sum += b;
   const double max_rho = std::sqrt (max_rho2);
+  HPR_LAP ("min_max_rho");
 
   // A point at the viewpoint is seen (and cannot be flipped): keep it out of the hull.
   const double eye_eps = 1e-9 * std::max (max_rho, 1e-30);
@@ -398,7 +436,9 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
   // A sheet seen edge-on: every point is on the silhouette (see isEdgeOn). One answer for
   // every method, decided before any of them meets the degenerate geometry.
   const double scale = opt.coordinate_scale > 0 ? opt.coordinate_scale : max_rho;
-  if (isEdgeOn (pts, 8.0 * std::numeric_limits<float>::epsilon () * scale))
+  const bool edge_on = isEdgeOn (pts, 8.0 * std::numeric_limits<float>::epsilon () * scale);
+  HPR_LAP ("edge_on_test");
+  if (edge_on)
   {
     res.visible.assign (n, 1);
     res.radius = opt.radius > 0 ? opt.radius : 0;
@@ -418,7 +458,6 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
   const bool need_cal = (opt.radius <= 0 && !ch_only) || (grid_sampled && opt.sectors == 0) ||
                         (opt.method == VisibilityMethod::ANGULAR_GRID && opt.steps == 0 && !opt.fixed_propagation);
   HPRCalibration cal;
-  const int threads = opt.threads > 0 ? opt.threads : autoThreads (pts.size ());
   res.threads = threads;
   if (need_cal)
   {
@@ -448,7 +487,8 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
   res.radius = R;
   VisibilityResult sub;
   sub.visible.assign (pts.size (), 0);
-  const Eigen::Vector3d centre = centroidOf (pts);
+  const Eigen::Vector3d centre = at_eye > 0 ? centroidOf (pts) : Eigen::Vector3d (point_sum / double (n));
+  HPR_LAP ("centroid");
   AngularGrid grid;
   grid.setThreads (threads);
 
@@ -469,7 +509,8 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     else
     {
       // R from the culling grid's own solid angle: no calibration grid is needed here.
-      const HPRCalibration dist = distancesOf (pts, centre);
+      const HPRCalibration dist = distancesOf (pts, centre, threads);
+      HPR_LAP ("distances");
       grid.build (pts, centre,
                   [&] (double area) {
                     HPRCalibration c = dist;
@@ -480,10 +521,13 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
       R = grid.radius ();
       res.radius = R;
     }
+    HPR_LAP ("build");
     grid.propagateAdaptive (cull_steps);
+    HPR_LAP ("propagate");
     std::vector<int> alive;
     std::vector<Eigen::Vector3d> alive_pts;
     grid.interiorPoints (pts, &alive, &alive_pts);
+    HPR_LAP ("interior");
     res.sectors = grid.sectorCount ();
     res.steps = cull_steps;
     // Refinement: the survivors again, on grids 2×, 4×, ... finer, at the same R. A finer
@@ -496,20 +540,27 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     std::vector<Eigen::Vector3d> next_pts;
     for (int pass = 1; pass <= opt.refinement && alive.size () >= 4; ++pass)
     {
+      HPR_PASS (pass);
       const std::size_t kp = std::min ({k_cull << pass, kMaxSectors, 64 * alive.size ()});
       AngularGrid fine;
       fine.setThreads (threads);
       fine.build (alive_pts, centre, R, kp);
+      HPR_LAP ("build");
       // One step: the survivors are dense where it matters (F1 equal to 4 steps on the bench).
       fine.propagateAdaptive (1);
+      HPR_LAP ("propagate");
       fine.interiorPoints (alive_pts, &next, &next_pts);
+      HPR_LAP ("interior");
       for (int& j : next)
         j = alive[j];
       alive.swap (next);
       alive_pts.swap (next_pts);
+      HPR_LAP ("remap");
     }
+    HPR_PASS (9);
     for (int i : alive)
       sub.visible[i] = 1;
+    HPR_LAP ("mark_visible");
     // The grid's triangulation spans the candidates; other visible points get normals
     // facing the viewer (meshNormals' fallback). Triangles with a vertex a refinement pass
     // culled are dropped.
@@ -646,6 +697,7 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
         res.splat_radius[id (i)] = sub.splat_radius[i];
       }
   }
+  HPR_LAP ("output");
   return res;
 }
 
