@@ -40,6 +40,7 @@
 #include <iomanip>
 #include <iostream>
 #include <omp.h>
+#include <random>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -222,6 +223,10 @@ private:
               Normals* out = nullptr);
   void wideCase (const Shape& shape, const SampledCloud& clean, float sigma);
   void speed (const std::vector<Shape>& shapes);
+  void orientCase (const Shape& shape, const SampledCloud& clean, float sigma);
+  std::string orientRows (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledCloud& s,
+                          const std::string& params, const std::string& input,
+                          const std::vector<std::pair<std::string, const Normals*>>& inputs, bool open3d);
   void emit (const Result& r, const std::string& params, const std::string& input, std::size_t n)
   {
     out_.row ("normals", r.method, params, input, n, r.seconds, r.m);
@@ -460,32 +465,107 @@ WideRun::wideCase (const Shape& shape, const SampledCloud& clean, float sigma)
     }
 #endif
     if (shape.oriented)
-    {
-      // MST on our normals, and on PCA k = 18 normals as the reference (same cloud, same k).
-      for (const auto& [name, normals] : {std::pair<std::string, const Normals*> ("orient_mst_ours", &our_normals),
-                                          std::pair<std::string, const Normals*> ("orient_mst_pca_k18", &pca18)})
-      {
-        pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
-        mst.setInputCloud (cloud);
-        mst.setKSearch (10);
-        mst.setNumberOfThreads (opt_.threads);
-        Normals oriented;
-        const double t = timeBest ([&] { oriented = *normals; mst.orient (oriented); }, 1);
-        const auto e = pclx::normals::compareNormals (oriented, s.cloud, true);
-        out_.row ("normals", name, params + ";k=10", input, n, t,
-                  {{"flipped", e.flipped}, {"rms_oriented", e.rms_deg},
-                   {"components", double (mst.getNumberOfComponents ())}});
-        std::ostringstream x;
-        x << std::setprecision (3) << ", MST flipped " << 100 * e.flipped << " %"
-          << (name == "orient_mst_ours" ? "" : " (PCA k=18)");
-        extra += x.str ();
-      }
-    }
+      extra += orientRows (cloud, s, params, input, {{"orient_mst_ours", &our_normals}, {"orient_mst_pca_k18", &pca18}},
+                           false);
   }
   std::cerr << std::fixed << std::setprecision (2) << "[bench_normals] wide " << input << " σ=" << fmt (sigma) << ": ours "
             << o.rms << "° " << o.seconds << " s, oracle PCA " << oracle.rms << "° (" << oracle.method << ", "
             << oracle.seconds << " s)" << extra << "  [" << elapsed (t0) << ", total " << elapsed (start_) << "]\n"
             << std::defaultfloat;
+}
+
+// MST (k = 10) on each set of normals: flipped share against the oriented truth, overall and
+// among the points whose unoriented error is < 60° (a normal further off has no meaningful
+// sign). With open3d, Open3D's OrientNormalsConsistentTangentPlane (k = 10) on the first set
+// too, for the time ratio. Returns the progress text.
+std::string
+WideRun::orientRows (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledCloud& s, const std::string& params,
+                     const std::string& input, const std::vector<std::pair<std::string, const Normals*>>& inputs,
+                     bool open3d)
+{
+  const std::size_t n = cloud->size ();
+  auto metrics = [&] (const Normals& oriented, const Normals& unoriented) {
+    const auto e = pclx::normals::compareNormals (oriented, s.cloud, true);
+    const auto un = pclx::normals::angleErrorsDeg (unoriented, s.cloud);
+    const auto ori = pclx::normals::angleErrorsDeg (oriented, s.cloud, true);
+    std::size_t good = 0, good_flipped = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      if (!std::isnan (un[i]) && un[i] < 60.0)
+      {
+        ++good;
+        good_flipped += ori[i] > 90.0;
+      }
+    return Metrics{{"flipped", e.flipped},
+                   {"flipped_lt60", good ? double (good_flipped) / good : 0.0},
+                   {"share_lt60", n ? double (good) / n : 0.0},
+                   {"rms_oriented", e.rms_deg}};
+  };
+  std::ostringstream x;
+  x << std::setprecision (3);
+  for (const auto& [name, normals] : inputs)
+  {
+    pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+    mst.setInputCloud (cloud);
+    mst.setKSearch (10);
+    mst.setNumberOfThreads (opt_.threads);
+    Normals oriented;
+    const double t = timeBest ([&] { oriented = *normals; mst.orient (oriented); }, 1);
+    Metrics m = metrics (oriented, *normals);
+    m.emplace_back ("components", double (mst.getNumberOfComponents ()));
+    out_.row ("normals", name, params + ";k=10", input, n, t, m);
+    x << ", " << name.substr (7) << " " << 100 * m[0].second << " % (<60°: " << 100 * m[1].second << " %) " << t
+      << " s";
+  }
+#ifdef PCLX_HAVE_OPEN3D
+  if (open3d && opt_.open3d && !inputs.empty ())
+  {
+    std::vector<Eigen::Vector3d> p3 (n), n3 (n);
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      p3[i] = (*cloud)[i].getVector3fMap ().cast<double> ();
+      n3[i] = (*inputs.front ().second)[i].getNormalVector3fMap ().cast<double> ();
+    }
+    const double t = open3d_peer::orientConsistent (p3, n3, 10);
+    Normals oriented = toPcl ([&] {
+      std::vector<Eigen::Vector3f> nf (n);
+      for (std::size_t i = 0; i < n; ++i)
+        nf[i] = n3[i].cast<float> ();
+      return nf;
+    }());
+    const std::string name = "orient_open3d_" + inputs.front ().first.substr (11);
+    out_.row ("normals", name, params + ";k=10", input, n, t, metrics (oriented, *inputs.front ().second));
+    x << ", Open3D " << 100 * metrics (oriented, *inputs.front ().second)[0].second << " % " << t << " s";
+  }
+#else
+  (void) open3d;
+#endif
+  return x.str ();
+}
+
+// --orient: the orientation rows alone, with our, PCA k = 18 and exact (truth) normals as input,
+// and Open3D's orientation of our normals in the same run.
+void
+WideRun::orientCase (const Shape& shape, const SampledCloud& clean, float sigma)
+{
+  const auto t0 = std::chrono::steady_clock::now ();
+  SampledCloud s = clean;
+  if (sigma > 0)
+    addGaussianNoise (s, sigma, kNoiseSeed);
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
+  pcl::copyPointCloud (s.cloud, *cloud);
+  Normals our_normals, pca18, exact (s.cloud.size (), 1);
+  ours (cloud, s, &our_normals);
+  pca (cloud, s, 18, 1, &pca18);
+  // Exact normals with random signs (the orientation must not read the truth's).
+  std::mt19937 rng (5);
+  for (std::size_t i = 0; i < exact.size (); ++i)
+    exact[i].getNormalVector3fMap () = s.cloud[i].getNormalVector3fMap () * ((rng () & 1) ? 1.f : -1.f);
+  const std::string text = orientRows (cloud, s, "sweep=orient;noise=" + fmt (sigma), shape.name,
+                                       {{"orient_mst_ours", &our_normals},
+                                        {"orient_mst_pca_k18", &pca18},
+                                        {"orient_mst_exact", &exact}},
+                                       true);
+  std::cerr << "[bench_normals] orient " << shape.name << " σ=" << fmt (sigma) << text << "  [" << elapsed (t0) << "]\n";
 }
 
 void
@@ -563,6 +643,16 @@ WideRun::run ()
     return 2;
   }
   const std::size_t n = opt_.quick ? 4000 : opt_.points;
+  if (opt_.orient)
+  {
+    for (const auto& shape : all)
+      if (shape.oriented)
+      {
+        const SampledCloud clean = sampleShape (shape, n, 17);
+        for (float sigma : opt_.quick ? std::vector<float>{0.f, 0.006f} : std::vector<float>{0.f, 0.0012f, 0.006f, 0.012f})
+          orientCase (shape, clean, sigma);
+      }
+  }
   if (opt_.wide)
   {
     const std::vector<float> sigmas =

@@ -15,6 +15,7 @@ struct WideOptions
   bool wide = false;   // the shape × noise table
   bool speed = false;  // the speed sweep (100k, 300k, 1M; noisy 100k against the oracle k)
   bool quick = false;  // generated shapes only, a few thousand points (CTest smoke)
+  bool orient = false; // orientation only: MST on our / PCA k = 18 / exact normals, and Open3D's
   int threads = 2;
   std::string data;                 // shared data folder; empty: generated shapes only
   std::vector<std::string> shapes;  // only these shapes (empty: all)

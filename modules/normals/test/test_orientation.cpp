@@ -10,6 +10,9 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+#include <random>
+
 using pclx::normals::compareNormals;
 using namespace normals_test;
 using pclx::testing::positions;
@@ -153,7 +156,8 @@ TEST (MSTOrientation, ThinPlateSheetsGetOppositeNormals)
 {
   // A plate about two sample spacings thick: both sheets get one plane's normals, so
   // Hoppe's cost 1 − |ni·nj| is 0 across the plate and the tree may cross it, giving both
-  // sheets the same sign. The across-surface penalty (default) sends the tree around.
+  // sheets the same sign. The across-surface penalty (default) sends the tree around; where
+  // it crosses anyway, the edge-side reading (offsets far above the noise) keeps the signs apart.
   const auto s = pclx::testing::sampleUniform (pclx::testing::makeThinPlate (1.f, 0.02f, 32), 30000, 6);
   const auto cloud = positions (s.cloud);
   pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
@@ -166,10 +170,133 @@ TEST (MSTOrientation, ThinPlateSheetsGetOppositeNormals)
   pcl::PointCloud<pcl::Normal> n = estimated;
   ASSERT_TRUE (mst.orient (n));
   EXPECT_LT (flippedShare (n, s.cloud), 0.01);
-  mst.setAcrossSurfacePenalty (0.0);  // Hoppe's cost alone
+  mst.setAcrossSurfacePenalty (0.0);  // Hoppe's cost: the tree crosses the plate ...
+  n = estimated;
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_LT (flippedShare (n, s.cloud), 0.01);  // ... and the edge-side reading gets it right
+  mst.setNoiseScale (0.1);  // the plate's thickness could be noise: Hoppe's rule alone
   n = estimated;
   ASSERT_TRUE (mst.orient (n));
   EXPECT_GT (flippedShare (n, s.cloud), 0.3);
+}
+
+namespace {
+
+// A closed slab [-0.5, 0.5]² × [-0.2, profile] whose top profile (along x, extruded along y)
+// has narrow ridges and V-grooves, `width` wide and `depth` deep: at 20000 points (spacing
+// ≈ 0.012) width 0.036 puts the two faces of each within the kNN graph's edges of each other.
+pclx::testing::TriangleMesh
+makeRidgedSlab (float width, float depth)
+{
+  std::vector<Eigen::Vector2f> p{{-0.5f, 0.f}};
+  float x = -0.4f;
+  p.emplace_back (x, 0.f);
+  for (int i = 0; i < 6; ++i)
+  {
+    p.emplace_back (x + width / 2, i % 2 ? -depth : depth);  // ridge, then V-groove
+    x += width;
+    p.emplace_back (x, 0.f);
+    x += 0.1f;
+    p.emplace_back (x, 0.f);
+  }
+  p.emplace_back (0.5f, 0.f);
+  const float bottom = -0.2f;
+  pclx::testing::TriangleMesh m;
+  auto quad = [&m] (const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c,
+                    const Eigen::Vector3f& d) {
+    const int o = int (m.vertices.size ());
+    m.vertices.insert (m.vertices.end (), {a, b, c, d});
+    m.faces.emplace_back (o, o + 1, o + 2);
+    m.faces.emplace_back (o, o + 2, o + 3);
+  };
+  for (std::size_t i = 0; i + 1 < p.size (); ++i)
+  {
+    const Eigen::Vector2f a = p[i], b = p[i + 1];
+    quad ({a.x (), -0.5f, a.y ()}, {b.x (), -0.5f, b.y ()}, {b.x (), 0.5f, b.y ()}, {a.x (), 0.5f, a.y ()});
+    quad ({a.x (), -0.5f, bottom}, {b.x (), -0.5f, bottom}, {b.x (), -0.5f, b.y ()}, {a.x (), -0.5f, a.y ()});
+    quad ({a.x (), 0.5f, bottom}, {a.x (), 0.5f, a.y ()}, {b.x (), 0.5f, b.y ()}, {b.x (), 0.5f, bottom});
+  }
+  quad ({-0.5f, -0.5f, bottom}, {-0.5f, -0.5f, 0.f}, {-0.5f, 0.5f, 0.f}, {-0.5f, 0.5f, bottom});
+  quad ({0.5f, -0.5f, bottom}, {0.5f, 0.5f, bottom}, {0.5f, 0.5f, 0.f}, {0.5f, -0.5f, 0.f});
+  quad ({-0.5f, -0.5f, bottom}, {-0.5f, 0.5f, bottom}, {0.5f, 0.5f, bottom}, {0.5f, -0.5f, bottom});
+  return m;
+}
+
+pcl::PointCloud<pcl::Normal>
+exactNormals (const pcl::PointCloud<pcl::PointNormal>& s)
+{
+  pcl::PointCloud<pcl::Normal> n (s.size (), 1);
+  for (std::size_t i = 0; i < n.size (); ++i)
+    n[i].getNormalVector3fMap () = s[i].getNormalVector3fMap ();
+  return n;
+}
+
+}  // namespace
+
+TEST (MSTOrientation, NarrowRidgesAndGroovesAreReadFromTheEdgeSide)
+{
+  // The two faces of a ridge or V-groove narrower than the graph's edges meet at ~150° and
+  // look ~30° apart to Hoppe's rule (which then flips one face); an edge along the crease
+  // reads nothing. The edge-side reading across the fold is right, and such crossings are
+  // preferred. A noise scale as large as the ridges says the offsets could be noise: the
+  // fold is not read and Hoppe's rule (the old behaviour) flips whole strips of the top.
+  const auto s = pclx::testing::sampleUniform (makeRidgedSlab (0.036f, 0.06f), 20000, 8);
+  const auto cloud = positions (s.cloud);
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+  mst.setInputCloud (cloud);
+  auto n = exactNormals (s.cloud);
+  scramble (n);
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_LT (mst.getUsedNoiseScale (), 1e-4);  // clean: the estimate is ~0
+  EXPECT_LT (flippedShare (n, s.cloud), 0.01);
+  mst.setNoiseScale (0.05);
+  n = exactNormals (s.cloud);
+  scramble (n);
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_EQ (mst.getUsedNoiseScale (), 0.05);
+  EXPECT_GT (flippedShare (n, s.cloud), 0.03);
+}
+
+TEST (MSTOrientation, ThinPlateExactNormalsAreReadAcrossTheFold)
+{
+  // Exact normals on the two sheets of a plate 0.02 thick (~2 spacings) are anti-parallel:
+  // Hoppe's rule flips across it. Without the across-surface penalty the tree crosses the
+  // plate freely (cost 0), and only the edge-side reading keeps the sheets apart.
+  const auto s = pclx::testing::sampleUniform (pclx::testing::makeThinPlate (1.f, 0.02f, 32), 30000, 6);
+  const auto cloud = positions (s.cloud);
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+  mst.setInputCloud (cloud);
+  mst.setAcrossSurfacePenalty (0.0);
+  auto n = exactNormals (s.cloud);
+  scramble (n);
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_LT (flippedShare (n, s.cloud), 0.01);
+  mst.setNoiseScale (0.1);  // the plate's thickness could be noise: Hoppe's rule alone
+  n = exactNormals (s.cloud);
+  scramble (n);
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_GT (flippedShare (n, s.cloud), 0.2);
+}
+
+TEST (MSTOrientation, NoiseScaleIsEstimatedUnlessGiven)
+{
+  // A sphere of radius 1 with Gaussian noise σ = 0.01 along every axis (so along the normal).
+  auto s = analyticSphere (20000, 1.f, Eigen::Vector3f::Zero (), 4);
+  std::mt19937 rng (5);
+  std::normal_distribution<float> g (0.f, 0.01f);
+  for (auto& p : s)
+    p.getVector3fMap () += Eigen::Vector3f (g (rng), g (rng), g (rng));
+  const auto cloud = positions (s);
+  auto n = pcaNormals<pcl::PointXYZ> (cloud, 30);
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+  mst.setInputCloud (cloud);
+  EXPECT_LT (mst.getNoiseScale (), 0.0);  // default: estimate
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_NEAR (mst.getUsedNoiseScale (), 0.01, 0.004);
+  EXPECT_LT (flippedShare (n, s), 0.01);
+  mst.setNoiseScale (0.02);
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_EQ (mst.getUsedNoiseScale (), 0.02);
 }
 
 TEST (MSTOrientation, EveryComponentIsRootedAtItsHighestPoint)
@@ -218,6 +345,20 @@ TEST (MSTOrientation, BadInputIsRejected)
   n.resize (100);
   mst.setKSearch (0);
   EXPECT_FALSE (mst.orient (n));
+  mst.setKSearch (10);
+  for (const double bad : {std::numeric_limits<double>::quiet_NaN (), std::numeric_limits<double>::infinity ()})
+  {
+    mst.setNoiseScale (bad);
+    EXPECT_FALSE (mst.orient (n)) << bad;
+    mst.setNoiseScale (-1);
+    mst.setEdgeSideSignificance (bad);
+    EXPECT_FALSE (mst.orient (n)) << bad;
+    mst.setEdgeSideSignificance (4);
+  }
+  mst.setEdgeSideSignificance (-1);
+  EXPECT_FALSE (mst.orient (n));
+  mst.setEdgeSideSignificance (4);
+  EXPECT_TRUE (mst.orient (n));
   pcl::PointCloud<pcl::PointXYZ>::Ptr empty (new pcl::PointCloud<pcl::PointXYZ>);
   pcl::PointCloud<pcl::Normal> none;
   mst.setKSearch (10);

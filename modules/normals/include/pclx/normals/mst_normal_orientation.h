@@ -42,6 +42,20 @@ public:
   // (exact normals on a box: 36 % flipped with Hoppe's rule, 0 with this).
   void setAcrossSurfacePenalty (double w) { across_penalty_ = w; }
   double getAcrossSurfacePenalty () const { return across_penalty_; }
+  // Noise of the positions along the normal (a length; e.g. the estimator's
+  // getNoiseEstimate ().sigma). Negative (default): estimated by orient () with
+  // pclx::normals::sampleNoise on ~1000 points. Not finite: orient () fails.
+  void setNoiseScale (double sigma) { noise_scale_ = sigma; }
+  double getNoiseScale () const { return noise_scale_; }
+  // The noise orient () used last (given or estimated).
+  double getUsedNoiseScale () const { return used_noise_; }
+  // The edge-side reading decides a child's sign, for any pair of normals, where both lean
+  // off the edge vector e by more than this many noise sigmas plus 0.2 |e| (default 4):
+  // across a thin part whose faces are closer than the graph's edges (anti-parallel
+  // normals, where Hoppe's rule flips) that offset is geometry; on one noisy sheet it is noise.
+  // Must be finite and >= 0.
+  void setEdgeSideSignificance (double z) { side_significance_ = z; }
+  double getEdgeSideSignificance () const { return side_significance_; }
 
   // Orients `normals` (one per input point) in place. Points or normals that are not
   // finite, and zero normals, stay out of the graph and are left untouched.
@@ -58,6 +72,9 @@ private:
   int k_ = 10;
   double tie_break_ = 1e-3;
   double across_penalty_ = 0.5;
+  double noise_scale_ = -1;
+  double side_significance_ = 4;
+  double used_noise_ = 0;
   unsigned int threads_ = 0;
   std::size_t components_ = 0, flipped_ = 0, edges_ = 0;
 };
