@@ -15,7 +15,9 @@ constexpr std::int64_t kAxisCells = (std::int64_t (1) << 21) - 1;  // 21 bits pe
 std::uint64_t
 GridKnn::key (std::int64_t x, std::int64_t y, std::int64_t z) const
 {
-  return (static_cast<std::uint64_t> (x) << 42) | (static_cast<std::uint64_t> (y) << 21) | static_cast<std::uint64_t> (z);
+  return (static_cast<std::uint64_t> (x) * static_cast<std::uint64_t> (dims_[1]) + static_cast<std::uint64_t> (y)) *
+             static_cast<std::uint64_t> (dims_[2]) +
+         static_cast<std::uint64_t> (z);
 }
 
 void
@@ -26,6 +28,7 @@ GridKnn::build (const std::vector<Eigen::Vector3f>& points, int points_per_cell,
   cell_start_.clear ();
   ids_.clear ();
   points_.clear ();
+  column_start_.clear ();
   if (n == 0)
     return;
   if (threads <= 0)
@@ -50,8 +53,9 @@ GridKnn::build (const std::vector<Eigen::Vector3f>& points, int points_per_cell,
     for (int i = 0; i < n; i += step)
     {
       const Eigen::Vector3d c = ((points[i].cast<double> () - lo) / sub_cell).array ().floor ();
-      sample.push_back (key (static_cast<std::int64_t> (c.x ()), static_cast<std::int64_t> (c.y ()),
-                             static_cast<std::int64_t> (c.z ())) );
+      // Any injective key counts the occupied cells (the subsample's cells are not ours).
+      sample.push_back ((static_cast<std::uint64_t> (c.x ()) << 42) | (static_cast<std::uint64_t> (c.y ()) << 21) |
+                        static_cast<std::uint64_t> (c.z ()));
     }
     std::sort (sample.begin (), sample.end ());
     const double occupied = static_cast<double> (std::unique (sample.begin (), sample.end ()) - sample.begin ());
@@ -65,7 +69,11 @@ GridKnn::build (const std::vector<Eigen::Vector3f>& points, int points_per_cell,
   for (int a = 0; a < 3; ++a)
     dims_[a] = std::min<std::int64_t> (kAxisCells, static_cast<std::int64_t> (std::floor ((hi[a] - lo[a]) / cell)) + 1);
 
-  std::vector<std::pair<std::uint64_t, int>> keyed (n);
+  // Cell keys, then an LSD radix sort (11-bit digits, only as many as the keys use: 3 passes
+  // for a million points on a surface) instead of a comparison sort, which was most of
+  // the build.
+  std::vector<std::uint64_t> keys (n), keys2 (n);
+  std::vector<int> order (n), order2 (n);
 #pragma omp parallel for num_threads(threads) schedule(static)
   for (int i = 0; i < n; ++i)
   {
@@ -73,43 +81,94 @@ GridKnn::build (const std::vector<Eigen::Vector3f>& points, int points_per_cell,
     for (int a = 0; a < 3; ++a)
       c[a] = std::min<std::int64_t> (dims_[a] - 1, std::max<std::int64_t> (0, static_cast<std::int64_t> (
                                                                                  std::floor ((points[i][a] - lo[a]) / cell))));
-    keyed[i] = {key (c[0], c[1], c[2]), i};
+    keys[i] = key (c[0], c[1], c[2]);
+    order[i] = i;
   }
-  __gnu_parallel::sort (keyed.begin (), keyed.end (), __gnu_parallel::default_parallel_tag (threads));
-  ids_.resize (n);
+  const std::uint64_t max_key = key (dims_[0] - 1, dims_[1] - 1, dims_[2] - 1);
+  constexpr int kDigit = 11;
+  std::vector<int> count (std::size_t (1) << kDigit);
+  for (int shift = 0; shift < 64 && (max_key >> shift) > 0; shift += kDigit)
+  {
+    std::fill (count.begin (), count.end (), 0);
+    const std::uint64_t mask = (std::uint64_t (1) << kDigit) - 1;
+    for (int i = 0; i < n; ++i)
+      ++count[(keys[i] >> shift) & mask];
+    int sum = 0;
+    for (auto& c : count)
+    {
+      const int t = c;
+      c = sum;
+      sum += t;
+    }
+    for (int i = 0; i < n; ++i)
+    {
+      const int to = count[(keys[i] >> shift) & mask]++;
+      keys2[to] = keys[i];
+      order2[to] = order[i];
+    }
+    keys.swap (keys2);
+    order.swap (order2);
+  }
+  ids_.swap (order);
   points_.resize (n);
 #pragma omp parallel for num_threads(threads) schedule(static)
   for (int i = 0; i < n; ++i)
-  {
-    ids_[i] = keyed[i].second;
-    points_[i] = points[keyed[i].second];
-  }
+    points_[i] = points[ids_[i]];
   for (int i = 0; i < n; ++i)
-    if (i == 0 || keyed[i].first != keyed[i - 1].first)
+    if (i == 0 || keys[i] != keys[i - 1])
     {
-      cell_keys_.push_back (keyed[i].first);
+      cell_keys_.push_back (keys[i]);
       cell_start_.push_back (i);
     }
   cell_start_.push_back (n);
+  const std::uint64_t columns = static_cast<std::uint64_t> (dims_[0]) * static_cast<std::uint64_t> (dims_[1]);
+  if (columns <= std::max<std::uint64_t> (std::uint64_t (1) << 16, 4 * static_cast<std::uint64_t> (n)))
+  {
+    column_start_.assign (columns + 1, 0);
+    for (const auto k : cell_keys_)
+      ++column_start_[k / static_cast<std::uint64_t> (dims_[2]) + 1];
+    for (std::size_t c = 1; c < column_start_.size (); ++c)
+      column_start_[c] += column_start_[c - 1];
+  }
 }
 
 std::pair<int, int>
-GridKnn::cellRange (std::int64_t x, std::int64_t y, std::int64_t z) const
+GridKnn::runRange (std::int64_t x, std::int64_t y, std::int64_t z0, std::int64_t z1) const
 {
-  const auto it = std::lower_bound (cell_keys_.begin (), cell_keys_.end (), key (x, y, z));
-  if (it == cell_keys_.end () || *it != key (x, y, z))
+  std::size_t b, e;
+  if (!column_start_.empty ())
+  {
+    // A surface crosses a column in a few cells: walk them.
+    const std::size_t col = static_cast<std::size_t> (x * dims_[1] + y);
+    b = column_start_[col];
+    e = column_start_[col + 1];
+    const std::uint64_t k0 = key (x, y, z0), k1 = key (x, y, z1);
+    while (b < e && cell_keys_[b] < k0)
+      ++b;
+    std::size_t last = b;
+    while (last < e && cell_keys_[last] <= k1)
+      ++last;
+    e = last;
+  }
+  else
+  {
+    b = std::lower_bound (cell_keys_.begin (), cell_keys_.end (), key (x, y, z0)) - cell_keys_.begin ();
+    e = std::upper_bound (cell_keys_.begin () + b, cell_keys_.end (), key (x, y, z1)) - cell_keys_.begin ();
+  }
+  if (b >= e)
     return {0, 0};
-  const auto c = it - cell_keys_.begin ();
-  return {cell_start_[c], cell_start_[c + 1]};
+  return {cell_start_[b], cell_start_[e]};
 }
 
 int
 GridKnn::nearestK (const Eigen::Vector3f& q, int k, std::vector<int>& indices, std::vector<float>& sqr_distances,
-                   std::vector<std::pair<float, int>>& scratch) const
+                   std::vector<std::pair<float, int>>& scratch, std::vector<Eigen::Vector3f>* positions) const
 {
   indices.clear ();
   sqr_distances.clear ();
   scratch.clear ();
+  if (positions)
+    positions->clear ();
   if (k <= 0 || ids_.empty () || !q.allFinite ())
     return 0;
   // The query's cell (may lie outside the grid) and its distance to that cell's faces:
@@ -129,7 +188,7 @@ GridKnn::nearestK (const Eigen::Vector3f& q, int k, std::vector<int>& indices, s
   dmin = std::max (0.0, dmin);
   auto scan = [&] (int begin, int end) {
     for (int i = begin; i < end; ++i)
-      scratch.emplace_back ((points_[i] - q).squaredNorm (), ids_[i]);
+      scratch.emplace_back ((points_[i] - q).squaredNorm (), i);  // slot in the grid's order
   };
   // Keys of cells along z are consecutive: a z-run is one key range.
   auto scanRun = [&] (std::int64_t x, std::int64_t y, std::int64_t z0, std::int64_t z1) {
@@ -137,16 +196,8 @@ GridKnn::nearestK (const Eigen::Vector3f& q, int k, std::vector<int>& indices, s
     z1 = std::min<std::int64_t> (z1, dims_[2] - 1);
     if (z0 > z1)
       return;
-    if (z0 == z1)
-    {
-      const auto r = cellRange (x, y, z0);
-      scan (r.first, r.second);
-      return;
-    }
-    const auto b = std::lower_bound (cell_keys_.begin (), cell_keys_.end (), key (x, y, z0));
-    const auto e = std::lower_bound (b, cell_keys_.end (), key (x, y, z1) + 1);
-    if (b != e)
-      scan (cell_start_[b - cell_keys_.begin ()], cell_start_[e - cell_keys_.begin ()]);
+    const auto r = runRange (x, y, z0, z1);
+    scan (r.first, r.second);
   };
   for (std::int64_t R = r_first;; ++R)
   {
@@ -167,16 +218,29 @@ GridKnn::nearestK (const Eigen::Vector3f& q, int k, std::vector<int>& indices, s
     const bool all = R >= r_all;
     if (static_cast<int> (scratch.size ()) >= k || all)
     {
-      const int m = std::min<int> (k, static_cast<int> (scratch.size ()));
-      if (m > 0)
-        std::nth_element (scratch.begin (), scratch.begin () + (m - 1), scratch.end ());
+      // Done when k points lie inside the covered ball: counted first, so the selection
+      // runs once per query, not once per ring.
       const double covered = static_cast<double> (R) * cell_ + dmin;
-      if (all || (m > 0 && scratch[m - 1].first <= covered * covered))
+      const double covered2 = covered * covered;
+      int inside = 0;
+      if (!all)
+        for (const auto& s : scratch)
+          inside += s.first <= covered2;
+      if (all || inside >= k)
       {
+        const int m = std::min<int> (k, static_cast<int> (scratch.size ()));
+        // The k nearest are among the points inside: select among those only.
+        const auto end = all ? scratch.end ()
+                             : std::partition (scratch.begin (), scratch.end (),
+                                               [&] (const std::pair<float, int>& s) { return s.first <= covered2; });
+        if (m > 0)
+          std::nth_element (scratch.begin (), scratch.begin () + (m - 1), end);
         for (int i = 0; i < m; ++i)
         {
-          indices.push_back (scratch[i].second);
+          indices.push_back (ids_[scratch[i].second]);
           sqr_distances.push_back (scratch[i].first);
+          if (positions)
+            positions->push_back (points_[scratch[i].second]);
         }
         return m;
       }

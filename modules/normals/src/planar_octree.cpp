@@ -27,27 +27,43 @@ octant (const Eigen::Vector3f& p, const Eigen::Vector3f& c)
   return (p.x () >= c.x () ? 1 : 0) | (p.y () >= c.y () ? 2 : 0) | (p.z () >= c.z () ? 4 : 0);
 }
 
-// Eigen decomposition sorted as the seed writes it: λ1 ≥ λ2 ≥ λ3, normal = v3.
+// Eigen decomposition sorted as the seed writes it: λ1 ≥ λ2 ≥ λ3, normal = v3 (the only
+// eigenvector any caller reads).
 struct Pca
 {
   Eigen::Vector3d lambda;  // λ1, λ2, λ3
-  Eigen::Matrix3d v;       // columns v1, v2, v3
+  Eigen::Vector3d normal;  // eigenvector of λ3
 };
 
 Pca
 pca (const Eigen::Matrix3d& cov)
 {
   // PCL's closed-form 3x3 solver: several times faster than the iterative one, and it
-  // runs once per cell, region and patch.
-  Eigen::Matrix3d vectors;
-  Eigen::Vector3d values;
-  pcl::eigen33 (cov, vectors, values);  // ascending
+  // runs once per cell, region and patch. Only the smallest eigenvector is solved for
+  // (pcl::eigen33's full form solves all three: a third of the octree and patch time).
+  double scale = cov.cwiseAbs ().maxCoeff ();
+  if (scale <= std::numeric_limits<double>::min ())
+    scale = 1.0;
+  Eigen::Matrix3d scaled = cov / scale;
+  Eigen::Vector3d roots;  // ascending
+  pcl::computeRoots (scaled, roots);
   Pca r;
-  const Eigen::Vector3d ev = values.cwiseMax (0.0);
+  const Eigen::Vector3d ev = (roots * scale).cwiseMax (0.0);
   r.lambda = Eigen::Vector3d (ev (2), ev (1), ev (0));
-  r.v.col (0) = vectors.col (2);
-  r.v.col (1) = vectors.col (1);
-  r.v.col (2) = vectors.col (0);
+  const double eps = Eigen::NumTraits<double>::epsilon ();
+  if (roots (2) - roots (0) <= eps)
+    r.normal = Eigen::Vector3d::UnitZ ();  // all three equal: any direction
+  else if (roots (1) - roots (0) <= eps)
+  {
+    // The two smallest equal (as pcl::eigen33 does): any direction across the largest.
+    scaled.diagonal ().array () -= roots (2);
+    r.normal = pcl::detail::getLargest3x3Eigenvector<Eigen::Vector3d> (scaled).vector.unitOrthogonal ();
+  }
+  else
+  {
+    scaled.diagonal ().array () -= roots (0);
+    r.normal = pcl::detail::getLargest3x3Eigenvector<Eigen::Vector3d> (scaled).vector;
+  }
   return r;
 }
 
@@ -112,7 +128,7 @@ fitSurface (std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c, double 
     // planarity test) would bend a quadric into a fold: drop points far off the support's
     // plane compared with the median offset (noise or curvature stay within 4 robust
     // sigmas) and fit again.
-    const Eigen::Vector3d nrm = p.v.col (2);
+    const Eigen::Vector3d nrm = p.normal;
     thread_local std::vector<float> off, sorted;  // one fit per patch: no allocation each time
     off.resize (n);
     for (int i = 0; i < n; ++i)
@@ -130,7 +146,7 @@ fitSurface (std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c, double 
       return fitSurface (pts, c, scale, reference, quadric, R, false);
     }
   }
-  Eigen::Vector3f normal = p.v.col (2).cast<float> ();
+  Eigen::Vector3f normal = p.normal.cast<float> ();
   if (normal.dot (reference) < 0)
     normal = -normal;
   const Eigen::Matrix3d frame = frameOfNormal (normal);
@@ -252,7 +268,6 @@ forLeavesInBox (const std::vector<Cell>& cells, const Eigen::Vector3f& lo, const
 void
 PlanarOctree::analyseNode (OctreeNode& node, const PlanarOctreeParams& params) const
 {
-  const auto& pts = *points_;
   const int n = node.size ();
   node.planar = false;
   node.degenerate = true;
@@ -264,7 +279,7 @@ PlanarOctree::analyseNode (OctreeNode& node, const PlanarOctreeParams& params) c
   const Eigen::Vector3d c = node.center.cast<double> ();
   for (int i = node.begin; i < node.end; ++i)
   {
-    const Eigen::Vector3d d = pts[order_[i]].cast<double> () - c;
+    const Eigen::Vector3d d = sorted_[i].cast<double> () - c;
     s1 += d;
     s2.noalias () += d * d.transpose ();
   }
@@ -275,7 +290,7 @@ PlanarOctree::analyseNode (OctreeNode& node, const PlanarOctreeParams& params) c
     return;
   const Pca p = pca (node.covariance);
   node.eigenvalues = p.lambda;
-  node.normal = p.v.col (2).cast<float> ();
+  node.normal = p.normal.cast<float> ();
   const double trace = p.lambda.sum ();
   node.curvature = trace > 0 ? static_cast<float> (p.lambda (2) / trace) : 0.f;
   node.degenerate = spansNoPlane (p.lambda);
@@ -286,10 +301,10 @@ PlanarOctree::analyseNode (OctreeNode& node, const PlanarOctreeParams& params) c
                 params.s_beta * p.lambda (1) > p.lambda (0);
   if (node.planar && params.max_residual_ratio > 0)
   {
-    const Eigen::Vector3d nrm = p.v.col (2);
+    const Eigen::Vector3d nrm = p.normal;
     const double limit = params.max_residual_ratio * std::sqrt (p.lambda (2)) + 1e-4 * node.half;
     for (int i = node.begin; i < node.end && node.planar; ++i)
-      node.planar = std::abs ((pts[order_[i]].cast<double> () - c - mean).dot (nrm)) <= limit;
+      node.planar = std::abs ((sorted_[i].cast<double> () - c - mean).dot (nrm)) <= limit;
   }
 }
 
@@ -297,19 +312,25 @@ void
 PlanarOctree::partitionOctants (int begin, int end, const Eigen::Vector3f& c, std::array<int, 8>& cnt,
                                 std::vector<int>& buffer, std::vector<unsigned char>& code)
 {
-  const auto& points = *points_;
   const int len = end - begin;
   code.resize (len);
   buffer.resize (len);
+  thread_local std::vector<Eigen::Vector3f> moved;  // sorted_ moves along with order_
+  moved.resize (len);
   cnt.fill (0);
   for (int i = 0; i < len; ++i)
-    ++cnt[code[i] = static_cast<unsigned char> (octant (points[order_[begin + i]], c))];
+    ++cnt[code[i] = static_cast<unsigned char> (octant (sorted_[begin + i], c))];
   std::array<int, 8> offset{};
   for (int o = 1; o < 8; ++o)
     offset[o] = offset[o - 1] + cnt[o - 1];
   for (int i = 0; i < len; ++i)
-    buffer[offset[code[i]]++] = order_[begin + i];
+  {
+    const int to = offset[code[i]]++;
+    buffer[to] = order_[begin + i];
+    moved[to] = sorted_[begin + i];
+  }
   std::copy (buffer.begin (), buffer.begin () + len, order_.begin () + begin);
+  std::copy (moved.begin (), moved.begin () + len, sorted_.begin () + begin);
 }
 
 bool
@@ -326,6 +347,7 @@ PlanarOctree::build (const std::vector<Eigen::Vector3f>& points, const PlanarOct
   const int n = static_cast<int> (points.size ());
   order_.resize (n);
   std::iota (order_.begin (), order_.end (), 0);
+  sorted_ = points;
   leaf_of_point_.assign (n, -1);
   if (n < 3)
     return false;
@@ -534,7 +556,7 @@ PlanarOctree::mergeCoplanarLeaves (double max_angle_deg, double thickness_factor
     reg[a].sum += reg[b].sum;
     reg[a].sum_sq += reg[b].sum_sq;
     reg[a].base_thickness = base;
-    normal[a] = p.v.col (2);
+    normal[a] = p.normal;
   }
   std::vector<int> region_of_root (nl, -1);
   for (int i = 0; i < nl; ++i)
@@ -557,7 +579,6 @@ PlanarOctree::fitRegions (bool quadric)
   for (int id = 0; id < static_cast<int> (nodes_.size ()); ++id)
     if (nodes_[id].isLeaf () && nodes_[id].region >= 0)
       leaves[nodes_[id].region].push_back (id);
-  const auto& pts = *points_;
 #pragma omp parallel num_threads(threadCount (threads_))
   {
     std::vector<Eigen::Vector3f> support;
@@ -568,7 +589,7 @@ PlanarOctree::fitRegions (bool quadric)
       support.clear ();
       for (int leaf : leaves[r])
         for (int i = nodes_[leaf].begin; i < nodes_[leaf].end; ++i)
-          support.push_back (pts[order_[i]]);
+          support.push_back (sorted_[i]);
       // The same height-field fit as a patch, centred on the region (its moments are known).
       const Eigen::Vector3d mean = R.sum / R.points;
       const double spread = std::sqrt (std::max ((R.sum_sq / R.points - mean * mean.transpose ()).trace (), 1e-60));
@@ -590,12 +611,11 @@ void
 PlanarOctree::patchPointsInBox (int leaf, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
                                 std::vector<Eigen::Vector3f>& out) const
 {
-  const auto& pts = *points_;
   const auto& cells = leaf_cells_[leaf_slot_[leaf]];
   forLeavesInBox (cells, lo, hi, [&] (int c) {
     for (int i = cells[c].begin; i < cells[c].end; ++i)
     {
-      const Eigen::Vector3f& q = pts[order_[i]];
+      const Eigen::Vector3f& q = sorted_[i];
       if ((q.array () >= lo.array ()).all () && (q.array () <= hi.array ()).all ())
         out.push_back (q);
     }
@@ -736,7 +756,7 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
         SurfaceFit& P = patches_[C.fit];
         Eigen::Vector3f centre = Eigen::Vector3f::Zero ();
         for (int i = C.begin; i < C.end; ++i)
-          centre += (*points_)[order_[i]];
+          centre += sorted_[i];
         centre /= static_cast<float> (C.end - C.begin);
         Eigen::Vector3f previous = Eigen::Vector3f::Zero ();
         float previous_sigma = 0;

@@ -20,22 +20,28 @@ public:
   // Cells hold about points_per_cell points on a surface (estimated from a subsample).
   void build (const std::vector<Eigen::Vector3f>& points, int points_per_cell = 16, int threads = 0);
   // The k nearest points of q (indices into the build points, unsorted) and their squared
-  // distances; fewer when the cloud has fewer. scratch: reusable per thread.
+  // distances; fewer when the cloud has fewer. scratch: reusable per thread. positions,
+  // if given, gets the points themselves (from the grid's own cell-ordered copy).
   int nearestK (const Eigen::Vector3f& q, int k, std::vector<int>& indices, std::vector<float>& sqr_distances,
-                std::vector<std::pair<float, int>>& scratch) const;
+                std::vector<std::pair<float, int>>& scratch, std::vector<Eigen::Vector3f>* positions = nullptr) const;
   double cellSize () const { return cell_; }
   bool empty () const { return ids_.empty (); }
 
 private:
+  // (x * dims_y + y) * dims_z + z: z-runs of cells are key ranges (fits 63 bits: 21 per axis).
   std::uint64_t key (std::int64_t x, std::int64_t y, std::int64_t z) const;
-  // Range [first, second) of cell (x, y, z) in ids_, empty if no point.
-  std::pair<int, int> cellRange (std::int64_t x, std::int64_t y, std::int64_t z) const;
+  // Points of the cells (x, y, z0..z1): one range [first, second) of ids_ (empty if none).
+  std::pair<int, int> runRange (std::int64_t x, std::int64_t y, std::int64_t z0, std::int64_t z1) const;
 
   double cell_ = 1.0;
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero ();
   std::int64_t dims_[3] = {1, 1, 1};
   std::vector<std::uint64_t> cell_keys_;  // sorted, unique
   std::vector<int> cell_start_;           // cell_keys_.size () + 1 offsets into ids_
+  // Per (x, y) column, its first cell in cell_keys_ (dims_x * dims_y + 1 entries): a query
+  // finds its cells without binary searches (which were most of a query's time). Empty
+  // when the table would be much larger than the cloud: lookups then search cell_keys_.
+  std::vector<int> column_start_;
   std::vector<int> ids_;                  // point indices by cell
   std::vector<Eigen::Vector3f> points_;   // points by cell (cache-friendly scans)
 };

@@ -158,6 +158,9 @@ private:
   std::vector<OctreeNode> nodes_;
   std::vector<PlanarRegion> regions_;
   std::vector<int> order_;
+  // The points in order_'s order: cells read their points as one run, not by gathers
+  // through order_ (the octree, patch and region stages all read cells' points).
+  std::vector<Eigen::Vector3f> sorted_;
   std::vector<int> leaf_of_point_;
   std::vector<std::vector<PatchCell>> leaf_cells_;  // per planar leaf: its tree of patch cells
   std::vector<SurfaceFit> patches_;

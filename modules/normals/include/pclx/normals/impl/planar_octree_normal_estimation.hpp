@@ -34,20 +34,6 @@ planeOfNeighbours (const PointCloud<PointT>& cloud, const Indices& nn, Eigen::Ve
   return true;
 }
 
-// Neighbours sorted by distance (the default feature tree returns them unsorted).
-inline void
-sortByDistance (Indices& nn, std::vector<float>& dist)
-{
-  std::vector<std::pair<float, index_t>> order (nn.size ());
-  for (std::size_t i = 0; i < nn.size (); ++i)
-    order[i] = {dist[i], nn[i]};
-  std::sort (order.begin (), order.end ());
-  for (std::size_t i = 0; i < nn.size (); ++i)
-  {
-    dist[i] = order[i].first;
-    nn[i] = order[i].second;
-  }
-}
 }  // namespace detail
 
 template <typename PointInT, typename PointOutT> bool
@@ -176,12 +162,20 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   {
     std::vector<int> ids;
     std::vector<std::pair<float, int>> pairs;
+    std::vector<Eigen::Vector3f> pos;  // positions of the last knn's neighbours, in its order
   };
-  // k nearest search-surface points of a query (any order).
+  // k nearest search-surface points of a query (any order), their positions in s.pos:
+  // from the grid's cell-ordered copy, not gathered from the cloud point by point.
   auto knn = [&] (const PointInT& query, int k, pcl::Indices& out, std::vector<float>& dist, KnnScratch& s) {
     if (grid.empty ())
-      return this->tree_->nearestKSearch (query, k, out, dist);
-    const int m = grid.nearestK (query.getVector3fMap (), k, s.ids, dist, s.pairs);
+    {
+      const int m = this->tree_->nearestKSearch (query, k, out, dist);
+      s.pos.clear ();
+      for (int i = 0; i < std::max (m, 0); ++i)
+        s.pos.push_back ((*surface_)[out[i]].getVector3fMap ());
+      return m;
+    }
+    const int m = grid.nearestK (query.getVector3fMap (), k, s.ids, dist, s.pairs, &s.pos);
     out.resize (m);
     for (int i = 0; i < m; ++i)
       out[i] = octree_to_surface_[s.ids[i]];
@@ -205,12 +199,16 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       for (int s = 0; s < count; ++s)
       {
         const int j = octree_to_surface_[s * step];
-        if (knn ((*surface_)[j], 200, nn, dist, scratch) < 50)
+        const int m = knn ((*surface_)[j], 200, nn, dist, scratch);
+        if (m < 50)
           continue;
-        detail::sortByDistance (nn, dist);
+        scratch.pairs.resize (m);
+        for (int i = 0; i < m; ++i)
+          scratch.pairs[i] = {dist[i], i};
+        std::sort (scratch.pairs.begin (), scratch.pairs.end ());
         sorted.clear ();
-        for (const auto q : nn)
-          sorted.push_back ((*surface_)[q].getVector3fMap ());
+        for (const auto& di : scratch.pairs)
+          sorted.push_back (scratch.pos[di.second]);
         double r2 = 0, sp2 = 0;
         if (pclx::normals::sampleNoise (sorted, r2, sp2))
         {
@@ -320,13 +318,14 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   boundaries.erase (std::unique (boundaries.begin (), boundaries.end ()), boundaries.end ());
   // Lepski's rule over the ladder for x, from candidate neighbours (any order): sorts them
   // by distance from x; nn keeps the first k of them (Hoppe's set, for region adoption).
-  auto ladderPlane = [&] (const Eigen::Vector3f& x, const pcl::Indices& candidates, pcl::Indices& nn,
+  auto ladderPlane = [&] (const Eigen::Vector3f& x, const pcl::Indices& candidates,
+                          const std::vector<Eigen::Vector3f>& positions, pcl::Indices& nn,
                           std::vector<std::pair<float, index_t>>& by_distance, std::vector<Eigen::Vector3f>& sorted,
                           Eigen::Vector3f& normal, float& curvature, int& support,
                           const std::vector<int>& use_rungs, bool* exhausted) {
     by_distance.clear ();
-    for (const auto q : candidates)
-      by_distance.emplace_back (((*surface_)[q].getVector3fMap () - x).squaredNorm (), q);
+    for (std::size_t c = 0; c < candidates.size (); ++c)
+      by_distance.emplace_back ((positions[c] - x).squaredNorm (), static_cast<index_t> (c));
     // Only the rungs' prefixes matter (as sets, with their farthest point last): selection
     // from the largest rung down costs a fraction of a full sort (which was 20 % of the time).
     auto end = by_distance.end ();
@@ -338,11 +337,11 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       }
     sorted.clear ();
     nn.clear ();
-    for (const auto& [d, q] : by_distance)
+    for (const auto& [d, c] : by_distance)
     {
-      sorted.push_back ((*surface_)[q].getVector3fMap ());
+      sorted.push_back (positions[c]);
       if (static_cast<int> (nn.size ()) < this->getKSearch ())
-        nn.push_back (q);
+        nn.push_back (candidates[c]);
     }
     const auto c = pclx::normals::selectScale (x, sorted, use_rungs, noise2, ladder_tau_);
     if (exhausted)
@@ -365,10 +364,13 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
     std::vector<float> big_dist;
     std::vector<std::pair<float, index_t>> by_distance;
     std::vector<Eigen::Vector3f> sorted;
+    std::vector<Eigen::Vector3f> positions;
     if (this->searchForNeighbors (cloud, index, max_adaptive_neighbours_, big, big_dist) <= 0)
       return false;
-    return ladderPlane (cloud[index].getVector3fMap (), big, nn, by_distance, sorted, normal, curvature, support,
-                        rungs, nullptr);
+    for (const auto q : big)
+      positions.push_back ((*surface_)[q].getVector3fMap ());
+    return ladderPlane (cloud[index].getVector3fMap (), big, positions, nn, by_distance, sorted, normal, curvature,
+                        support, rungs, nullptr);
   };
 
   // When the input is its own search surface, orphans' results are reused as they are.
@@ -475,7 +477,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
           if (two_pass && knn (query, short_k, candidates, dist, scratch) > 0)
             for (int o = group_start[g]; o < group_start[g + 1]; ++o)
             {
-              orphan_ok[o] = ladderPlane ((*surface_)[orphans[o]].getVector3fMap (), candidates, orphan_nn[o],
+              orphan_ok[o] = ladderPlane ((*surface_)[orphans[o]].getVector3fMap (), candidates, scratch.pos, orphan_nn[o],
                                           by_distance, sorted, orphan_normal[o], orphan_curvature[o],
                                           orphan_support[o], short_rungs, nullptr);
               more = more || !orphan_ok[o];  // no plane within 50 points: try the long list
@@ -491,14 +493,15 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
             float c0;
             int k0 = 0;
             pcl::Indices nn0;
-            if (!ladderPlane (query.getVector3fMap (), candidates, nn0, by_distance, sorted, n0, c0, k0, rungs, nullptr))
+            if (!ladderPlane (query.getVector3fMap (), candidates, scratch.pos, nn0, by_distance, sorted, n0, c0, k0, rungs,
+                              nullptr))
               continue;
             for (int o = group_start[g]; o < group_start[g + 1]; ++o)
             {
               const Eigen::Vector3f x = (*surface_)[orphans[o]].getVector3fMap ();
               by_distance.clear ();
-              for (const auto q : candidates)
-                by_distance.emplace_back (((*surface_)[q].getVector3fMap () - x).squaredNorm (), q);
+              for (std::size_t c = 0; c < candidates.size (); ++c)
+                by_distance.emplace_back ((scratch.pos[c] - x).squaredNorm (), candidates[c]);
               const int k = std::min<int> (k0, by_distance.size ());
               const int kh = std::min<int> (this->getKSearch (), k);
               std::nth_element (by_distance.begin (), by_distance.begin () + (k - 1), by_distance.end ());
@@ -521,7 +524,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
             continue;
           }
           for (int o = group_start[g]; o < group_start[g + 1]; ++o)
-            orphan_ok[o] = ladderPlane ((*surface_)[orphans[o]].getVector3fMap (), candidates, orphan_nn[o],
+            orphan_ok[o] = ladderPlane ((*surface_)[orphans[o]].getVector3fMap (), candidates, scratch.pos, orphan_nn[o],
                                         by_distance, sorted, orphan_normal[o], orphan_curvature[o],
                                         orphan_support[o], rungs, nullptr);
         }
@@ -546,27 +549,43 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
     // Region growing in Jacobi passes (read the previous pass, write the next): deterministic in parallel.
     // Growing regions into noisy non-planar cells adopted points the ladder does better
     // (fertility σ = 0.0012: 11.6° against 5.6°): on noisy input regions do not grow.
+    // A pass only revisits the orphans next to a point that joined a region in the pass
+    // before (nothing else can change their answer), and writes a list of changes, not a
+    // copy of the whole array (32 passes of a 1M-point copy were most of this stage).
+    std::vector<std::pair<int, int>> changes, previous;
+    std::vector<char> joined (surface_->size (), 0);  // joined a region in the previous pass
     for (int pass = 0; pass < growth_passes_ && !regions.empty () && !noisy; ++pass)
     {
-      std::vector<int> next = surface_region;
-      int changed = 0;
-#pragma omp parallel for schedule(dynamic, 256) num_threads(threads) reduction(+ : changed)
-      for (int o = 0; o < no; ++o)
+#pragma omp parallel num_threads(threads)
       {
-        const int j = orphans[o];
-        if (surface_region[j] >= 0)
-          continue;  // first come, first kept: re-judging lets far quadrics steal points
-        const int r = bestRegion ((*surface_)[j].getVector3fMap (), orphan_ok[o] ? &orphan_normal[o] : nullptr,
-                                  orphan_nn[o], surface_region);
-        if (r >= 0)
+        std::vector<std::pair<int, int>> local;
+#pragma omp for schedule(dynamic, 256) nowait
+        for (int o = 0; o < no; ++o)
         {
-          next[j] = r;
-          ++changed;
+          const int j = orphans[o];
+          if (surface_region[j] >= 0)
+            continue;  // first come, first kept: re-judging lets far quadrics steal points
+          if (pass > 0 && std::none_of (orphan_nn[o].begin (), orphan_nn[o].end (), [&] (index_t q) { return joined[q]; }))
+            continue;
+          const int r = bestRegion ((*surface_)[j].getVector3fMap (), orphan_ok[o] ? &orphan_normal[o] : nullptr,
+                                    orphan_nn[o], surface_region);
+          if (r >= 0)
+            local.emplace_back (j, r);
         }
+#pragma omp critical
+        changes.insert (changes.end (), local.begin (), local.end ());
       }
-      surface_region.swap (next);
-      if (changed == 0)
+      for (const auto& c : previous)
+        joined[c.first] = 0;
+      for (const auto& [j, r] : changes)
+      {
+        surface_region[j] = r;
+        joined[j] = 1;
+      }
+      if (changes.empty ())
         break;
+      previous.swap (changes);
+      changes.clear ();
     }
   }
   const int n = static_cast<int> (indices_->size ());
@@ -575,6 +594,16 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   support_sizes_.assign (n, 0);
   bool dense = true;
 
+  // MERGED on the input's own points: a non-orphan point's status follows from
+  // surface_region (its leaf's region if used) and its patch, without its octree node.
+  const bool fast = method_ == Method::MERGED && same_cloud && !orphan_slot.empty ();
+  std::vector<int> patch_region;  // region of each patch's leaf (used or not)
+  if (fast && use_patches)
+  {
+    patch_region.resize (octree_.patches ().size ());
+    for (std::size_t c = 0; c < patch_region.size (); ++c)
+      patch_region[c] = nodes[octree_.patches ()[c].leaf].region;
+  }
 #pragma omp parallel num_threads(threads) reduction(&& : dense)
   {
     pcl::Indices nn;
@@ -601,7 +630,32 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       int region = -1;
       int support = 0;
 
-      if (leaf >= 0)
+      const int slot = same_cloud && !orphan_slot.empty () ? orphan_slot[index] : -1;
+
+      if (leaf >= 0 && fast && slot < 0)
+      {
+        // Not an orphan: its leaf's region (if used) or else its valid patch, read from
+        // per-point arrays in input order; the random reads of octree nodes were a third
+        // of this loop's time at 1M points.
+        if (surface_region[index] >= 0)
+        {
+          status = REGION_FIT;
+          region = surface_region[index];
+          normal = octree_.regionNormalAt (region, x);
+          curvature = regions[region].surface.curvature;
+          support = regions[region].points;
+        }
+        else if (const int c = patchOf (surface_to_octree_[index]); c >= 0)
+        {
+          status = PATCH_FIT;
+          const auto& P = octree_.patches ()[c];
+          normal = octree_.patchNormalAt (c, x);
+          curvature = P.curvature;
+          support = P.support;
+          region = patch_region[c];
+        }
+      }
+      else if (leaf >= 0)
       {
         const pclx::normals::OctreeNode& L = nodes[leaf];
         if (method_ == Method::OCTREE && !L.degenerate)
@@ -638,7 +692,6 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         }
       }
 
-      const int slot = same_cloud && !orphan_slot.empty () ? orphan_slot[index] : -1;
       if (status == INVALID_POINT && slot >= 0)
       {
         if (surface_region[index] >= 0)
