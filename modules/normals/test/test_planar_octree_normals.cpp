@@ -636,7 +636,8 @@ TEST (PlanarOctreeFeature, SearchSurfaceIsUsedForTheOctreeAndNeighbours)
     sparse->push_back ((*surface)[i]);
   for (Method m : kAll)
   {
-    const auto full = estimate (surface, m);
+    Estimator whole;
+    const auto full = estimate (surface, m, &whole);
     Estimator ne;
     ne.setInputCloud (sparse);
     ne.setSearchSurface (surface);
@@ -646,7 +647,18 @@ TEST (PlanarOctreeFeature, SearchSurfaceIsUsedForTheOctreeAndNeighbours)
     ASSERT_EQ (out.size (), sparse->size ());
     EXPECT_EQ (ne.getOctree ().order ().size (), surface->size ());
     for (std::size_t k = 0; k < sparse->size (); ++k)
+    {
       EXPECT_LT ((out[k].getNormalVector3fMap () - full[k * 20].getNormalVector3fMap ()).norm (), 1e-5f);
+      // Region and patch points: the full run reads them from per-point arrays, this run
+      // from octree nodes (other input than the surface); both must agree.
+      const auto st = whole.getPointStatus ()[k * 20];
+      if (st == Estimator::REGION_FIT || st == Estimator::PATCH_FIT)
+      {
+        EXPECT_EQ (ne.getPointStatus ()[k], st);
+        EXPECT_EQ (ne.getRegionIds ()[k], whole.getRegionIds ()[k * 20]);
+        EXPECT_EQ (ne.getSupportSizes ()[k], whole.getSupportSizes ()[k * 20]);
+      }
+    }
   }
 }
 
