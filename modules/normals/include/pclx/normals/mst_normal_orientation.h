@@ -4,7 +4,8 @@
 // term that only breaks ties), its minimum
 // spanning forest (Kruskal with Boost's disjoint sets), and in every component a traversal from the
 // point of largest z; each child is flipped to agree with its parent (ni·nj > 0; across a
-// sharp edge, by the side the edge vector leaves the two tangent planes: see orient ()).
+// sharp edge or a fold, by the side the edge vector leaves the two tangent planes: see
+// setEdgeSideSignificance ()).
 // The seed points the root's normal to +z; here the component's extreme points in 21
 // directions of the upper hemisphere vote its sign (Σ n·d > 0): outward on closed shapes,
 // "up" on open sheets, and not decided by one crease point at the top.
@@ -49,11 +50,12 @@ public:
   double getNoiseScale () const { return noise_scale_; }
   // The noise orient () used last (given or estimated).
   double getUsedNoiseScale () const { return used_noise_; }
-  // The edge-side reading decides a child's sign, for any pair of normals, where both lean
-  // off the edge vector e by more than this many noise sigmas plus 0.2 |e| (default 4):
-  // across a thin part whose faces are closer than the graph's edges (anti-parallel
-  // normals, where Hoppe's rule flips) that offset is geometry; on one noisy sheet it is noise.
-  // Must be finite and >= 0.
+  // Nearly parallel normals (a fold: the faces of a thin part, or of a ridge or groove
+  // narrower than the graph's edges, look parallel to Hoppe's rule, which flips one face) take
+  // their relative sign from the edge's side where both lean off the edge vector e by more
+  // than this many noise sigmas plus a quarter of the mean edge plus 0.5 |e| (default 4): that
+  // offset is geometry, not noise. Such crossings, and sharp-edge crossings above the same
+  // floor, count half their turn in the cost. Must be finite and >= 0.
   void setEdgeSideSignificance (double z) { side_significance_ = z; }
   double getEdgeSideSignificance () const { return side_significance_; }
 
