@@ -21,6 +21,17 @@ eigenAscending (const Eigen::Matrix3d& cov, Eigen::Matrix3d& vectors, Eigen::Vec
   values = values.cwiseMax (0.0);
 }
 
+// Rungs whose normal's standard error is at least this (radians) are noise-dominated:
+// the perturbation formula no longer holds and their normal constrains nothing.
+constexpr double kCompareError = 0.2;
+// The residual-growth test reads rungs whose normal is better defined than this.
+constexpr double kResidualError = 0.1;
+// Residual growth, in relative sampling errors √(2/dof), that stops the growth.
+constexpr double kResidualZ = 2.0;
+// ... from rungs of at least this many points (a residual over fewer has too few degrees
+// of freedom for a normal approximation: 12-point rungs stopped a noisy plane by chance).
+constexpr int kResidualMinCount = 30;
+
 }  // namespace
 
 bool
@@ -147,72 +158,149 @@ selectScale (const Eigen::Vector3f& x, const std::vector<Eigen::Vector3f>& sorte
   struct Rung
   {
     Eigen::Vector3d normal, lambda;  // λ ascending
-    double count;
+    int count;
+    double error;     // standard error of the normal (radians) under the cloud's noise
+    double residual;  // quadric residual variance (below)
+    bool agrees;      // with every smaller, well-defined rung
   };
   Rung fitted[24];
   int m = 0;
-  Eigen::Vector3d s1 = Eigen::Vector3d::Zero ();
-  Eigen::Matrix3d s2 = Eigen::Matrix3d::Zero ();
-  std::size_t r = 0;
   // Standard error (radians) of rung q's normal under noise variance l3: the eigenvector
-  // perturbation formula; infinite when the in-plane spread is no larger than the noise.
+  // perturbation formula; π when the in-plane spread is no larger than the noise.
   auto stderror = [&] (const Rung& q, double l3) {
     const double e1 = q.lambda (2) - l3, e2 = q.lambda (1) - l3;
     if (!(e2 > 1e-9 * q.lambda (2)))
       return M_PI;
     return std::min (M_PI, std::sqrt ((q.lambda (2) * l3 / (e1 * e1) + q.lambda (1) * l3 / (e2 * e2)) / q.count));
   };
-  int best = -1;
-  out.exhausted = true;
-  for (int i = 0; i < n && r < rungs.size () && m < 24; ++i)
+  // Pass 1: the PCA plane of each rung (prefix sums), growing from the smallest until a
+  // rung is one-sided, and whether each agrees with the smaller ones.
+  int last = -1;
+  bool refused = false, refused_any = false;
   {
-    const Eigen::Vector3d d = (sorted[i] - x).cast<double> ();
-    s1 += d;
-    s2.noalias () += d * d.transpose ();
-    const int count = i + 1;
-    if (count != rungs[r] && count != n)
-      continue;
-    ++r;
-    if (count < 3)
-      continue;
-    const Eigen::Vector3d mean = s1 / count;
-    Eigen::Matrix3d v;
-    Eigen::Vector3d l;
-    eigenAscending (s2 / count - mean * mean.transpose (), v, l);
-    if (!(l (2) > 0) || l (1) <= 1e-12 * l (2))
-      continue;  // no plane yet (collinear or coincident): try a larger support
-    Rung& q = fitted[m];
-    q.normal = v.col (0);
-    q.lambda = l;
-    q.count = count;
-    if (best >= 0)
+    Eigen::Vector3d s1 = Eigen::Vector3d::Zero ();
+    Eigen::Matrix3d s2 = Eigen::Matrix3d::Zero ();
+    std::size_t r = 0;
+    for (int i = 0; i < n && r < rungs.size () && m < 24; ++i)
     {
-      // One-sided: a rim or a border; more points bring another sheet, not less noise.
-      // (x itself is off the surface by the noise: that much offset says nothing.)
-      if ((mean - mean.dot (q.normal) * q.normal).norm () > 0.3 * d.norm () + 3.0 * std::sqrt (noise2))
+      const Eigen::Vector3d d = (sorted[i] - x).cast<double> ();
+      s1 += d;
+      s2.noalias () += d * d.transpose ();
+      const int count = i + 1;
+      if (count != rungs[r] && count != n)
+        continue;
+      ++r;
+      if (count < 3)
+        continue;
+      const Eigen::Vector3d mean = s1 / count;
+      Eigen::Matrix3d v;
+      Eigen::Vector3d l;
+      eigenAscending (s2 / count - mean * mean.transpose (), v, l);
+      if (!(l (2) > 0) || l (1) <= 1e-12 * l (2))
+        continue;  // no plane yet (collinear or coincident): try a larger support
+      const int j = m++;
+      Rung& q = fitted[j];
+      q.normal = v.col (0);
+      q.lambda = l;
+      q.count = count;
+      q.error = stderror (q, noise2);
+      q.residual = std::numeric_limits<double>::quiet_NaN ();
+      q.agrees = true;
+      if (j > 0)
       {
-        out.exhausted = false;
-        break;
+        // One-sided: a rim or a border; more points bring another sheet, not less noise.
+        // (x itself is off the surface by the noise: that much offset says nothing.)
+        refused = (mean - mean.dot (q.normal) * q.normal).norm () > 0.3 * d.norm () + 3.0 * std::sqrt (noise2);
+        if (refused)
+        {
+          --m;
+          break;
+        }
+        // Agreement with every smaller, well-defined rung. Prefixes are nested, so the two
+        // normals share their errors: the difference has variance err_a² − err_q² (the
+        // larger support is the more efficient estimate), not (err_a + err_q)², which let
+        // slowly growing bias through (bunny σ = 0.0012: 200 taken where 50 was best).
+        for (int a = 0; a < j && q.agrees; ++a)
+        {
+          if (!(fitted[a].error < kCompareError))
+            continue;  // noise-dominated: its normal says nothing about the bias of q
+          const double angle = std::acos (std::min (1.0, std::abs (fitted[a].normal.dot (q.normal))));
+          const double spread =
+              std::sqrt (std::max (0.0, fitted[a].error * fitted[a].error - q.error * q.error));
+          q.agrees = angle <= tau * spread + 1e-3;
+        }
       }
-      bool agrees = true;
-      for (int a = 0; a < m && agrees; ++a)
-      {
-        const double angle = std::acos (std::min (1.0, std::abs (fitted[a].normal.dot (q.normal))));
-        agrees = angle <= tau * (stderror (fitted[a], noise2) + stderror (q, noise2)) + 1e-3;
-      }
-      if (!agrees)
-      {
-        out.exhausted = false;
-        break;
-      }
+      // Lepski: the largest rung that agrees with all smaller ones, whether or not the
+      // rungs between do (a chance disagreement of a small rung does not cap the support).
+      if (q.agrees)
+        last = j;
+      else
+        refused_any = true;
     }
-    ++m;
-    best = m - 1;
-    out.normal = q.normal.cast<float> ();
-    out.curvature = static_cast<float> (l (0) / l.sum ());
-    out.support = count;
-    out.ok = true;
   }
+  if (last < 0)
+    return out;
+  out.exhausted = !refused && !refused_any;
+  // Pass 2, only where it can still stop the growth (a well-defined rung of >= 30 points
+  // below the choice): detail. The residual of a quadric height field (6 unknowns) over
+  // each rung, in the frame of the largest rung's plane, from prefix sums of its normal
+  // equations, must not grow past its sampling error (relative √(2/dof)). A quadric takes
+  // the curvature, which does not bias a PCA normal over a support centred on x (on a
+  // sphere the support must keep growing); what it leaves is detail or another sheet.
+  bool readable = false;
+  for (int j = 0; j < last && !readable; ++j)
+    readable = fitted[j].error < kResidualError && fitted[j].count >= kResidualMinCount;
+  if (readable)
+  {
+    const Eigen::Vector3d nz = fitted[m - 1].normal;
+    const Eigen::Vector3d e1 = nz.unitOrthogonal (), e2 = nz.cross (e1);
+    const double scale = std::sqrt (fitted[m - 1].lambda (1) + fitted[m - 1].lambda (2));
+    Eigen::Matrix<double, 6, 6> ata = Eigen::Matrix<double, 6, 6>::Zero ();
+    Eigen::Matrix<double, 6, 1> ath = Eigen::Matrix<double, 6, 1>::Zero ();
+    double hh = 0;
+    int q = 0;
+    for (int i = 0; i < n && q <= last; ++i)
+    {
+      const Eigen::Vector3d d = (sorted[i] - x).cast<double> ();
+      const double u = d.dot (e1) / scale, w = d.dot (e2) / scale, h = d.dot (nz);
+      Eigen::Matrix<double, 6, 1> row;
+      row << u * u, u * w, w * w, u, w, 1.0;
+      ata.selfadjointView<Eigen::Lower> ().rankUpdate (row);
+      ath += row * h;
+      hh += h * h;
+      if (i + 1 != fitted[q].count)
+        continue;
+      Rung& r = fitted[q];
+      if (r.count >= kResidualMinCount)
+      {
+        const Eigen::Matrix<double, 6, 6> full = ata.selfadjointView<Eigen::Lower> ();
+        const Eigen::Matrix<double, 6, 1> c = full.ldlt ().solve (ath);
+        if (c.allFinite ())
+          r.residual = std::max (0.0, hh - c.dot (ath)) / (r.count - 6);
+      }
+      if (q > 0)
+      {
+        const Rung& p = fitted[q - 1];
+        if (p.error < kResidualError && p.count >= kResidualMinCount &&
+            r.residual > p.residual * (1.0 + kResidualZ * std::sqrt (2.0 / (p.count - 6))))
+        {
+          // The largest agreeing rung below the growth.
+          last = 0;
+          for (int a = q - 1; a > 0 && last == 0; --a)
+            if (fitted[a].agrees)
+              last = a;
+          out.exhausted = false;
+          break;
+        }
+      }
+      ++q;
+    }
+  }
+  const Rung& q = fitted[last];
+  out.normal = q.normal.cast<float> ();
+  out.curvature = static_cast<float> (q.lambda (0) / q.lambda.sum ());
+  out.support = q.count;
+  out.ok = true;
   return out;
 }
 

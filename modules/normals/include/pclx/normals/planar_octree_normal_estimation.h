@@ -153,9 +153,9 @@ public:
   double getMaxPatchSlopeError () const { return max_patch_slope_deg_; }
   void setPatchScales (int scales) { patch_scales_ = scales; }
   int getPatchScales () const { return patch_scales_; }
-  // Lepski's agreement: rung normals may differ by this many (summed) standard errors
-  // (> 0, default 2: 1.5 lost up to 0.55° at σ = 0.0012 on fertility, 2 was within 0.3°
-  // of the best fixed k on PCPNet bunny, fandisk and fertility from 0 to 0.012).
+  // Lepski's agreement: rung normals may differ by this many standard errors of their
+  // difference (> 0, default 2.5: 2 lost up to 1.05° on the wide set, 3 was as good;
+  // see pclx::normals::selectScale).
   void setScaleAgreement (double tau) { ladder_tau_ = tau; }
   double getScaleAgreement () const { return ladder_tau_; }
   // Input is noisy when the estimated noise exceeds this share of the point spacing (>= 0,
@@ -209,7 +209,7 @@ private:
   int patch_support_ = 18;
   double max_patch_slope_deg_ = 2.0;
   int patch_scales_ = 3;
-  double ladder_tau_ = 2.0;
+  double ladder_tau_ = 2.5;
   double max_patch_noise_ratio_ = 0.15;
   unsigned int threads_ = 0;
   pclx::normals::PlanarOctree octree_;

@@ -2,10 +2,13 @@
 // Per-point scale selection for kNN PCA normals (issue 13; not in the seed): a ladder of
 // supports (12, 18, 30, 50, 100, 200, ... nearest neighbours) read as prefixes of one
 // sorted neighbour list, and Lepski's rule: take the largest support whose normal agrees
-// with every smaller one within their standard errors. The standard error of a PCA normal
-// comes from the eigenvector perturbation formula (Anderson 1963) with the noise variance
-// of the whole cloud (estimateNoise), not the support's own λ3: a small support under
-// heavy noise has λ2 ≈ noise, its normal is meaningless and it constrains nothing.
+// with every smaller one within τ standard errors of their difference. The standard error
+// of a PCA normal comes from the eigenvector perturbation formula (Anderson 1963) with the
+// noise variance of the whole cloud (sampleNoise), not the support's own λ3: a small
+// support under heavy noise has λ2 ≈ noise, its normal is meaningless and it constrains
+// nothing. Nested prefixes share their errors, so the difference of two rungs' normals has
+// variance err_small² − err_large² (much tighter than the sum of the errors, which
+// over-smoothed where the bias grows slowly).
 #include <Eigen/Core>
 
 #include <vector>
@@ -49,10 +52,15 @@ struct ScaleChoice
 };
 
 // Lepski's rule over the rungs for the point x, whose neighbours (positions) are sorted
-// by distance from x. Growth also stops at a one-sided rung (centroid off x by > 0.3 of
-// its radius plus 3 noise sigmas in the plane: a rim or a border, where more points bring
-// another sheet).
-// tau: agreement in standard errors (2).
+// by distance from x: the largest rung that agrees with every smaller rung whose error is
+// below 0.2 rad (noisier rungs say nothing about bias). Growth also stops
+// - at a one-sided rung (centroid off x by > 0.3 of its radius plus 3 noise sigmas in the
+//   plane: a rim or a border, where more points bring another sheet);
+// - where detail comes in: the residual variance of a quadric height field (in the frame of
+//   the largest rung) grows from one rung of >= 30 points to the next by more than 2 of its
+//   relative sampling errors √(2/dof). A quadric takes the curvature, which does not bias
+//   a support centred on x (a plane's residual stopped a noisy sphere at 50 points).
+// tau: agreement in standard errors of the difference (2.5).
 ScaleChoice selectScale (const Eigen::Vector3f& x, const std::vector<Eigen::Vector3f>& sorted,
                          const std::vector<int>& rungs, double noise2, double tau);
 
