@@ -154,8 +154,8 @@ public:
   void setPatchScales (int scales) { patch_scales_ = scales; }
   int getPatchScales () const { return patch_scales_; }
   // Lepski's agreement: rung normals may differ by this many standard errors of their
-  // difference (> 0, default 2.5: 2 lost up to 1.05° on the wide set, 3 was as good;
-  // see pclx::normals::selectScale).
+  // difference (> 0, default 2.5: on the wide set's noisy clouds 2 stopped too often by
+  // chance, 3 let the bunnies' bias through; see pclx::normals::selectScale).
   void setScaleAgreement (double tau) { ladder_tau_ = tau; }
   double getScaleAgreement () const { return ladder_tau_; }
   // Input is noisy when the estimated noise exceeds this share of the point spacing (>= 0,
