@@ -45,7 +45,7 @@ public:
   double getAcrossSurfacePenalty () const { return across_penalty_; }
   // Noise of the positions along the normal (a length; e.g. the estimator's
   // getNoiseEstimate ().sigma). Negative (default): estimated by orient () with
-  // pclx::normals::sampleNoise on ~1000 points. Not finite: orient () fails.
+  // pclx::normals::sampleNoise on ~500 points. Not finite: orient () fails.
   void setNoiseScale (double sigma) { noise_scale_ = sigma; }
   double getNoiseScale () const { return noise_scale_; }
   // The noise orient () used last (given or estimated).

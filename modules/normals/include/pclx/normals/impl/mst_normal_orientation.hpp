@@ -196,11 +196,11 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
   std::vector<double> len_sum (threads, 0.0);
   std::vector<std::size_t> len_count (threads, 0);
   // Noise along the normal, unless given: pclx::normals::sampleNoise (robust quadric residuals
-  // over 24-100 neighbours) on about 1000 vertices, as the estimator does on 2000. knn (v, ids)
+  // over 24-100 neighbours) on about 500 vertices (the estimator uses 2000). knn (v, ids)
   // lists v's nearest vertices sorted by distance, v first.
   const bool estimate_noise = noise_scale_ < 0;
   auto estimateNoise = [&] (auto&& knn, int team) {
-    const std::size_t step = std::max<std::size_t> (1, nv / 1000), count = (nv + step - 1) / step;
+    const std::size_t step = std::max<std::size_t> (1, nv / 500), count = (nv + step - 1) / step;
     std::vector<double> r2 (count, -1.0), sp2 (count, -1.0);
 #pragma omp parallel num_threads(team)
     {
