@@ -8,7 +8,11 @@ One line per (shape, view, points): ours (pclx_auto, the default) F1 and seconds
 candidate hull (the default before the refinement passes) from the same run, Open3D's
 exact HPR at its best R (highest F1 over every open3d_exact row of the case, from any of the
 given files), the speed-up, and MISSED where ours is < 50x faster or below F1 0.95.
-Ratios are only meaningful within one run (the machine is shared).
+Ratios are only meaningful within one run (the machine is shared). With --time cpu the
+seconds are the process CPU time of each call (cpu_seconds, best of the repeats; written by
+bench_hpr since this session), which a loaded machine inflates much less than wall time:
+every call then runs on one thread, ours (setNumberOfThreads (0) picks one under load) and
+Open3D's alike.
 """
 import argparse
 import csv
@@ -18,7 +22,7 @@ TARGET_SPEEDUP = 50.0
 TARGET_F1 = 0.95
 
 
-def read(paths):
+def read(paths, time="wall"):
     rows = []
     for path in paths:
         with open(path, newline="") as f:
@@ -34,6 +38,11 @@ def read(paths):
                         row[rec[k]] = float(rec[k + 1])
                     except ValueError:
                         row[rec[k]] = rec[k + 1]
+                if time == "cpu":
+                    if "cpu_seconds" not in row:
+                        continue
+                    row["wall_seconds"] = row["seconds"]
+                    row["seconds"] = row["cpu_seconds"]
                 rows.append(row)
     # Open3D's best R per case is recomputed over every open3d_exact row of every file (a
     # supplementary run at other R merges in): the highest F1, the faster on a tie.
@@ -58,8 +67,9 @@ def main():
     ap.add_argument("--out", help="write the markdown here (also printed)")
     ap.add_argument("--ours", default="pclx_auto", help="method row to compare (default: pclx_auto)")
     ap.add_argument("--note", default="", help="a line about the run (machine load, date)")
+    ap.add_argument("--time", choices=["wall", "cpu"], default="wall", help="seconds compared (default: wall)")
     args = ap.parse_args()
-    rows = read(args.csv)
+    rows = read(args.csv, args.time)
     if not rows:
         sys.exit("wide_summary.py: no sweep=wide rows")
     keys = []
