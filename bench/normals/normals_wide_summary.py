@@ -67,45 +67,49 @@ def main():
     cases = collections.OrderedDict()
     for r in wide:
         cases.setdefault((r["input"], r["p_noise"]), {})[r["method"]] = r
-    p(f"# Normals on the wide set (issue 13): `bench_normals --wide`")
-    p("")
-    p(f"Class measured: `modules/normals` at {a.commit}. 100k points per shape, Gaussian noise σ × bounding-box "
-      "diagonal on positions (truth normals unchanged, one seed for every method), 2 threads "
-      "(CGAL jet in parallel with TBB, CGAL VCM is sequential). RMS of the unoriented angle error. Times are from one shared, "
-      "loaded 2-core machine: compare within a row only.")
-    p("")
-    p("Reproduce: `bash bench/normals/run_wide.sh` (builds `bench_normals`, runs `--wide --speed --threads 2`, "
-      "writes `normals_wide.csv`, the `normals_wide_*.png` charts and this file). Shapes: fertility and the "
-      "Stanford bunny (`bun_zipper.ply`) sampled area-uniformly with face normals as truth, PCPNet bunny100k, "
-      "fandisk100k, 151A_100k_0 (unoriented truth), a generated cube and a generated grooved slab (V-grooves, "
-      "slots, ridges and a ripple a few point spacings wide and deep). h = point spacing of the clean cloud. "
-      "Charts: `normals_wide_rms_vs_noise.png`, `normals_wide_delta.png` (ours − oracle per case), "
-      "`normals_wide_error_vs_time.png`, `normals_wide_speed.png`; stderr of the run: `normals_wide.log`.")
-    p("")
-    p(f"Bar: ours ≤ oracle PCA + {BAR}° (oracle = the best k of {{12, 18, 30, 50, 100, 200}} chosen with "
-      "hindsight per shape and σ). **MISSED** marks the cases over it.")
-    p("")
-    p("| shape | σ | ours | oracle PCA (k) | PCA k = 18 | jet best (k) | VCM best (R, r ×h) | Open3D k = 18 | ours − oracle | ours s / oracle s | |")
-    p("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-    missed = []
-    delta = collections.defaultdict(list)
-    for (shape, sigma), m in cases.items():
-        o, orc = m.get("ours"), m.get("oracle_pca")
-        if not o or not orc:
-            continue
-        d = o["rms"] - orc["rms"]
-        delta[sigma].append((d, shape))
-        flag = "**MISSED**" if d > BAR else ""
-        if flag:
-            missed.append((shape, sigma, d))
-        jet = m.get("jet_best")
-        vcm = m.get("vcm_best")
-        mark = "†" if (shape, sigma) in borrowed else ""
-        jet_s = f"{deg(jet)} ({jet['p_k']}){mark}" if jet else "–"
-        vcm_s = f"{deg(vcm)} ({vcm['p_R']}, {vcm['p_r']}){mark}" if vcm else "–"
-        p(f"| {shape} | {sigma} | {deg(o)} | {deg(orc)} ({orc['p_k']}) | {deg(m.get('pca_k18'))} | {jet_s} | {vcm_s} | "
-          f"{deg(m.get('open3d_k18'))} | {d:+.2f}° | {o['seconds']:.2f} / {orc['seconds']:.2f} | {flag} |")
-    p("")
+    if not wide:
+        p(f"# Normals orientation (issue 13): `bench_normals --orient`, `modules/normals` at {a.commit}")
+        p("")
+    else:
+        p(f"# Normals on the wide set (issue 13): `bench_normals --wide`")
+        p("")
+        p(f"Class measured: `modules/normals` at {a.commit}. 100k points per shape, Gaussian noise σ × bounding-box "
+          "diagonal on positions (truth normals unchanged, one seed for every method), 2 threads "
+          "(CGAL jet in parallel with TBB, CGAL VCM is sequential). RMS of the unoriented angle error. Times are from one shared, "
+          "loaded 2-core machine: compare within a row only.")
+        p("")
+        p("Reproduce: `bash bench/normals/run_wide.sh` (builds `bench_normals`, runs `--wide --speed --threads 2`, "
+          "writes `normals_wide.csv`, the `normals_wide_*.png` charts and this file). Shapes: fertility and the "
+          "Stanford bunny (`bun_zipper.ply`) sampled area-uniformly with face normals as truth, PCPNet bunny100k, "
+          "fandisk100k, 151A_100k_0 (unoriented truth), a generated cube and a generated grooved slab (V-grooves, "
+          "slots, ridges and a ripple a few point spacings wide and deep). h = point spacing of the clean cloud. "
+          "Charts: `normals_wide_rms_vs_noise.png`, `normals_wide_delta.png` (ours − oracle per case), "
+          "`normals_wide_error_vs_time.png`, `normals_wide_speed.png`; stderr of the run: `normals_wide.log`.")
+        p("")
+        p(f"Bar: ours ≤ oracle PCA + {BAR}° (oracle = the best k of {{12, 18, 30, 50, 100, 200}} chosen with "
+          "hindsight per shape and σ). **MISSED** marks the cases over it.")
+        p("")
+        p("| shape | σ | ours | oracle PCA (k) | PCA k = 18 | jet best (k) | VCM best (R, r ×h) | Open3D k = 18 | ours − oracle | ours s / oracle s | |")
+        p("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+        missed = []
+        delta = collections.defaultdict(list)
+        for (shape, sigma), m in cases.items():
+            o, orc = m.get("ours"), m.get("oracle_pca")
+            if not o or not orc:
+                continue
+            d = o["rms"] - orc["rms"]
+            delta[sigma].append((d, shape))
+            flag = "**MISSED**" if d > BAR else ""
+            if flag:
+                missed.append((shape, sigma, d))
+            jet = m.get("jet_best")
+            vcm = m.get("vcm_best")
+            mark = "†" if (shape, sigma) in borrowed else ""
+            jet_s = f"{deg(jet)} ({jet['p_k']}){mark}" if jet else "–"
+            vcm_s = f"{deg(vcm)} ({vcm['p_R']}, {vcm['p_r']}){mark}" if vcm else "–"
+            p(f"| {shape} | {sigma} | {deg(o)} | {deg(orc)} ({orc['p_k']}) | {deg(m.get('pca_k18'))} | {jet_s} | {vcm_s} | "
+              f"{deg(m.get('open3d_k18'))} | {d:+.2f}° | {o['seconds']:.2f} / {orc['seconds']:.2f} | {flag} |")
+        p("")
     if borrowed:
         p(f"† jet / VCM rows from an earlier run of the same protocol ({a.peers_from}): the same noisy clouds "
           "(one seed), so their errors are the same; their times are from that run.")
