@@ -8,6 +8,8 @@
 #include <pclx/testing/mesh_sampling.h>
 #include <pclx/testing/shapes.h>
 
+#include <pcl/search/kdtree.h>
+
 #include <gtest/gtest.h>
 
 #include <limits>
@@ -297,6 +299,13 @@ TEST (MSTOrientation, NoiseScaleIsEstimatedUnlessGiven)
   mst.setNoiseScale (0.02);
   ASSERT_TRUE (mst.orient (n));
   EXPECT_EQ (mst.getUsedNoiseScale (), 0.02);
+  // Through a user's search method (a separate code path for the queries).
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> with_search;
+  with_search.setInputCloud (cloud);
+  with_search.setSearchMethod (pcl::search::KdTree<pcl::PointXYZ>::Ptr (new pcl::search::KdTree<pcl::PointXYZ>));
+  ASSERT_TRUE (with_search.orient (n));
+  EXPECT_NEAR (with_search.getUsedNoiseScale (), 0.01, 0.004);
+  EXPECT_LT (flippedShare (n, s), 0.01);
 }
 
 TEST (MSTOrientation, EveryComponentIsRootedAtItsHighestPoint)
