@@ -384,16 +384,24 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   std::vector<char> orphan_ok;
   if (method_ == Method::MERGED && (adaptive || (growth_passes_ > 0 && !regions.empty ())))
   {
+    // Flagged in parallel (a random read of its patch per point), listed in surface
+    // order: no result depends on the order (the adaptive path sorts them by cell below,
+    // growth is Jacobi).
     orphan_slot.assign (surface_->size (), -1);
-    for (const int o : octree_.order ())
+    const int nsurface = static_cast<int> (surface_->size ());
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (int j = 0; j < nsurface; ++j)
     {
-      const int j = octree_to_surface_[o];
-      if (surface_region[j] < 0 && !(use_patches && patchOf (o) >= 0))
+      const int o = surface_to_octree_[j];
+      if (o >= 0 && surface_region[j] < 0 && !(use_patches && patchOf (o) >= 0))
+        orphan_slot[j] = 0;
+    }
+    for (int j = 0; j < nsurface; ++j)
+      if (orphan_slot[j] == 0)
       {
         orphan_slot[j] = static_cast<int> (orphans.size ());
         orphans.push_back (j);
       }
-    }
     const int no = static_cast<int> (orphans.size ());
     std::vector<pcl::Indices> orphan_nn (no);
     orphan_normal.resize (no);
