@@ -1,4 +1,5 @@
 #include <pclx/normals/planar_octree.h>
+#include <pclx/normals/plane_pca.h>
 
 #include <Eigen/Dense>
 #include <pcl/common/eigen.h>
@@ -25,46 +26,6 @@ inline int
 octant (const Eigen::Vector3f& p, const Eigen::Vector3f& c)
 {
   return (p.x () >= c.x () ? 1 : 0) | (p.y () >= c.y () ? 2 : 0) | (p.z () >= c.z () ? 4 : 0);
-}
-
-// Eigen decomposition sorted as the seed writes it: λ1 ≥ λ2 ≥ λ3, normal = v3 (the only
-// eigenvector any caller reads).
-struct Pca
-{
-  Eigen::Vector3d lambda;  // λ1, λ2, λ3
-  Eigen::Vector3d normal;  // eigenvector of λ3
-};
-
-Pca
-pca (const Eigen::Matrix3d& cov)
-{
-  // PCL's closed-form 3x3 solver: several times faster than the iterative one, and it
-  // runs once per cell, region and patch. Only the smallest eigenvector is solved for
-  // (pcl::eigen33's full form solves all three: a third of the octree and patch time).
-  double scale = cov.cwiseAbs ().maxCoeff ();
-  if (scale <= std::numeric_limits<double>::min ())
-    scale = 1.0;
-  Eigen::Matrix3d scaled = cov / scale;
-  Eigen::Vector3d roots;  // ascending
-  pcl::computeRoots (scaled, roots);
-  Pca r;
-  const Eigen::Vector3d ev = (roots * scale).cwiseMax (0.0);
-  r.lambda = Eigen::Vector3d (ev (2), ev (1), ev (0));
-  const double eps = Eigen::NumTraits<double>::epsilon ();
-  if (roots (2) - roots (0) <= eps)
-    r.normal = Eigen::Vector3d::UnitZ ();  // all three equal: any direction
-  else if (roots (1) - roots (0) <= eps)
-  {
-    // The two smallest equal (as pcl::eigen33 does): any direction across the largest.
-    scaled.diagonal ().array () -= roots (2);
-    r.normal = pcl::detail::getLargest3x3Eigenvector<Eigen::Vector3d> (scaled).vector.unitOrthogonal ();
-  }
-  else
-  {
-    scaled.diagonal ().array () -= roots (0);
-    r.normal = pcl::detail::getLargest3x3Eigenvector<Eigen::Vector3d> (scaled).vector;
-  }
-  return r;
 }
 
 // Points that span no plane: coincident (λ1 = 0) or collinear (λ2 ≈ 0).
@@ -119,7 +80,7 @@ fitSurface (std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c, double 
     const Eigen::Vector3d d = (q - c).cast<double> () - mean;
     cov.noalias () += d * d.transpose ();
   }
-  const Pca p = pca (cov / n);
+  const PlanePca p = planePca (cov / n);
   if (spansNoPlane (p.lambda))
     return false;
   if (trim)
@@ -288,7 +249,7 @@ PlanarOctree::analyseNode (OctreeNode& node, const PlanarOctreeParams& params) c
   node.covariance = s2 / n - mean * mean.transpose ();
   if (n < 3)
     return;
-  const Pca p = pca (node.covariance);
+  const PlanePca p = planePca (node.covariance);
   node.eigenvalues = p.lambda;
   node.normal = p.normal.cast<float> ();
   const double trace = p.lambda.sum ();
@@ -546,7 +507,7 @@ PlanarOctree::mergeCoplanarLeaves (double max_angle_deg, double thickness_factor
     const double n = reg[a].points + reg[b].points;
     const Eigen::Vector3d mean = (reg[a].sum + reg[b].sum) / n;
     const Eigen::Matrix3d cov = (reg[a].sum_sq + reg[b].sum_sq) / n - mean * mean.transpose ();
-    const Pca p = pca (cov);
+    const PlanePca p = planePca (cov);
     const double base = std::max (reg[a].base_thickness, reg[b].base_thickness);
     if (std::sqrt (p.lambda (2)) > thickness_factor * base + abs_eps)
       continue;  // the union bends or steps: keep the leaves apart

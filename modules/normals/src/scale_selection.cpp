@@ -1,4 +1,5 @@
 #include <pclx/normals/scale_selection.h>
+#include <pclx/normals/plane_pca.h>
 
 #include <pcl/common/eigen.h>
 
@@ -194,14 +195,14 @@ selectScale (const Eigen::Vector3f& x, const std::vector<Eigen::Vector3f>& sorte
       if (count < 3)
         continue;
       const Eigen::Vector3d mean = s1 / count;
-      Eigen::Matrix3d v;
-      Eigen::Vector3d l;
-      eigenAscending (s2 / count - mean * mean.transpose (), v, l);
+      // Only the normal is read here: one eigenvector, not eigen33's three.
+      const PlanePca p = planePca (s2 / count - mean * mean.transpose ());
+      const Eigen::Vector3d l = p.lambda.reverse ();  // ascending
       if (!(l (2) > 0) || l (1) <= 1e-12 * l (2))
         continue;  // no plane yet (collinear or coincident): try a larger support
       const int j = m++;
       Rung& q = fitted[j];
-      q.normal = v.col (0);
+      q.normal = p.normal;
       q.lambda = l;
       q.count = count;
       q.error = stderror (q, noise2);

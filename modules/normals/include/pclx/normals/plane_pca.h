@@ -1,0 +1,22 @@
+#pragma once
+// The plane of a 3x3 covariance: its eigenvalues and the eigenvector of the smallest one,
+// which is all the octree, the patches and the scale ladder read. PCL's closed-form roots
+// plus one eigenvector: pcl::eigen33's full form solves all three (a third of the octree
+// and patch time at 1M points).
+#include <Eigen/Core>
+
+namespace pclx {
+namespace normals {
+
+struct PlanePca
+{
+  Eigen::Vector3d lambda;  // λ1 ≥ λ2 ≥ λ3 ≥ 0
+  Eigen::Vector3d normal;  // unit eigenvector of λ3
+};
+
+// Equal smallest eigenvalues give a direction across the largest (as pcl::eigen33 does);
+// all three equal give +z.
+PlanePca planePca (const Eigen::Matrix3d& cov);
+
+}  // namespace normals
+}  // namespace pclx
