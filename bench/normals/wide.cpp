@@ -55,6 +55,15 @@ using Normals = pcl::PointCloud<pcl::Normal>;
 
 const std::uint32_t kNoiseSeed = 13;  // one noisy cloud per (shape, σ), shared by every method
 
+SampledCloud
+withNoise (const SampledCloud& clean, float sigma)
+{
+  SampledCloud s = clean;
+  if (sigma > 0)
+    addGaussianNoise (s, sigma, kNoiseSeed);
+  return s;
+}
+
 // A closed slab [-1,1]² × [-0.3, profile] whose top is a fine-detail profile along x, extruded
 // along y: V-grooves, rectangular slots and thin ridges whose width and depth are a few point
 // spacings at 100k points (spacing ≈ 0.0095), and a sinusoidal ripple. The profile's creases are
@@ -112,29 +121,22 @@ makeGroovedSlab ()
   p.emplace_back (1.f, 0.f);
 
   TriangleMesh m;
-  auto quad = [&m] (const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c,
-                    const Eigen::Vector3f& d) {
-    const int o = int (m.vertices.size ());
-    m.vertices.insert (m.vertices.end (), {a, b, c, d});
-    m.faces.emplace_back (o, o + 1, o + 2);
-    m.faces.emplace_back (o, o + 2, o + 3);
-  };
   for (std::size_t i = 0; i + 1 < p.size (); ++i)
   {
     const Eigen::Vector2f a = p[i], b = p[i + 1];
     // Top strip, outward (u × v with u along the profile, v along +y).
-    quad ({a.x (), -1, a.y ()}, {b.x (), -1, b.y ()}, {b.x (), 1, b.y ()}, {a.x (), 1, a.y ()});
+    m.addQuad ({a.x (), -1, a.y ()}, {b.x (), -1, b.y ()}, {b.x (), 1, b.y ()}, {a.x (), 1, a.y ()});
     if (b.x () > a.x ())
     {
       // Side walls under the strip: -y and +y.
-      quad ({a.x (), -1, bottom}, {b.x (), -1, bottom}, {b.x (), -1, b.y ()}, {a.x (), -1, a.y ()});
-      quad ({a.x (), 1, bottom}, {a.x (), 1, a.y ()}, {b.x (), 1, b.y ()}, {b.x (), 1, bottom});
+      m.addQuad ({a.x (), -1, bottom}, {b.x (), -1, bottom}, {b.x (), -1, b.y ()}, {a.x (), -1, a.y ()});
+      m.addQuad ({a.x (), 1, bottom}, {a.x (), 1, a.y ()}, {b.x (), 1, b.y ()}, {b.x (), 1, bottom});
     }
   }
   const float z0 = p.front ().y (), z1 = p.back ().y ();
-  quad ({-1, -1, bottom}, {-1, -1, z0}, {-1, 1, z0}, {-1, 1, bottom});  // -x
-  quad ({1, -1, bottom}, {1, 1, bottom}, {1, 1, z1}, {1, -1, z1});      // +x
-  quad ({-1, -1, bottom}, {-1, 1, bottom}, {1, 1, bottom}, {1, -1, bottom});  // -z
+  m.addQuad ({-1, -1, bottom}, {-1, -1, z0}, {-1, 1, z0}, {-1, 1, bottom});  // -x
+  m.addQuad ({1, -1, bottom}, {1, 1, bottom}, {1, 1, z1}, {1, -1, z1});      // +x
+  m.addQuad ({-1, -1, bottom}, {-1, 1, bottom}, {1, 1, bottom}, {1, -1, bottom});  // -z
   return m;
 }
 
@@ -360,11 +362,8 @@ void
 WideRun::wideCase (const Shape& shape, const SampledCloud& clean, float sigma)
 {
   const auto t0 = std::chrono::steady_clock::now ();
-  SampledCloud s = clean;
-  if (sigma > 0)
-    addGaussianNoise (s, sigma, kNoiseSeed);
-  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
-  pcl::copyPointCloud (s.cloud, *cloud);
+  const SampledCloud s = withNoise (clean, sigma);
+  const auto cloud = positions (s.cloud);
   const std::size_t n = cloud->size ();
   const std::string params = "sweep=wide;noise=" + fmt (sigma);
   const std::string& input = shape.name;
@@ -548,11 +547,8 @@ void
 WideRun::orientCase (const Shape& shape, const SampledCloud& clean, float sigma)
 {
   const auto t0 = std::chrono::steady_clock::now ();
-  SampledCloud s = clean;
-  if (sigma > 0)
-    addGaussianNoise (s, sigma, kNoiseSeed);
-  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
-  pcl::copyPointCloud (s.cloud, *cloud);
+  const SampledCloud s = withNoise (clean, sigma);
+  const auto cloud = positions (s.cloud);
   Normals our_normals, pca18, exact (s.cloud.size (), 1);
   ours (cloud, s, &our_normals);
   pca (cloud, s, 18, 1, &pca18);

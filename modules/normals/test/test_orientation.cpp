@@ -204,23 +204,16 @@ makeRidgedSlab (float width, float depth)
   p.emplace_back (0.5f, 0.f);
   const float bottom = -0.2f;
   pclx::testing::TriangleMesh m;
-  auto quad = [&m] (const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c,
-                    const Eigen::Vector3f& d) {
-    const int o = int (m.vertices.size ());
-    m.vertices.insert (m.vertices.end (), {a, b, c, d});
-    m.faces.emplace_back (o, o + 1, o + 2);
-    m.faces.emplace_back (o, o + 2, o + 3);
-  };
   for (std::size_t i = 0; i + 1 < p.size (); ++i)
   {
     const Eigen::Vector2f a = p[i], b = p[i + 1];
-    quad ({a.x (), -0.5f, a.y ()}, {b.x (), -0.5f, b.y ()}, {b.x (), 0.5f, b.y ()}, {a.x (), 0.5f, a.y ()});
-    quad ({a.x (), -0.5f, bottom}, {b.x (), -0.5f, bottom}, {b.x (), -0.5f, b.y ()}, {a.x (), -0.5f, a.y ()});
-    quad ({a.x (), 0.5f, bottom}, {a.x (), 0.5f, a.y ()}, {b.x (), 0.5f, b.y ()}, {b.x (), 0.5f, bottom});
+    m.addQuad ({a.x (), -0.5f, a.y ()}, {b.x (), -0.5f, b.y ()}, {b.x (), 0.5f, b.y ()}, {a.x (), 0.5f, a.y ()});
+    m.addQuad ({a.x (), -0.5f, bottom}, {b.x (), -0.5f, bottom}, {b.x (), -0.5f, b.y ()}, {a.x (), -0.5f, a.y ()});
+    m.addQuad ({a.x (), 0.5f, bottom}, {a.x (), 0.5f, a.y ()}, {b.x (), 0.5f, b.y ()}, {b.x (), 0.5f, bottom});
   }
-  quad ({-0.5f, -0.5f, bottom}, {-0.5f, -0.5f, 0.f}, {-0.5f, 0.5f, 0.f}, {-0.5f, 0.5f, bottom});
-  quad ({0.5f, -0.5f, bottom}, {0.5f, 0.5f, bottom}, {0.5f, 0.5f, 0.f}, {0.5f, -0.5f, 0.f});
-  quad ({-0.5f, -0.5f, bottom}, {-0.5f, 0.5f, bottom}, {0.5f, 0.5f, bottom}, {0.5f, -0.5f, bottom});
+  m.addQuad ({-0.5f, -0.5f, bottom}, {-0.5f, -0.5f, 0.f}, {-0.5f, 0.5f, 0.f}, {-0.5f, 0.5f, bottom});
+  m.addQuad ({0.5f, -0.5f, bottom}, {0.5f, 0.5f, bottom}, {0.5f, 0.5f, 0.f}, {0.5f, -0.5f, 0.f});
+  m.addQuad ({-0.5f, -0.5f, bottom}, {-0.5f, 0.5f, bottom}, {0.5f, 0.5f, bottom}, {0.5f, -0.5f, bottom});
   return m;
 }
 

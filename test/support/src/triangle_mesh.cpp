@@ -56,6 +56,16 @@ TriangleMesh::diagonal () const
 }
 
 void
+TriangleMesh::addQuad (const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c,
+                       const Eigen::Vector3f& d)
+{
+  const int o = static_cast<int> (vertices.size ());
+  vertices.insert (vertices.end (), {a, b, c, d});
+  faces.emplace_back (o, o + 1, o + 2);
+  faces.emplace_back (o, o + 2, o + 3);
+}
+
+void
 TriangleMesh::append (const TriangleMesh& other)
 {
   const int offset = static_cast<int> (vertices.size ());

@@ -23,6 +23,9 @@ struct TriangleMesh
   Eigen::Vector3f bboxMax () const;
   float diagonal () const;  // bounding-box diagonal length
   void append (const TriangleMesh& other);
+  // The quad a b c d (counter-clockwise seen from its front) as two triangles.
+  void addQuad (const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c,
+                const Eigen::Vector3f& d);
   void transform (const Eigen::Affine3f& t);
 };
 
