@@ -22,7 +22,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from wide_summary import read, fmt_n, TARGET_F1, TARGET_SPEEDUP  # noqa: E402
 
 SERIES = [("pclx_auto", "ours (default, refined)", "tab:green", "o"),
-          ("pclx_candidate_hull_1pass", "ours, one pass (before)", "tab:red", "s"),
+          ("pclx_candidate_hull_1pass", "ours, one pass (setRefinementPasses (0))", "tab:red", "s"),
           ("open3d_exact_bestR", "Open3D exact, best R", "tab:orange", "^")]
 
 
