@@ -11,6 +11,8 @@
 // over-smoothed where the bias grows slowly).
 #include <Eigen/Core>
 
+#include <algorithm>
+#include <cstddef>
 #include <vector>
 
 namespace pclx {
@@ -37,6 +39,38 @@ bool sampleNoise (const std::vector<Eigen::Vector3f>& sorted, double& residual2,
 
 // Median of the samples' values (the estimate of the whole cloud).
 NoiseEstimate combineNoiseSamples (std::vector<double> residual2, std::vector<double> spacing2);
+
+// The noise of a cloud of n points from about `samples` of them, evenly spread:
+// neighbours (i, sorted, scratch) fills point i's neighbour positions sorted by distance
+// (the point first; sampleNoise skips fewer than 50), scratch being one Scratch per thread.
+// The estimator and the MST orientation share it.
+template <typename Scratch, typename Neighbours>
+NoiseEstimate
+estimateCloudNoise (std::size_t n, std::size_t samples, int threads, Neighbours&& neighbours)
+{
+  const std::size_t step = std::max<std::size_t> (1, n / samples), count = (n + step - 1) / step;
+  std::vector<double> residual2 (count, -1.0), spacing2 (count, -1.0);
+#pragma omp parallel num_threads(threads)
+  {
+    Scratch scratch;
+    std::vector<Eigen::Vector3f> sorted;
+#pragma omp for schedule(dynamic, 8)
+    for (std::ptrdiff_t s = 0; s < static_cast<std::ptrdiff_t> (count); ++s)
+    {
+      sorted.clear ();
+      neighbours (static_cast<std::size_t> (s) * step, sorted, scratch);
+      double r2 = 0, sp2 = 0;
+      if (sampleNoise (sorted, r2, sp2))
+      {
+        residual2[s] = r2;
+        spacing2[s] = sp2;
+      }
+    }
+  }
+  residual2.erase (std::remove (residual2.begin (), residual2.end (), -1.0), residual2.end ());
+  spacing2.erase (std::remove (spacing2.begin (), spacing2.end (), -1.0), spacing2.end ());
+  return combineNoiseSamples (residual2, spacing2);
+}
 
 // Support sizes of the ladder: 12, 18, 30, 50, 100, 200, 400, ... from min(first, 12) up
 // to max_k (max_k itself is the last rung).

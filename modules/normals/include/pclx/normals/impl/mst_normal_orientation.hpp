@@ -199,30 +199,19 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
   // over 24-100 neighbours) on about 500 vertices (the estimator uses 2000). knn (v, ids)
   // lists v's nearest vertices sorted by distance, v first.
   const bool estimate_noise = noise_scale_ < 0;
+  struct NoiseScratch
+  {
+    std::vector<std::uint32_t> ids;
+  };
   auto estimateNoise = [&] (auto&& knn, int team) {
-    const std::size_t step = std::max<std::size_t> (1, nv / 500), count = (nv + step - 1) / step;
-    std::vector<double> r2 (count, -1.0), sp2 (count, -1.0);
-#pragma omp parallel num_threads(team)
-    {
-      std::vector<std::uint32_t> ids;
-      std::vector<Eigen::Vector3f> sorted;
-#pragma omp for schedule(dynamic, 8)
-      for (std::ptrdiff_t s = 0; s < static_cast<std::ptrdiff_t> (count); ++s)
-      {
-        knn (static_cast<std::uint32_t> (s * step), ids);
-        if (ids.size () < 50)
-          continue;
-        sorted.clear ();
-        for (const std::uint32_t id : ids)
-          sorted.emplace_back (pos[3 * id], pos[3 * id + 1], pos[3 * id + 2]);
-        double a = 0, b = 0;
-        if (pclx::normals::sampleNoise (sorted, a, b))
-          r2[s] = a, sp2[s] = b;
-      }
-    }
-    r2.erase (std::remove (r2.begin (), r2.end (), -1.0), r2.end ());
-    sp2.erase (std::remove (sp2.begin (), sp2.end (), -1.0), sp2.end ());
-    return r2.empty () ? 0.0 : pclx::normals::combineNoiseSamples (r2, sp2).sigma;
+    return pclx::normals::estimateCloudNoise<NoiseScratch> (
+               nv, 500, team,
+               [&] (std::size_t v, std::vector<Eigen::Vector3f>& sorted, NoiseScratch& t) {
+                 knn (static_cast<std::uint32_t> (v), t.ids);
+                 for (const std::uint32_t id : t.ids)
+                   sorted.emplace_back (pos[3 * id], pos[3 * id + 1], pos[3 * id + 2]);
+               })
+        .sigma;
   };
   constexpr std::size_t kNoiseNeighbours = 101;
   if (search_)

@@ -186,41 +186,25 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   if (adaptive)
   {
     // Noise from ~2000 sampled points (quadric residuals, pclx::normals::sampleNoise).
-    const int ns = static_cast<int> (surface_points_.size ());
-    const int step = std::max (1, ns / 2000);
-    const int count = (ns + step - 1) / step;
-    std::vector<double> residual2 (count, -1.0), spacing2 (count, -1.0);
-#pragma omp parallel num_threads(threads)
+    struct NoiseScratch
     {
       pcl::Indices nn;
       std::vector<float> dist;
-      std::vector<Eigen::Vector3f> sorted;
-      KnnScratch scratch;
-#pragma omp for schedule(dynamic, 16)
-      for (int s = 0; s < count; ++s)
-      {
-        const int j = octree_to_surface_[s * step];
-        const int m = knn ((*surface_)[j], 200, nn, dist, scratch);
-        if (m < 50)
-          continue;
-        scratch.pairs.resize (m);
-        for (int i = 0; i < m; ++i)
-          scratch.pairs[i] = {dist[i], i};
-        std::sort (scratch.pairs.begin (), scratch.pairs.end ());
-        sorted.clear ();
-        for (const auto& di : scratch.pairs)
-          sorted.push_back (scratch.pos[di.second]);
-        double r2 = 0, sp2 = 0;
-        if (pclx::normals::sampleNoise (sorted, r2, sp2))
-        {
-          residual2[s] = r2;
-          spacing2[s] = sp2;
-        }
-      }
-    }
-    residual2.erase (std::remove (residual2.begin (), residual2.end (), -1.0), residual2.end ());
-    spacing2.erase (std::remove (spacing2.begin (), spacing2.end (), -1.0), spacing2.end ());
-    noise_ = pclx::normals::combineNoiseSamples (residual2, spacing2);
+      KnnScratch knn;
+    };
+    noise_ = pclx::normals::estimateCloudNoise<NoiseScratch> (
+        surface_points_.size (), 2000, threads,
+        [&] (std::size_t i, std::vector<Eigen::Vector3f>& sorted, NoiseScratch& t) {
+          const int m = knn ((*surface_)[octree_to_surface_[i]], 200, t.nn, t.dist, t.knn);
+          if (m < 50)
+            return;
+          t.knn.pairs.resize (m);
+          for (int q = 0; q < m; ++q)
+            t.knn.pairs[q] = {t.dist[q], q};
+          std::sort (t.knn.pairs.begin (), t.knn.pairs.end ());
+          for (const auto& di : t.knn.pairs)
+            sorted.push_back (t.knn.pos[di.second]);
+        });
   }
   const double noise2 = noise_.sigma * noise_.sigma;
   // Patches (quadrics over ~18 points) lose to a PCA plane over a larger support once the
