@@ -381,7 +381,10 @@ PlanarOctree::build (const std::vector<Eigen::Vector3f>& points, const PlanarOct
     }
     frontier.swap (next);
   }
-  for (int id = 0; id < static_cast<int> (nodes_.size ()); ++id)
+  // Leaves own disjoint ranges: their (random) writes run in parallel.
+  const int nn = static_cast<int> (nodes_.size ());
+#pragma omp parallel for schedule(dynamic, 256) num_threads(threadCount (threads_))
+  for (int id = 0; id < nn; ++id)
     if (nodes_[id].isLeaf ())
       for (int i = nodes_[id].begin; i < nodes_[id].end; ++i)
         leaf_of_point_[order_[i]] = id;
@@ -633,21 +636,27 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
       }
     }
   }
-  std::size_t fits = 0;
-  for (const auto& tree : leaf_cells_)
-    fits += std::count_if (tree.begin (), tree.end (), [] (const PatchCell& C) { return C.first_child < 0 && C.end > C.begin; });
-  patches_.reserve (fits);
+  // Patch ids in leaf order, each leaf's from a prefix sum, so the (random) writes of
+  // every point's patch run in parallel (serially they were ~5 % of the time at 1M).
+  auto fitted = [] (const PatchCell& C) { return C.first_child < 0 && C.end > C.begin; };
+  std::vector<int> first_fit (nl + 1, 0);
   for (int l = 0; l < nl; ++l)
+    first_fit[l + 1] = first_fit[l] + static_cast<int> (std::count_if (leaf_cells_[l].begin (), leaf_cells_[l].end (), fitted));
+  patches_.resize (first_fit[nl]);
+#pragma omp parallel for schedule(dynamic, 64) num_threads(threads)
+  for (int l = 0; l < nl; ++l)
+  {
+    int fit = first_fit[l];
     for (PatchCell& C : leaf_cells_[l])
     {
-      if (C.first_child >= 0 || C.end == C.begin)
+      if (!fitted (C))
         continue;
-      C.fit = static_cast<int> (patches_.size ());
-      patches_.emplace_back ();
-      patches_.back ().leaf = C.leaf;
+      C.fit = fit++;
+      patches_[C.fit].leaf = C.leaf;
       for (int i = C.begin; i < C.end; ++i)
         patch_of_point_[order_[i]] = C.fit;
     }
+  }
 
   // Fit each patch over a ball around its points' centroid that holds about support_points
   // points at the leaf's density (doubling while the slope is uncertain), taking the

@@ -114,16 +114,41 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::initCompute ()
     return false;
 
   // The octree is built over the finite points of the search surface.
-  surface_points_.clear ();
-  surface_to_octree_.assign (surface_->size (), -1);
-  octree_to_surface_.clear ();
-  for (std::size_t i = 0; i < surface_->size (); ++i)
-    if (isFinite ((*surface_)[i]))
+  // In parallel when every point is finite (the usual case; serially this copy took
+  // ~0.1 s CPU of ~2 s at 1M points).
+  const int nsurface = static_cast<int> (surface_->size ());
+  const int threads = threads_ > 0 ? static_cast<int> (threads_) : omp_get_max_threads ();
+  int finite = 0;
+#pragma omp parallel for reduction(+ : finite) num_threads(threads)
+  for (int i = 0; i < nsurface; ++i)
+    finite += isFinite ((*surface_)[i]) ? 1 : 0;
+  surface_to_octree_.resize (nsurface);
+  if (finite == nsurface)
+  {
+    octree_to_surface_.resize (nsurface);
+    surface_points_.resize (nsurface);
+#pragma omp parallel for num_threads(threads)
+    for (int i = 0; i < nsurface; ++i)
     {
-      surface_to_octree_[i] = static_cast<int> (surface_points_.size ());
-      octree_to_surface_.push_back (static_cast<int> (i));
-      surface_points_.push_back ((*surface_)[i].getVector3fMap ());
+      surface_to_octree_[i] = octree_to_surface_[i] = i;
+      surface_points_[i] = (*surface_)[i].getVector3fMap ();
     }
+  }
+  else
+  {
+    surface_points_.clear ();
+    octree_to_surface_.clear ();
+    for (int i = 0; i < nsurface; ++i)
+    {
+      surface_to_octree_[i] = -1;
+      if (isFinite ((*surface_)[i]))
+      {
+        surface_to_octree_[i] = static_cast<int> (surface_points_.size ());
+        octree_to_surface_.push_back (i);
+        surface_points_.push_back ((*surface_)[i].getVector3fMap ());
+      }
+    }
+  }
   pclx::normals::PlanarOctreeParams params = params_;
   params.s_alpha = getSAlpha ();
   params.threads = static_cast<int> (threads_);
@@ -224,6 +249,13 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
     const int f = octree_.patchOfPoint ()[octree_point];
     return f >= 0 && octree_.patches ()[f].valid ? f : -1;
   };
+  // Points come in any order (a sampled mesh: random) and patches in octree order, so
+  // each point's patch is a cache miss; loops that read them in input order fetch the
+  // patch of the point kPatchAhead further on first (its index is a sequential read).
+  // The record may straddle two cache lines: both ends are fetched.
+  constexpr int kPatchAhead = 16;
+  const auto& patch_of_point = octree_.patchOfPoint ();
+  const pclx::normals::SurfaceFit* const patch_data = octree_.patches ().data ();
 
   // MERGED: keep a region only if its surface fits it as well as local fits do (its
   // patches, or without patches kNN planes at up to 16 sampled points): otherwise the
@@ -310,7 +342,8 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   // Region of every search-surface point; MERGED grows regions into the non-planar cells:
   // a point joins the neighbouring region whose surface passes within tolerance of it.
   std::vector<int> surface_region (surface_->size (), -1);
-  for (std::size_t j = 0; j < surface_->size (); ++j)
+#pragma omp parallel for num_threads(threads)
+  for (int j = 0; j < static_cast<int> (surface_->size ()); ++j)
     if (surface_to_octree_[j] >= 0)
     {
       const int r = nodes[leaf_of_point[surface_to_octree_[j]]].region;
@@ -423,6 +456,12 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (int j = 0; j < nsurface; ++j)
     {
+      if (use_patches && j + kPatchAhead < nsurface && surface_to_octree_[j + kPatchAhead] >= 0)
+        if (const int f = patch_of_point[surface_to_octree_[j + kPatchAhead]]; f >= 0)
+        {
+          __builtin_prefetch (&patch_data[f].o);
+          __builtin_prefetch (&patch_data[f].valid);
+        }
       const int o = surface_to_octree_[j];
       if (o >= 0 && surface_region[j] < 0 && !(use_patches && patchOf (o) >= 0))
         orphan_slot[j] = 0;
@@ -650,6 +689,17 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
 #pragma omp for schedule(dynamic, 256)
     for (int i = 0; i < n; ++i)
     {
+      if (fast && use_patches && i + kPatchAhead < n)
+      {
+        const int ahead = (*indices_)[i + kPatchAhead];
+        if (surface_to_octree_[ahead] >= 0)
+          if (const int f = patch_of_point[surface_to_octree_[ahead]]; f >= 0)
+          {
+            __builtin_prefetch (&patch_region[f]);
+            __builtin_prefetch (&patch_data[f].o);
+            __builtin_prefetch (&patch_data[f].valid);
+          }
+      }
       PointOutT& out = output[i];
       const int index = (*indices_)[i];
       const PointInT& p = (*input_)[index];
