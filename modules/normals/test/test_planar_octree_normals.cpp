@@ -746,7 +746,7 @@ TEST (GridKnn, MatchesBruteForce)
   grid.build (pts, 16, 2);
   std::vector<int> ids;
   std::vector<float> d2;
-  std::vector<std::pair<float, int>> scratch;
+  std::vector<std::uint64_t> scratch;
   for (int t = 0; t < 200; ++t)
   {
     const Eigen::Vector3f q = t % 4 == 0 ? Eigen::Vector3f (u (rng), u (rng), u (rng)) : pts[rng () % pts.size ()];

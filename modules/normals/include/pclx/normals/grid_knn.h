@@ -23,7 +23,7 @@ public:
   // distances; fewer when the cloud has fewer. scratch: reusable per thread. positions,
   // if given, gets the points themselves (from the grid's own cell-ordered copy).
   int nearestK (const Eigen::Vector3f& q, int k, std::vector<int>& indices, std::vector<float>& sqr_distances,
-                std::vector<std::pair<float, int>>& scratch, std::vector<Eigen::Vector3f>* positions = nullptr) const;
+                std::vector<std::uint64_t>& scratch, std::vector<Eigen::Vector3f>* positions = nullptr) const;
   double cellSize () const { return cell_; }
   bool empty () const { return ids_.empty (); }
 

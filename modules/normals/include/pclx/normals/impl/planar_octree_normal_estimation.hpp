@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <omp.h>
 
@@ -32,6 +34,49 @@ planeOfNeighbours (const PointCloud<PointT>& cloud, const Indices& nn, Eigen::Ve
     return false;
   normal = es.eigenvectors ().col (0).cast<float> ();
   curvature = static_cast<float> (ev (0) / ev.sum ());
+  return true;
+}
+
+// The same plane over positions[keys[0..k) & 0xffffffff] (the low half of a key is a
+// slot), with PCL's shifted sums (here by x, close to all of them) and the closed-form PCA.
+inline bool
+planeOfPositions (const Eigen::Vector3f& x, const std::uint64_t* keys, int k, const std::vector<Eigen::Vector3f>& positions,
+                  Eigen::Vector3f& normal, float& curvature)
+{
+  if (k < 3)
+    return false;
+  double accu[9] = {};
+  for (int q = 0; q < k; ++q)
+  {
+    const Eigen::Vector3f& p = positions[keys[q] & 0xffffffffu];
+    const double dx = static_cast<double> (p.x ()) - x.x (), dy = static_cast<double> (p.y ()) - x.y (),
+                 dz = static_cast<double> (p.z ()) - x.z ();
+    accu[0] += dx * dx;
+    accu[1] += dx * dy;
+    accu[2] += dx * dz;
+    accu[3] += dy * dy;
+    accu[4] += dy * dz;
+    accu[5] += dz * dz;
+    accu[6] += dx;
+    accu[7] += dy;
+    accu[8] += dz;
+  }
+  for (double& a : accu)
+    a /= k;
+  Eigen::Matrix3d cov;
+  cov (0, 0) = accu[0] - accu[6] * accu[6];
+  cov (0, 1) = cov (1, 0) = accu[1] - accu[6] * accu[7];
+  cov (0, 2) = cov (2, 0) = accu[2] - accu[6] * accu[8];
+  cov (1, 1) = accu[3] - accu[7] * accu[7];
+  cov (1, 2) = cov (2, 1) = accu[4] - accu[7] * accu[8];
+  cov (2, 2) = accu[5] - accu[8] * accu[8];
+  if (!cov.allFinite ())
+    return false;
+  const pclx::normals::PlanePca p = pclx::normals::planePca (cov);
+  if (!(p.lambda (0) > 0) || p.lambda (1) <= 1e-12 * p.lambda (0))
+    return false;
+  normal = p.normal.cast<float> ();
+  curvature = static_cast<float> (p.lambda (2) / p.lambda.sum ());
   return true;
 }
 
@@ -187,6 +232,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   struct KnnScratch
   {
     std::vector<int> ids;
+    std::vector<std::uint64_t> keys;  // the grid's selection
     std::vector<std::pair<float, int>> pairs;
     std::vector<Eigen::Vector3f> pos;  // positions of the last knn's neighbours, in its order
   };
@@ -201,7 +247,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         s.pos.push_back ((*surface_)[out[i]].getVector3fMap ());
       return m;
     }
-    const int m = grid.nearestK (query.getVector3fMap (), k, s.ids, dist, s.pairs, &s.pos);
+    const int m = grid.nearestK (query.getVector3fMap (), k, s.ids, dist, s.keys, &s.pos);
     out.resize (m);
     for (int i = 0; i < m; ++i)
       out[i] = octree_to_surface_[s.ids[i]];
@@ -530,6 +576,8 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         groups.swap (group_start);
       }
       const int ng = static_cast<int> (groups.size ()) - 1;
+      // Hoppe's sets (orphan_nn) serve region growth only.
+      const bool grows = growth_passes_ > 0 && !regions.empty () && !noisy;
       const std::vector<int>& group_start = groups;
       const int nsurf = static_cast<int> (surface_points_.size ());
       // Members lie within a cell of the centroid: half again covers their own lists in
@@ -542,6 +590,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         std::vector<float> dist;
         std::vector<std::pair<float, index_t>> by_distance;
         std::vector<Eigen::Vector3f> sorted;
+        std::vector<std::uint64_t> keyed;
         KnnScratch scratch;
 #pragma omp for schedule(dynamic, 32)
         for (int g = 0; g < ng; ++g)
@@ -577,20 +626,31 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
             for (int o = group_start[g]; o < group_start[g + 1]; ++o)
             {
               const Eigen::Vector3f x = (*surface_)[orphans[o]].getVector3fMap ();
-              by_distance.clear ();
+              // (distance, slot) packed in one integer: a non-negative float's bits order
+              // like its value, so the selection is the pairs' (ties by slot) with one
+              // integer compare each (the pairs' selection was a third of the noisy path).
+              keyed.resize (candidates.size ());
               for (std::size_t c = 0; c < candidates.size (); ++c)
-                by_distance.emplace_back ((scratch.pos[c] - x).squaredNorm (), candidates[c]);
-              const int k = std::min<int> (k0, by_distance.size ());
-              const int kh = std::min<int> (this->getKSearch (), k);
-              std::nth_element (by_distance.begin (), by_distance.begin () + (k - 1), by_distance.end ());
-              std::nth_element (by_distance.begin (), by_distance.begin () + (kh - 1), by_distance.begin () + k);
+              {
+                const float d = (scratch.pos[c] - x).squaredNorm ();
+                std::uint32_t bits;
+                std::memcpy (&bits, &d, sizeof bits);
+                keyed[c] = (static_cast<std::uint64_t> (bits) << 32) | c;
+              }
+              const int k = std::min<int> (k0, keyed.size ());
+              std::nth_element (keyed.begin (), keyed.begin () + (k - 1), keyed.end ());
               orphan_nn[o].clear ();
-              for (int q = 0; q < kh; ++q)
-                orphan_nn[o].push_back (by_distance[q].second);
-              pcl::Indices support_set (k);
-              for (int q = 0; q < k; ++q)
-                support_set[q] = by_distance[q].second;
-              orphan_ok[o] = detail::planeOfNeighbours (*surface_, support_set, orphan_normal[o], orphan_curvature[o]);
+              if (grows)
+              {
+                // Hoppe's set, for region growth only (none on noisy input).
+                const int kh = std::min<int> (this->getKSearch (), k);
+                std::nth_element (keyed.begin (), keyed.begin () + (kh - 1), keyed.begin () + k);
+                for (int q = 0; q < kh; ++q)
+                  orphan_nn[o].push_back (candidates[keyed[q] & 0xffffffffu]);
+              }
+              // From the candidates' gathered positions: the cloud's points are random reads.
+              orphan_ok[o] = detail::planeOfPositions (x, keyed.data (), k, scratch.pos, orphan_normal[o],
+                                                       orphan_curvature[o]);
               if (!orphan_ok[o])
               {
                 orphan_normal[o] = n0;
