@@ -177,6 +177,7 @@ TEST (MSTOrientation, ThinPlateSheetsGetOppositeNormals)
   ASSERT_TRUE (mst.orient (n));
   EXPECT_LT (flippedShare (n, s.cloud), 0.01);  // ... and the edge-side reading gets it right
   mst.setNoiseScale (0.1);  // the plate's thickness could be noise: Hoppe's rule alone
+  mst.setVisibilityWeight (0);  // without the votes, which would overrule it
   n = estimated;
   ASSERT_TRUE (mst.orient (n));
   EXPECT_GT (flippedShare (n, s.cloud), 0.3);
@@ -245,11 +246,101 @@ TEST (MSTOrientation, NarrowRidgesAndGroovesAreReadFromTheEdgeSide)
   EXPECT_LT (mst.getUsedNoiseScale (), 1e-4);  // clean: the estimate is ~0
   EXPECT_LT (flippedShare (n, s.cloud), 0.01);
   mst.setNoiseScale (0.05);
+  mst.setVisibilityWeight (0);  // the MST's crossings alone (the votes are tested below)
   n = exactNormals (s.cloud);
   scramble (n);
   ASSERT_TRUE (mst.orient (n));
   EXPECT_EQ (mst.getUsedNoiseScale (), 0.05);
   EXPECT_GT (flippedShare (n, s.cloud), 0.03);
+}
+
+TEST (MSTOrientation, VisibilityVotesOverruleWrongCrossings)
+{
+  // The ridged slab with the fold reading switched off (a noise scale as large as the ridges):
+  // Hoppe's rule flips whole strips of the top, and everything downstream of each wrong
+  // crossing follows. Seen from outside, those strips face away from the viewers: the votes
+  // overrule the crossings into them.
+  const auto s = pclx::testing::sampleUniform (makeRidgedSlab (0.036f, 0.06f), 20000, 8);
+  const auto cloud = positions (s.cloud);
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+  mst.setInputCloud (cloud);
+  mst.setNoiseScale (0.05);
+  EXPECT_EQ (mst.getVisibilityWeight (), 1.0);
+  auto n = exactNormals (s.cloud);
+  scramble (n);
+  ASSERT_TRUE (mst.orient (n));
+  const double with_votes = flippedShare (n, s.cloud);
+  EXPECT_GT (mst.getNumberOfVisibilityFlips (), 0u);
+  mst.setVisibilityWeight (0);
+  n = exactNormals (s.cloud);
+  scramble (n);
+  ASSERT_TRUE (mst.orient (n));
+  const double without = flippedShare (n, s.cloud);
+  EXPECT_EQ (mst.getNumberOfVisibilityFlips (), 0u);
+  EXPECT_LT (with_votes, 0.025) << "without votes " << without;
+  EXPECT_GT (without, 2 * with_votes);
+}
+
+TEST (MSTOrientation, OurNormalsOnANarrowlyRidgedSlab)
+{
+  // Ridges and grooves two edges wide (0.024 at ~0.012 spacing): the estimated normals of
+  // their faces are nearly parallel across the fold, and the MST crosses them wrongly.
+  const auto s = pclx::testing::sampleUniform (makeRidgedSlab (0.024f, 0.05f), 20000, 12);
+  const auto cloud = positions (s.cloud);
+  pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
+  ne.setInputCloud (cloud);
+  pcl::PointCloud<pcl::Normal> estimated;
+  ne.compute (estimated);
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+  mst.setInputCloud (cloud);
+  auto n = estimated;
+  ASSERT_TRUE (mst.orient (n));
+  const double with_votes = flippedShare (n, s.cloud);
+  mst.setVisibilityWeight (0);
+  n = estimated;
+  ASSERT_TRUE (mst.orient (n));
+  const double without = flippedShare (n, s.cloud);
+  // Not under 1 %: faces two edges wide get their neighbour face's plane, a sign no crossing
+  // can give (exact normals are oriented, below). The votes fix the rest.
+  EXPECT_LT (with_votes, 0.08) << "without votes " << without;
+  EXPECT_GT (without, 2 * with_votes);
+  mst.setVisibilityWeight (1);
+  n = exactNormals (s.cloud);
+  scramble (n);
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_LT (flippedShare (n, s.cloud), 0.01);
+}
+
+TEST (MSTOrientation, OpenSheetStaysConsistentWithVotes)
+{
+  // An open wavy sheet is seen from both sides: its votes cancel and the extreme points sign
+  // it "up", every point the same way.
+  pcl::PointCloud<pcl::PointNormal> s;
+  std::mt19937 rng (21);
+  std::uniform_real_distribution<float> u (-1.f, 1.f);
+  for (int i = 0; i < 20000; ++i)
+  {
+    const float x = u (rng), y = u (rng);
+    pcl::PointNormal p;
+    p.x = x;
+    p.y = y;
+    p.z = 0.1f * std::sin (3 * x) * std::cos (2 * y);
+    const Eigen::Vector3f grad (0.3f * std::cos (3 * x) * std::cos (2 * y), -0.2f * std::sin (3 * x) * std::sin (2 * y), 0.f);
+    p.getNormalVector3fMap () = Eigen::Vector3f (-grad.x (), -grad.y (), 1.f).normalized ();
+    s.push_back (p);
+  }
+  const auto cloud = positions (s);
+  auto n = pcaNormals<pcl::PointXYZ> (cloud, 12);
+  scramble (n);
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+  mst.setInputCloud (cloud);
+  const auto scrambled = n;
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_LT (flippedShare (n, s), 0.001);
+  n = scrambled;
+  mst.setVisibilityWeight (0);
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_LT (flippedShare (n, s), 0.001);
 }
 
 TEST (MSTOrientation, ThinPlateExactNormalsAreReadAcrossTheFold)
@@ -267,6 +358,7 @@ TEST (MSTOrientation, ThinPlateExactNormalsAreReadAcrossTheFold)
   ASSERT_TRUE (mst.orient (n));
   EXPECT_LT (flippedShare (n, s.cloud), 0.01);
   mst.setNoiseScale (0.1);  // the plate's thickness could be noise: Hoppe's rule alone
+  mst.setVisibilityWeight (0);  // without the votes, which would overrule it
   n = exactNormals (s.cloud);
   scramble (n);
   ASSERT_TRUE (mst.orient (n));
@@ -360,6 +452,14 @@ TEST (MSTOrientation, BadInputIsRejected)
   mst.setEdgeSideSignificance (-1);
   EXPECT_FALSE (mst.orient (n));
   mst.setEdgeSideSignificance (4);
+  for (const double bad : {std::numeric_limits<double>::quiet_NaN (), std::numeric_limits<double>::infinity (), -0.5})
+  {
+    mst.setVisibilityWeight (bad);
+    EXPECT_FALSE (mst.orient (n)) << bad;
+  }
+  mst.setVisibilityWeight (0);
+  EXPECT_TRUE (mst.orient (n));
+  mst.setVisibilityWeight (1);
   EXPECT_TRUE (mst.orient (n));
   pcl::PointCloud<pcl::PointXYZ>::Ptr empty (new pcl::PointCloud<pcl::PointXYZ>);
   pcl::PointCloud<pcl::Normal> none;

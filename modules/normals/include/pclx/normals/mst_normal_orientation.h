@@ -6,9 +6,17 @@
 // point of largest z; each child is flipped to agree with its parent (ni·nj > 0; across a
 // sharp edge or a fold, by the side the edge vector leaves the two tangent planes: see
 // setEdgeSideSignificance ()).
-// The seed points the root's normal to +z; here the component's extreme points in 21
-// directions of the upper hemisphere vote its sign (Σ n·d > 0): outward on closed shapes,
+// The seed points the root's normal to +z; here, where the visibility votes (below) leave a
+// component's sign open, its extreme points in 21
+// directions of the upper hemisphere vote it (Σ n·d > 0): outward on closed shapes,
 // "up" on open sheets, and not decided by one crease point at the top.
+// One wrong crossing flips everything downstream of it, which no local rule can see. So the
+// signs are then checked against a global cue, visibility: seen from outside (26 orthographic
+// directions), a closed surface's visible points face the viewer. Every vertex's votes (Σ n·d,
+// counted by their margin over half their weight) are weighed against the cost of overruling
+// each tree crossing (low where the side was read or the normals are > 60° apart, high for
+// parallel normals), and the best set of crossings to overrule is found exactly by dynamic
+// programming over the tree (setVisibilityWeight ()). An open sheet's votes cancel.
 #include <pcl/point_cloud.h>
 #include <pcl/search/search.h>
 
@@ -58,15 +66,22 @@ public:
   // floor, count half their turn in the cost. Must be finite and >= 0.
   void setEdgeSideSignificance (double z) { side_significance_ = z; }
   double getEdgeSideSignificance () const { return side_significance_; }
+  // Weight of the visibility votes against the cost of overruling the MST's crossings
+  // (default 1; 0: the MST's crossings alone, the old behaviour). Must be finite and >= 0.
+  void setVisibilityWeight (double w) { visibility_weight_ = w; }
+  double getVisibilityWeight () const { return visibility_weight_; }
 
   // Orients `normals` (one per input point) in place. Points or normals that are not
   // finite, and zero normals, stay out of the graph and are left untouched.
-  // Returns false with PCL_ERROR on bad input (no cloud, size mismatch, k < 1).
+  // Returns false with PCL_ERROR on bad input (no cloud, size mismatch, k < 1, a setter's
+  // value out of range).
   bool orient (PointCloud<NormalT>& normals);
 
   std::size_t getNumberOfComponents () const { return components_; }  // of the last orient ()
   std::size_t getNumberOfFlipped () const { return flipped_; }
   std::size_t getNumberOfEdges () const { return edges_; }
+  // Points whose sign the visibility votes decided against the MST's propagation.
+  std::size_t getNumberOfVisibilityFlips () const { return visibility_flipped_; }
 
 private:
   PointCloudConstPtr input_;
@@ -76,9 +91,10 @@ private:
   double across_penalty_ = 0.5;
   double noise_scale_ = -1;
   double side_significance_ = 4;
+  double visibility_weight_ = 1;
   double used_noise_ = 0;
   unsigned int threads_ = 0;
-  std::size_t components_ = 0, flipped_ = 0, edges_ = 0;
+  std::size_t components_ = 0, flipped_ = 0, edges_ = 0, visibility_flipped_ = 0;
 };
 
 }  // namespace pcl

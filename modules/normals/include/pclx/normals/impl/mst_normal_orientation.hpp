@@ -29,6 +29,15 @@ namespace mst_detail {
 
 constexpr float kSideFloor = 0.25f;  // × mean edge length
 constexpr float kFoldSlack = 0.5f;   // × |e|, nearly parallel lines
+// Visibility votes (see orient ()). Tuned on the grooved slab of bench_normals --orient
+// (100k points): pixel 1 / 1.5 / 2 edges, toggle 0.5 + 2 s² or 1 + 4 s² moved ours by
+// < 0.5 % of the points; a majority share of 0.3 let an open wavy sheet's residual votes
+// flip 11 % of it.
+constexpr float kPixelEdges = 1.5f;    // pixel side, × mean edge length
+constexpr float kToggleBase = 0.5f;    // cost of overruling any crossing (a pixel's vote is <= 1)
+constexpr float kToggleSpan = 2.f;     // ... plus this × s², s = 0 at 60° between the normals, 1 at 0°
+constexpr float kMajority = 0.5f;      // a vertex's vote counts by its margin over this share of its mass
+constexpr double kRootShare = 0.2;     // a component's votes decide its sign past this share of its mass
 
 // Large buffers go on transparent huge pages: first-touch page faults, not the
 // algorithm, took half of the time at 1M points (4 KiB faults cost ~3 ms per MB on our
@@ -87,7 +96,7 @@ spreadBits (std::uint32_t x)
 template <typename PointT, typename NormalT> bool
 MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
 {
-  components_ = flipped_ = edges_ = 0;
+  components_ = flipped_ = edges_ = visibility_flipped_ = 0;
   if (!input_)
   {
     PCL_ERROR ("[pcl::MSTNormalOrientation::orient] no input cloud\n");
@@ -114,6 +123,12 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
   {
     PCL_ERROR ("[pcl::MSTNormalOrientation::orient] the edge-side significance must be finite and >= 0 (got %g)\n",
                side_significance_);
+    return false;
+  }
+  if (!std::isfinite (visibility_weight_) || visibility_weight_ < 0)
+  {
+    PCL_ERROR ("[pcl::MSTNormalOrientation::orient] the visibility weight must be finite and >= 0 (got %g)\n",
+               visibility_weight_);
     return false;
   }
   used_noise_ = 0;
@@ -451,16 +466,26 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
   // is a coin toss; there the edge vector e = pj − pi decides: on any consistently
   // oriented surface, convex or concave, ni·e and nj·e have opposite signs (a sphere's
   // chord gives ni·e = −nj·e). Used only when both lean off e by > 0.2 |e|; otherwise Hoppe.
-  const auto flipAcross = [&] (std::uint32_t u, std::uint32_t w) {
+  // Also gives the cost of overruling the decision (see the visibility votes below): low where
+  // the side was read or the normals are > 60° apart, rising to its maximum at parallel normals.
+  const auto flipAcross = [&] (std::uint32_t u, std::uint32_t w, float& toggle) {
     const Eigen::Vector3f e = Eigen::Map<const Eigen::Vector3f> (&pos[3 * w]) -
                               Eigen::Map<const Eigen::Vector3f> (&pos[3 * u]);
-    const float a = nrm[u].dot (e), b = nrm[w].dot (e);
-    if (sideReadable (std::abs (a), std::abs (b), e.norm (), nrm[w].dot (nrm[u])))
+    const float a = nrm[u].dot (e), b = nrm[w].dot (e), dn = nrm[w].dot (nrm[u]);
+    toggle = mst_detail::kToggleBase;
+    if (sideReadable (std::abs (a), std::abs (b), e.norm (), dn))
       return a * b > 0;
-    return nrm[w].dot (nrm[u]) < 0;
+    const float sure = std::max (0.f, 2 * std::abs (dn) - 1);  // 0 at 60°, 1 at 0°
+    toggle += mst_detail::kToggleSpan * sure * sure;
+    return dn < 0;
   };
   std::vector<char> seen (nv, 0), flip (nv, 0);
   std::vector<std::uint32_t> stack, component (nv, 0);
+  // The traversal's order (parents first), every vertex's tree parent (UINT32_MAX at a root)
+  // and the cost of overruling the crossing from it.
+  mst_detail::Buffer<std::uint32_t> order, up (nv, UINT32_MAX);
+  order.reserve (nv);
+  mst_detail::Buffer<float> toggle_cost (nv, 0.f);
   for (const std::uint32_t r : root)
   {
     if (r == UINT32_MAX)
@@ -468,6 +493,7 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
     const std::uint32_t c = static_cast<std::uint32_t> (components_++);
     component[r] = c;
     seen[r] = 1;
+    order.push_back (r);
     if (nrm[r].z () < 0)
     {
       nrm[r] = -nrm[r];
@@ -485,21 +511,150 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
           continue;
         seen[w] = 1;
         component[w] = component[u];
-        if (flipAcross (u, w))
+        if (flipAcross (u, w, toggle_cost[w]))
         {
           nrm[w] = -nrm[w];
           flip[w] = 1;
         }
+        up[w] = u;
+        order.push_back (w);
         stack.push_back (w);
       }
     }
   }
+  // Visibility votes, a global cue that local sign propagation lacks: seen from outside along
+  // a direction d (orthographic), the first surface point of every line of sight has its
+  // outward normal facing the viewer (n·d > 0), on any closed surface, convex or not. For each
+  // of 26 directions (the cube's faces, edges and corners), every pixel (1.5 mean edges wide,
+  // so that the front surface leaves few holes) gives a vote of n·d to the vertices it sees.
+  // Hand-written rather than pcl::HPRFilter: one orthographic z-buffer pass per direction is
+  // O(n), where every HPR viewpoint builds a convex hull of the whole cloud.
+  mst_detail::Buffer<float> vote (nv, 0.f), mass (nv, 0.f);  // Σ n·d, Σ |n·d|
+  const bool use_votes = visibility_weight_ > 0 && mean_len > 0;
+  if (use_votes)
+  {
+    const Eigen::Vector3f centre = 0.5f * (lo + hi);
+    const float radius = 0.5f * (hi - lo).norm ();
+    // Cells: at most 4 per vertex (a long thin cloud would otherwise ask for a huge grid).
+    float pixel = mst_detail::kPixelEdges * static_cast<float> (mean_len);
+    const double max_cells = std::max (4.0 * nv, 4096.0);
+    if (std::pow (2 * radius / pixel + 1, 2) > max_cells)
+      pixel = 2 * radius / static_cast<float> (std::sqrt (max_cells) - 1);
+    const std::size_t side = static_cast<std::size_t> (2 * radius / pixel) + 1;
+    std::vector<Eigen::Vector3f> dirs;
+    for (int x = -1; x <= 1; ++x)
+      for (int y = -1; y <= 1; ++y)
+        for (int z = -1; z <= 1; ++z)
+          if (x || y || z)
+            dirs.push_back (Eigen::Vector3f (float (x), float (y), float (z)).normalized ());
+    // A vertex is seen from d where its depth is within a pixel (a 45° slope) plus two noise
+    // sigmas of its pixel's front-most; the pixel's vote n·d is shared among those. An open
+    // sheet's points are then seen from both sides and their votes cancel point by point.
+    const float tolerance = pixel + 2 * static_cast<float> (used_noise_);
+    std::vector<mst_detail::Buffer<float>> part (threads);
+#pragma omp parallel num_threads(threads)
+    {
+      std::vector<float> front (side * side);
+      std::vector<std::uint32_t> seen_by (side * side), cell_of (nv);
+      std::vector<float> depth (nv);
+      mst_detail::Buffer<float>& mine = part[omp_get_thread_num ()];
+      mine.assign (2 * nv, 0.f);
+#pragma omp for schedule(dynamic, 1)
+      for (std::ptrdiff_t di = 0; di < static_cast<std::ptrdiff_t> (dirs.size ()); ++di)
+      {
+        const Eigen::Vector3f d = dirs[di], a = d.unitOrthogonal (), b = d.cross (a);
+        std::fill (front.begin (), front.end (), std::numeric_limits<float>::infinity ());
+        std::fill (seen_by.begin (), seen_by.end (), 0u);
+        for (std::uint32_t v = 0; v < nv; ++v)
+        {
+          const Eigen::Vector3f q = Eigen::Map<const Eigen::Vector3f> (&pos[3 * v]) - centre;
+          const auto at = [&] (const Eigen::Vector3f& axis) {
+            return std::min (side - 1, static_cast<std::size_t> (std::max (0.f, (q.dot (axis) + radius) / pixel)));
+          };
+          cell_of[v] = static_cast<std::uint32_t> (at (a) * side + at (b));
+          depth[v] = -q.dot (d);
+          front[cell_of[v]] = std::min (front[cell_of[v]], depth[v]);
+        }
+        for (std::uint32_t v = 0; v < nv; ++v)
+          seen_by[cell_of[v]] += depth[v] <= front[cell_of[v]] + tolerance;
+        for (std::uint32_t v = 0; v < nv; ++v)
+          if (depth[v] <= front[cell_of[v]] + tolerance)
+          {
+            const float x = nrm[v].dot (d) / static_cast<float> (seen_by[cell_of[v]]);
+            mine[2 * v] += x;
+            mine[2 * v + 1] += std::abs (x);
+          }
+      }
+    }
+    const float weight = static_cast<float> (visibility_weight_);
+    for (const auto& mine : part)
+      if (!mine.empty ())
+        for (std::size_t v = 0; v < nv; ++v)
+        {
+          vote[v] += mine[2 * v];
+          mass[v] += mine[2 * v + 1];
+        }
+    // Only a clear majority counts, by its margin: a point seen from both sides of an open
+    // sheet (or with a normal at grazing angles) gets nothing, so that small biases of many
+    // points cannot add up to a toggle.
+    for (std::size_t v = 0; v < nv; ++v)
+    {
+      const float margin = std::max (0.f, std::abs (vote[v]) - mst_detail::kMajority * mass[v]);
+      vote[v] = weight * std::copysign (margin, vote[v]);
+      mass[v] *= weight;
+    }
+  }
+  // Which crossings to overrule: the labelling of the tree (keep or flip every vertex's sign)
+  // that minimises −Σ votes agreeing + Σ toggle costs of the crossings whose decision it
+  // overrules, exactly, by dynamic programming over the tree (children before parents, then
+  // parents before children). Without votes nothing is overruled.
+  mst_detail::Buffer<double> keep_cost (nv), flip_cost (nv);
+  for (std::uint32_t v = 0; v < nv; ++v)
+  {
+    keep_cost[v] = -vote[v];
+    flip_cost[v] = vote[v];
+  }
+  for (std::size_t i = order.size (); i-- > 0;)
+  {
+    const std::uint32_t v = order[i], p = up[v];
+    if (p == UINT32_MAX)
+      continue;
+    const double t = toggle_cost[v];
+    keep_cost[p] += std::min (keep_cost[v], flip_cost[v] + t);
+    flip_cost[p] += std::min (flip_cost[v], keep_cost[v] + t);
+  }
+  // A component's own sign: its votes where they clearly decide (an open sheet's cancel), else
+  // the extreme points (below).
+  std::vector<double> comp_mass (components_, 0.0);
+  for (std::uint32_t v = 0; v < nv; ++v)
+    comp_mass[component[v]] += mass[v];
+  std::vector<char> label (nv, 0), decided (components_, 0);
+  std::vector<std::uint32_t> comp_root (components_, 0);
+  for (const std::uint32_t v : order)
+  {
+    const std::uint32_t p = up[v];
+    if (p == UINT32_MAX)
+    {
+      comp_root[component[v]] = v;
+      const double gain = keep_cost[v] - flip_cost[v];
+      decided[component[v]] = std::abs (gain) >= std::max<double> (mst_detail::kToggleBase,
+                                                                    mst_detail::kRootShare * comp_mass[component[v]]);
+      label[v] = decided[component[v]] && gain > 0;
+      continue;
+    }
+    const double t = toggle_cost[v];
+    label[v] = label[p] ? flip_cost[v] <= keep_cost[v] + t : keep_cost[v] > flip_cost[v] + t;
+    visibility_flipped_ += label[v] != label[comp_root[component[v]]];
+  }
+  for (std::uint32_t v = 0; v < nv; ++v)
+    if (label[v])
+      nrm[v] = -nrm[v];
   // The highest point alone is a weak witness where it sits on a crease or a thin ridge: its
-  // normal is nearly horizontal, or wrong (a grooved slab came out 86 % flipped). Each
-  // component's sign is voted by its extreme points in 21 directions d of the upper
-  // hemisphere (horizontal ring, 30°, 60°, +z), each adding n·d: outward normals on a closed
-  // surface make every term ≥ 0, and on an open sheet the upper directions still ask for
-  // "up". On a smooth top this agrees with the highest point's +z.
+  // normal is nearly horizontal, or wrong (a grooved slab came out 86 % flipped). The sign of
+  // every undecided component is voted by its extreme points in 21 directions d of the upper
+  // hemisphere, each adding n·d: outward normals on a closed surface make every term ≥ 0, and
+  // on an open sheet the upper directions still ask for "up". On a smooth top this agrees with
+  // the highest point's +z.
   {
     std::vector<Eigen::Vector3f> dirs;
     for (const auto& [elevation, count] : {std::pair{0.0, 8}, std::pair{30.0, 8}, std::pair{60.0, 4}, std::pair{90.0, 1}})
@@ -523,16 +678,18 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
     }
     std::vector<char> invert (components_, 0);
     for (std::size_t c = 0; c < components_; ++c)
-    {
-      double vote = 0;
-      for (std::size_t d = 0; d < nd; ++d)
-        vote += nrm[extreme[c * nd + d].second].dot (dirs[d]);
-      invert[c] = vote < 0;
-    }
+      if (!decided[c])
+      {
+        double sum = 0;
+        for (std::size_t d = 0; d < nd; ++d)
+          sum += nrm[extreme[c * nd + d].second].dot (dirs[d]);
+        invert[c] = sum < 0;
+      }
     for (std::uint32_t v = 0; v < nv; ++v)
-      if (invert[component[v]])
-        flip[v] = !flip[v];
+      label[v] ^= invert[component[v]];
   }
+  for (std::uint32_t v = 0; v < nv; ++v)
+    flip[v] ^= label[v];
   for (std::size_t v = 0; v < nv; ++v)
     if (flip[v])
     {
