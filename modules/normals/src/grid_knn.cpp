@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <omp.h>
 #include <parallel/algorithm>
 
@@ -187,24 +186,10 @@ GridKnn::nearestK (const Eigen::Vector3f& q, int k, std::vector<int>& indices, s
     r_all = std::max (r_all, std::max (c[a], dims_[a] - 1 - c[a]));
   }
   dmin = std::max (0.0, dmin);
-  // Candidates as one integer each: a squared distance's bits (a non-negative float's bits
-  // order like its value) over the slot in the grid's order. Selecting them orders them as
-  // (distance, slot) pairs would be, with one integer compare each (the pairs' selection
-  // was a quarter of the noisy path's time).
+  // Candidates as distanceSlotKey integers (slot: the point's place in the grid's order).
   auto scan = [&] (int begin, int end) {
     for (int i = begin; i < end; ++i)
-    {
-      const float d = (points_[i] - q).squaredNorm ();
-      std::uint32_t bits;
-      std::memcpy (&bits, &d, sizeof bits);
-      scratch.push_back ((static_cast<std::uint64_t> (bits) << 32) | static_cast<std::uint32_t> (i));
-    }
-  };
-  auto distance = [] (std::uint64_t key) {
-    const auto bits = static_cast<std::uint32_t> (key >> 32);
-    float d;
-    std::memcpy (&d, &bits, sizeof d);
-    return d;
+      scratch.push_back (distanceSlotKey ((points_[i] - q).squaredNorm (), static_cast<std::uint32_t> (i)));
   };
   // Keys of cells along z are consecutive: a z-run is one key range.
   auto scanRun = [&] (std::int64_t x, std::int64_t y, std::int64_t z0, std::int64_t z1) {
@@ -241,21 +226,21 @@ GridKnn::nearestK (const Eigen::Vector3f& q, int k, std::vector<int>& indices, s
       int inside = 0;
       if (!all)
         for (const auto s : scratch)
-          inside += distance (s) <= covered2;
+          inside += distanceOfKey (s) <= covered2;
       if (all || inside >= k)
       {
         const int m = std::min<int> (k, static_cast<int> (scratch.size ()));
         // The k nearest are among the points inside: select among those only.
         const auto end = all ? scratch.end ()
                              : std::partition (scratch.begin (), scratch.end (),
-                                               [&] (std::uint64_t s) { return distance (s) <= covered2; });
+                                               [&] (std::uint64_t s) { return distanceOfKey (s) <= covered2; });
         if (m > 0)
           std::nth_element (scratch.begin (), scratch.begin () + (m - 1), end);
         for (int i = 0; i < m; ++i)
         {
-          const auto slot = static_cast<std::uint32_t> (scratch[i]);
+          const auto slot = slotOfKey (scratch[i]);
           indices.push_back (ids_[slot]);
-          sqr_distances.push_back (distance (scratch[i]));
+          sqr_distances.push_back (distanceOfKey (scratch[i]));
           if (positions)
             positions->push_back (points_[slot]);
         }

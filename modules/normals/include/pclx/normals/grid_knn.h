@@ -8,11 +8,37 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <cstring>
 #include <utility>
 #include <vector>
 
 namespace pclx {
 namespace normals {
+
+// A (squared distance, slot) pair as one integer: a non-negative float's bits order like
+// its value, so sorting or selecting these orders them as the pairs would (ties by slot)
+// with one integer compare each (the pairs' selections were a quarter to a third of the
+// noisy path's time).
+inline std::uint64_t
+distanceSlotKey (float squared_distance, std::uint32_t slot)
+{
+  std::uint32_t bits;
+  std::memcpy (&bits, &squared_distance, sizeof bits);
+  return (static_cast<std::uint64_t> (bits) << 32) | slot;
+}
+inline std::uint32_t
+slotOfKey (std::uint64_t key)
+{
+  return static_cast<std::uint32_t> (key);
+}
+inline float
+distanceOfKey (std::uint64_t key)
+{
+  const auto bits = static_cast<std::uint32_t> (key >> 32);
+  float d;
+  std::memcpy (&d, &bits, sizeof d);
+  return d;
+}
 
 class GridKnn
 {

@@ -10,7 +10,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <limits>
 #include <omp.h>
 
@@ -37,8 +36,8 @@ planeOfNeighbours (const PointCloud<PointT>& cloud, const Indices& nn, Eigen::Ve
   return true;
 }
 
-// The same plane over positions[keys[0..k) & 0xffffffff] (the low half of a key is a
-// slot), with PCL's shifted sums (here by x, close to all of them) and the closed-form PCA.
+// The same plane over the positions of the first k keys' slots (pclx::normals::distanceSlotKey),
+// with PCL's shifted sums (here by x, close to all of them) and the closed-form PCA.
 inline bool
 planeOfPositions (const Eigen::Vector3f& x, const std::uint64_t* keys, int k, const std::vector<Eigen::Vector3f>& positions,
                   Eigen::Vector3f& normal, float& curvature)
@@ -48,7 +47,7 @@ planeOfPositions (const Eigen::Vector3f& x, const std::uint64_t* keys, int k, co
   double accu[9] = {};
   for (int q = 0; q < k; ++q)
   {
-    const Eigen::Vector3f& p = positions[keys[q] & 0xffffffffu];
+    const Eigen::Vector3f& p = positions[pclx::normals::slotOfKey (keys[q])];
     const double dx = static_cast<double> (p.x ()) - x.x (), dy = static_cast<double> (p.y ()) - x.y (),
                  dz = static_cast<double> (p.z ()) - x.z ();
     accu[0] += dx * dx;
@@ -430,12 +429,12 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   // by distance from x; nn keeps the first k of them (Hoppe's set, for region adoption).
   auto ladderPlane = [&] (const Eigen::Vector3f& x, const pcl::Indices& candidates,
                           const std::vector<Eigen::Vector3f>& positions, pcl::Indices& nn,
-                          std::vector<std::pair<float, index_t>>& by_distance, std::vector<Eigen::Vector3f>& sorted,
+                          std::vector<std::uint64_t>& by_distance, std::vector<Eigen::Vector3f>& sorted,
                           Eigen::Vector3f& normal, float& curvature, int& support,
                           const std::vector<int>& use_rungs, bool* exhausted) {
     by_distance.clear ();
     for (std::size_t c = 0; c < candidates.size (); ++c)
-      by_distance.emplace_back ((positions[c] - x).squaredNorm (), static_cast<index_t> (c));
+      by_distance.push_back (pclx::normals::distanceSlotKey ((positions[c] - x).squaredNorm (), static_cast<std::uint32_t> (c)));
     // Only the rungs' prefixes matter (as sets, with their farthest point last): selection
     // from the largest rung down costs a fraction of a full sort (which was 20 % of the time).
     auto end = by_distance.end ();
@@ -447,11 +446,12 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       }
     sorted.clear ();
     nn.clear ();
-    for (const auto& [d, c] : by_distance)
+    for (const auto key : by_distance)
     {
-      sorted.push_back (positions[c]);
+      const auto slot = pclx::normals::slotOfKey (key);
+      sorted.push_back (positions[slot]);
       if (static_cast<int> (nn.size ()) < this->getKSearch ())
-        nn.push_back (candidates[c]);
+        nn.push_back (candidates[slot]);
     }
     const auto c = pclx::normals::selectScale (x, sorted, use_rungs, noise2, ladder_tau_);
     if (exhausted)
@@ -472,7 +472,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
     }
     pcl::Indices big;
     std::vector<float> big_dist;
-    std::vector<std::pair<float, index_t>> by_distance;
+    std::vector<std::uint64_t> by_distance;
     std::vector<Eigen::Vector3f> sorted;
     std::vector<Eigen::Vector3f> positions;
     if (this->searchForNeighbors (cloud, index, max_adaptive_neighbours_, big, big_dist) <= 0)
@@ -588,7 +588,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       {
         pcl::Indices candidates;
         std::vector<float> dist;
-        std::vector<std::pair<float, index_t>> by_distance;
+        std::vector<std::uint64_t> by_distance;
         std::vector<Eigen::Vector3f> sorted;
         std::vector<std::uint64_t> keyed;
         KnnScratch scratch;
@@ -626,17 +626,9 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
             for (int o = group_start[g]; o < group_start[g + 1]; ++o)
             {
               const Eigen::Vector3f x = (*surface_)[orphans[o]].getVector3fMap ();
-              // (distance, slot) packed in one integer: a non-negative float's bits order
-              // like its value, so the selection is the pairs' (ties by slot) with one
-              // integer compare each (the pairs' selection was a third of the noisy path).
               keyed.resize (candidates.size ());
               for (std::size_t c = 0; c < candidates.size (); ++c)
-              {
-                const float d = (scratch.pos[c] - x).squaredNorm ();
-                std::uint32_t bits;
-                std::memcpy (&bits, &d, sizeof bits);
-                keyed[c] = (static_cast<std::uint64_t> (bits) << 32) | c;
-              }
+                keyed[c] = pclx::normals::distanceSlotKey ((scratch.pos[c] - x).squaredNorm (), static_cast<std::uint32_t> (c));
               const int k = std::min<int> (k0, keyed.size ());
               std::nth_element (keyed.begin (), keyed.begin () + (k - 1), keyed.end ());
               orphan_nn[o].clear ();
@@ -646,7 +638,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
                 const int kh = std::min<int> (this->getKSearch (), k);
                 std::nth_element (keyed.begin (), keyed.begin () + (kh - 1), keyed.begin () + k);
                 for (int q = 0; q < kh; ++q)
-                  orphan_nn[o].push_back (candidates[keyed[q] & 0xffffffffu]);
+                  orphan_nn[o].push_back (candidates[pclx::normals::slotOfKey (keyed[q])]);
               }
               // From the candidates' gathered positions: the cloud's points are random reads.
               orphan_ok[o] = detail::planeOfPositions (x, keyed.data (), k, scratch.pos, orphan_normal[o],
