@@ -773,6 +773,28 @@ TEST (GridKnn, MatchesBruteForce)
   EXPECT_EQ (empty.nearestK (Eigen::Vector3f::Zero (), 5, ids, d2, scratch), 0);
 }
 
+// The kNN selections order distanceSlotKey integers: the same order as (distance, slot)
+// pairs, ties (and zero distances) included, and both halves read back exactly.
+TEST (GridKnn, DistanceSlotKeysOrderLikePairs)
+{
+  std::mt19937 rng (3);
+  std::uniform_real_distribution<float> u (0.f, 2.f);
+  std::vector<std::pair<float, std::uint32_t>> pairs;
+  for (std::uint32_t i = 0; i < 2000; ++i)
+    pairs.emplace_back (i % 7 == 0 ? 0.f : (i % 5 == 0 ? 1.f : (i % 3 == 0 ? 1e-30f : u (rng) * u (rng))), 1999 - i);
+  pairs.emplace_back (3e38f, 0xffffffffu);
+  std::vector<std::uint64_t> keys;
+  for (const auto& [d, slot] : pairs)
+    keys.push_back (pclx::normals::distanceSlotKey (d, slot));
+  std::sort (pairs.begin (), pairs.end ());
+  std::sort (keys.begin (), keys.end ());
+  for (std::size_t i = 0; i < keys.size (); ++i)
+  {
+    EXPECT_EQ (pclx::normals::distanceOfKey (keys[i]), pairs[i].first);
+    EXPECT_EQ (pclx::normals::slotOfKey (keys[i]), pairs[i].second);
+  }
+}
+
 // --- bad inputs ------------------------------------------------------------------
 
 TEST (PlanarOctreeBadInput, EmptyCloudGivesEmptyOutput)
