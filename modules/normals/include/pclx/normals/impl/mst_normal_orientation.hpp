@@ -541,11 +541,12 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
     if (std::pow (2 * radius / pixel + 1, 2) > max_cells)
       pixel = 2 * radius / static_cast<float> (std::sqrt (max_cells) - 1);
     const std::size_t side = static_cast<std::size_t> (2 * radius / pixel) + 1;
+    // 13 lines of sight, each looked along from both ends: one grid serves d and −d.
     std::vector<Eigen::Vector3f> dirs;
     for (int x = -1; x <= 1; ++x)
       for (int y = -1; y <= 1; ++y)
         for (int z = -1; z <= 1; ++z)
-          if (x || y || z)
+          if (x > 0 || (x == 0 && (y > 0 || (y == 0 && z > 0))))
             dirs.push_back (Eigen::Vector3f (float (x), float (y), float (z)).normalized ());
     // A vertex is seen from d where its depth is within a pixel (a 45° slope) plus two noise
     // sigmas of its pixel's front-most; the pixel's vote n·d is shared among those. An open
@@ -554,8 +555,9 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
     std::vector<mst_detail::Buffer<float>> part (threads);
 #pragma omp parallel num_threads(threads)
     {
-      std::vector<float> front (side * side);
-      std::vector<std::uint32_t> seen_by (side * side), cell_of (nv);
+      // Per cell: the nearest and farthest depth along d, and how many vertices each end sees.
+      std::vector<float> near (side * side), far (side * side);
+      std::vector<std::uint32_t> near_count (side * side), far_count (side * side), cell_of (nv);
       std::vector<float> depth (nv);
       mst_detail::Buffer<float>& mine = part[omp_get_thread_num ()];
       mine.assign (2 * nv, 0.f);
@@ -563,27 +565,43 @@ MSTNormalOrientation<PointT, NormalT>::orient (PointCloud<NormalT>& normals)
       for (std::ptrdiff_t di = 0; di < static_cast<std::ptrdiff_t> (dirs.size ()); ++di)
       {
         const Eigen::Vector3f d = dirs[di], a = d.unitOrthogonal (), b = d.cross (a);
-        std::fill (front.begin (), front.end (), std::numeric_limits<float>::infinity ());
-        std::fill (seen_by.begin (), seen_by.end (), 0u);
+        std::fill (near.begin (), near.end (), std::numeric_limits<float>::infinity ());
+        std::fill (far.begin (), far.end (), -std::numeric_limits<float>::infinity ());
+        std::fill (near_count.begin (), near_count.end (), 0u);
+        std::fill (far_count.begin (), far_count.end (), 0u);
         for (std::uint32_t v = 0; v < nv; ++v)
         {
           const Eigen::Vector3f q = Eigen::Map<const Eigen::Vector3f> (&pos[3 * v]) - centre;
           const auto at = [&] (const Eigen::Vector3f& axis) {
             return std::min (side - 1, static_cast<std::size_t> (std::max (0.f, (q.dot (axis) + radius) / pixel)));
           };
-          cell_of[v] = static_cast<std::uint32_t> (at (a) * side + at (b));
-          depth[v] = -q.dot (d);
-          front[cell_of[v]] = std::min (front[cell_of[v]], depth[v]);
+          const std::uint32_t c = static_cast<std::uint32_t> (at (a) * side + at (b));
+          cell_of[v] = c;
+          depth[v] = -q.dot (d);  // from a viewer at +d
+          near[c] = std::min (near[c], depth[v]);
+          far[c] = std::max (far[c], depth[v]);
         }
         for (std::uint32_t v = 0; v < nv; ++v)
-          seen_by[cell_of[v]] += depth[v] <= front[cell_of[v]] + tolerance;
+        {
+          const std::uint32_t c = cell_of[v];
+          near_count[c] += depth[v] <= near[c] + tolerance;
+          far_count[c] += depth[v] >= far[c] - tolerance;
+        }
         for (std::uint32_t v = 0; v < nv; ++v)
-          if (depth[v] <= front[cell_of[v]] + tolerance)
+        {
+          const std::uint32_t c = cell_of[v];
+          const float x = nrm[v].dot (d);
+          if (depth[v] <= near[c] + tolerance)  // seen from +d
           {
-            const float x = nrm[v].dot (d) / static_cast<float> (seen_by[cell_of[v]]);
-            mine[2 * v] += x;
-            mine[2 * v + 1] += std::abs (x);
+            mine[2 * v] += x / static_cast<float> (near_count[c]);
+            mine[2 * v + 1] += std::abs (x) / static_cast<float> (near_count[c]);
           }
+          if (depth[v] >= far[c] - tolerance)  // seen from −d
+          {
+            mine[2 * v] -= x / static_cast<float> (far_count[c]);
+            mine[2 * v + 1] += std::abs (x) / static_cast<float> (far_count[c]);
+          }
+        }
       }
     }
     const float weight = static_cast<float> (visibility_weight_);
