@@ -38,6 +38,17 @@ flippedShare (const pcl::PointCloud<pcl::Normal>& n, const pcl::PointCloud<pcl::
   return compareNormals (n, truth, true).flipped;
 }
 
+// PlanarOctreeNormalEstimation's normals (defaults), unoriented input for the MST.
+pcl::PointCloud<pcl::Normal>
+ourNormals (const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& cloud)
+{
+  pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
+  ne.setInputCloud (cloud);
+  pcl::PointCloud<pcl::Normal> n;
+  ne.compute (n);
+  return n;
+}
+
 }  // namespace
 
 TEST (MSTOrientation, PclNormalsOnClosedShapesPointOutward)
@@ -144,10 +155,7 @@ TEST (MSTOrientation, OurMergedNormalsOnATorusPointOutward)
 {
   const auto s = pclx::testing::sampleUniform (pclx::testing::makeTorus (1.f, 0.3f, 128, 48), 30000, 4);
   const auto cloud = positions (s.cloud);
-  pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
-  ne.setInputCloud (cloud);
-  pcl::PointCloud<pcl::Normal> n;
-  ne.compute (n);
+  pcl::PointCloud<pcl::Normal> n = ourNormals (cloud);
   pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
   mst.setInputCloud (cloud);
   ASSERT_TRUE (mst.orient (n));
@@ -162,10 +170,7 @@ TEST (MSTOrientation, ThinPlateSheetsGetOppositeNormals)
   // it crosses anyway, the edge-side reading (offsets far above the noise) keeps the signs apart.
   const auto s = pclx::testing::sampleUniform (pclx::testing::makeThinPlate (1.f, 0.02f, 32), 30000, 6);
   const auto cloud = positions (s.cloud);
-  pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
-  ne.setInputCloud (cloud);
-  pcl::PointCloud<pcl::Normal> estimated;
-  ne.compute (estimated);
+  const pcl::PointCloud<pcl::Normal> estimated = ourNormals (cloud);
   pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
   mst.setInputCloud (cloud);
   EXPECT_GT (mst.getAcrossSurfacePenalty (), 0.0);
@@ -287,10 +292,7 @@ TEST (MSTOrientation, OurNormalsOnANarrowlyRidgedSlab)
   // their faces are nearly parallel across the fold, and the MST crosses them wrongly.
   const auto s = pclx::testing::sampleUniform (makeRidgedSlab (0.024f, 0.05f), 20000, 12);
   const auto cloud = positions (s.cloud);
-  pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
-  ne.setInputCloud (cloud);
-  pcl::PointCloud<pcl::Normal> estimated;
-  ne.compute (estimated);
+  const pcl::PointCloud<pcl::Normal> estimated = ourNormals (cloud);
   pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
   mst.setInputCloud (cloud);
   auto n = estimated;
