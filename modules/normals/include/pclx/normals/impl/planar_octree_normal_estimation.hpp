@@ -231,8 +231,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   struct KnnScratch
   {
     std::vector<int> ids;
-    std::vector<std::uint64_t> keys;  // the grid's selection
-    std::vector<std::pair<float, int>> pairs;
+    std::vector<std::uint64_t> keys;  // distanceSlotKey selections (the grid's, the noise sample's)
     std::vector<Eigen::Vector3f> pos;  // positions of the last knn's neighbours, in its order
   };
   // k nearest search-surface points of a query (any order), their positions in s.pos:
@@ -268,12 +267,12 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
           const int m = knn ((*surface_)[octree_to_surface_[i]], 200, t.nn, t.dist, t.knn);
           if (m < 50)
             return;
-          t.knn.pairs.resize (m);
+          t.knn.keys.resize (m);
           for (int q = 0; q < m; ++q)
-            t.knn.pairs[q] = {t.dist[q], q};
-          std::sort (t.knn.pairs.begin (), t.knn.pairs.end ());
-          for (const auto& di : t.knn.pairs)
-            sorted.push_back (t.knn.pos[di.second]);
+            t.knn.keys[q] = pclx::normals::distanceSlotKey (t.dist[q], static_cast<std::uint32_t> (q));
+          std::sort (t.knn.keys.begin (), t.knn.keys.end ());
+          for (const auto key : t.knn.keys)
+            sorted.push_back (t.knn.pos[pclx::normals::slotOfKey (key)]);
         });
   }
   const double noise2 = noise_.sigma * noise_.sigma;
@@ -427,14 +426,19 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
   boundaries.erase (std::unique (boundaries.begin (), boundaries.end ()), boundaries.end ());
   // Lepski's rule over the ladder for x, from candidate neighbours (any order): sorts them
   // by distance from x; nn keeps the first k of them (Hoppe's set, for region adoption).
+  // Every candidate (slot c of positions) keyed by its squared distance from x.
+  auto distanceKeys = [] (const Eigen::Vector3f& x, const std::vector<Eigen::Vector3f>& positions, std::size_t count,
+                          std::vector<std::uint64_t>& keys) {
+    keys.resize (count);
+    for (std::size_t c = 0; c < count; ++c)
+      keys[c] = pclx::normals::distanceSlotKey ((positions[c] - x).squaredNorm (), static_cast<std::uint32_t> (c));
+  };
   auto ladderPlane = [&] (const Eigen::Vector3f& x, const pcl::Indices& candidates,
                           const std::vector<Eigen::Vector3f>& positions, pcl::Indices& nn,
                           std::vector<std::uint64_t>& by_distance, std::vector<Eigen::Vector3f>& sorted,
                           Eigen::Vector3f& normal, float& curvature, int& support,
                           const std::vector<int>& use_rungs, bool* exhausted) {
-    by_distance.clear ();
-    for (std::size_t c = 0; c < candidates.size (); ++c)
-      by_distance.push_back (pclx::normals::distanceSlotKey ((positions[c] - x).squaredNorm (), static_cast<std::uint32_t> (c)));
+    distanceKeys (x, positions, candidates.size (), by_distance);
     // Only the rungs' prefixes matter (as sets, with their farthest point last): selection
     // from the largest rung down costs a fraction of a full sort (which was 20 % of the time).
     auto end = by_distance.end ();
@@ -590,7 +594,6 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         std::vector<float> dist;
         std::vector<std::uint64_t> by_distance;
         std::vector<Eigen::Vector3f> sorted;
-        std::vector<std::uint64_t> keyed;
         KnnScratch scratch;
 #pragma omp for schedule(dynamic, 32)
         for (int g = 0; g < ng; ++g)
@@ -626,22 +629,21 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
             for (int o = group_start[g]; o < group_start[g + 1]; ++o)
             {
               const Eigen::Vector3f x = (*surface_)[orphans[o]].getVector3fMap ();
-              keyed.resize (candidates.size ());
-              for (std::size_t c = 0; c < candidates.size (); ++c)
-                keyed[c] = pclx::normals::distanceSlotKey ((scratch.pos[c] - x).squaredNorm (), static_cast<std::uint32_t> (c));
-              const int k = std::min<int> (k0, keyed.size ());
-              std::nth_element (keyed.begin (), keyed.begin () + (k - 1), keyed.end ());
+              // The centroid's ladder is done with by_distance: it now keys the member's candidates.
+              distanceKeys (x, scratch.pos, candidates.size (), by_distance);
+              const int k = std::min<int> (k0, by_distance.size ());
+              std::nth_element (by_distance.begin (), by_distance.begin () + (k - 1), by_distance.end ());
               orphan_nn[o].clear ();
               if (grows)
               {
                 // Hoppe's set, for region growth only (none on noisy input).
                 const int kh = std::min<int> (this->getKSearch (), k);
-                std::nth_element (keyed.begin (), keyed.begin () + (kh - 1), keyed.begin () + k);
+                std::nth_element (by_distance.begin (), by_distance.begin () + (kh - 1), by_distance.begin () + k);
                 for (int q = 0; q < kh; ++q)
-                  orphan_nn[o].push_back (candidates[pclx::normals::slotOfKey (keyed[q])]);
+                  orphan_nn[o].push_back (candidates[pclx::normals::slotOfKey (by_distance[q])]);
               }
               // From the candidates' gathered positions: the cloud's points are random reads.
-              orphan_ok[o] = detail::planeOfPositions (x, keyed.data (), k, scratch.pos, orphan_normal[o],
+              orphan_ok[o] = detail::planeOfPositions (x, by_distance.data (), k, scratch.pos, orphan_normal[o],
                                                        orphan_curvature[o]);
               if (!orphan_ok[o])
               {
