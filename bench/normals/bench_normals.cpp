@@ -191,6 +191,13 @@ main (int argc, char** argv)
   app.add_flag ("!--no-cgal", wide.cgal, "--wide: skip the CGAL jet / VCM peers");
   bool no_speed = false;
   app.add_flag ("--no-speed", no_speed, "--wide: skip the speed sweep");
+  app.add_option ("--speed-repeats", wide.speed_repeats, "speed sweep: best of this many calls (wall and CPU time)")
+      ->check (CLI::PositiveNumber)
+      ->capture_default_str ();
+  app.add_option ("--speed-sizes", wide.speed_sizes, "speed sweep: only these clean sizes (default 100000 300000 1000000)")
+      ->check (CLI::PositiveNumber);
+  bool no_speed_noisy = false;
+  app.add_flag ("--no-speed-noisy", no_speed_noisy, "speed sweep: skip the noisy rows against oracle-k PCA");
   app.add_option ("--dump", wide.dump, "--wide: write each shape's clean sample as <dir>/<shape>.ply (to look at)");
   CLI11_PARSE (app, argc, argv);
   if (wide.wide || wide.speed || wide.quick || wide.orient)
@@ -202,6 +209,7 @@ main (int argc, char** argv)
       wide.speed = !no_speed;
     }
     wide.threads = opt.threads > 0 ? opt.threads : 2;
+    wide.speed_noisy = !no_speed_noisy;
     wide.open3d = opt.open3d;
     if (!wide.quick)
     {

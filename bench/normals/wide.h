@@ -22,6 +22,9 @@ struct WideOptions
   std::string peers = "all";        // all | pca (ours + the PCA sweep only: quick checks of the class)
   bool cgal = true, open3d = true;
   std::size_t points = 100000;
+  int speed_repeats = 2;                  // speed sweep: best of this many calls (wall and CPU)
+  std::vector<std::size_t> speed_sizes;   // speed sweep's clean sizes (empty: 100k, 300k, 1M)
+  bool speed_noisy = true;                // speed sweep: also the noisy rows against oracle-k PCA
   std::string dump;  // write each shape's clean sample (positions + truth normals) as <dump>/<shape>.ply
 };
 
