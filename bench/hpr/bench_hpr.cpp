@@ -256,7 +256,7 @@ main (int argc, char** argv)
   std::vector<std::size_t> sizes{100000, 1000000, 3000000};
   int views = 3, repeats = 1;
   bool quick = false, no_sweeps = false, sweeps_only = false, distance_sweep = false, load_rows = false;
-  bool no_open3d = false, wide = false, wide_dev = false, wide_lean = false;
+  bool no_open3d = false, wide = false, wide_dev = false, wide_lean = false, fp_depth = false;
   int repeats_ours = 0;
   std::size_t sweep_points = 100000;
   std::vector<double> distances{1.2, 2.0, 5.0, 20.0, 100.0, 1000.0};
@@ -282,13 +282,17 @@ main (int argc, char** argv)
   app.add_flag ("--wide-dev", wide_dev, "with --wide: only the candidate hull variants (development)");
   std::vector<double> open3d_radii{1e2, 1e3, 1e4, 1e5, 1e6};
   app.add_option ("--open3d-radii", open3d_radii, "with --wide: Open3D's R / diameter values")->capture_default_str ();
+  app.add_flag ("--fp-depth", fp_depth,
+                "with --wide: only where the false positives of the default (and of Open3D at its best of "
+                "--open3d-radii) lie: counts by depth behind the first surface along the line of sight, and "
+                "how many face away from the viewpoint (stdout rows fp_depth,...)");
   app.add_flag ("--wide-lean", wide_lean,
                 "with --wide: only the default (AUTO), the one-pass candidate hull and Open3D (for 3M points)");
   app.add_option ("--repeats-ours", repeats_ours,
                   "best of N timings for our rows only (0: --repeats); Open3D keeps --repeats")
       ->capture_default_str ();
   std::vector<int> dev_threads;
-  app.add_option ("--dev-threads", dev_threads, "with --wide-dev: the default at these forced thread counts only");
+  app.add_option ("--dev-threads", dev_threads, "with --wide-dev: the default at these forced thread counts only; with --wide-lean: also these rows");
   std::vector<double> dev_depths;
   std::vector<int> dev_passes;
   app.add_option ("--dev-depths", dev_depths,
@@ -418,6 +422,54 @@ main (int argc, char** argv)
         for (int v = 0; v < int (vps.size ()); ++v)
         {
           const Case c{in.name, positions (s.cloud), caster.visibleFrom (s.cloud, vps[v]), vps[v], diameter, v};
+          if (fp_depth)
+          {
+            // False positives by depth behind the first surface hit from C (in diameters) and
+            // by facing (the sample's face normal pointing away from C: the back of a wall).
+            static const double edges[] = {0.002, 0.005, 0.01, 0.02, 0.05, 0.1};
+            auto histogram = [&] (const std::string& who, const std::vector<int>& vis) {
+              std::vector<char> shown (c.cloud->size (), 0);
+              for (int i : vis)
+                shown[std::size_t (i)] = 1;
+              long total = 0, back = 0, bins[7] = {};
+              const Eigen::Vector3f C = c.viewpoint;
+              for (std::size_t i = 0; i < shown.size (); ++i)
+              {
+                if (!shown[i] || c.truth[i])
+                  continue;
+                ++total;
+                const Eigen::Vector3f p = s.cloud[i].getVector3fMap ();
+                back += s.cloud[i].getNormalVector3fMap ().dot (p - C) > 0;
+                const float t = caster.cast (C, p - C);
+                const double depth = t < 1.f ? (1.0 - t) * (p - C).norm () / diameter : 0.0;
+                int b = 0;
+                while (b < 6 && depth >= edges[b])
+                  ++b;
+                ++bins[b];
+              }
+              std::cout << "fp_depth," << in.name << ',' << n << ",view=" << v << ',' << who << ",fp," << total
+                        << ",back_facing," << back;
+              for (int b = 0; b < 7; ++b)
+                std::cout << ",d" << (b == 0 ? 0.0 : edges[b - 1]) << '-' << (b < 6 ? edges[b] : 1.0) << ','
+                          << bins[b];
+              std::cout << '\n';
+            };
+            Filter f;
+            f.setNumberOfThreads (1);
+            histogram ("pclx_auto", run.ours (c, "fp_depth", "pclx_auto", f, ""));
+#ifdef PCLX_HAVE_OPEN3D
+            if (!no_open3d)
+            {
+              const double r = run.open3dBest (c, "fp_depth", wide_radii, "");
+              open3d::geometry::PointCloud pc;
+              for (const auto& p : *c.cloud)
+                pc.points_.emplace_back (p.x, p.y, p.z);
+              const auto vis = std::get<1> (pc.HiddenPointRemoval (c.viewpoint.cast<double> (), r * c.diameter));
+              histogram ("open3d_" + fmt (r) + "d", std::vector<int> (vis.begin (), vis.end ()));
+            }
+#endif
+            continue;
+          }
 #ifdef PCLX_HAVE_OPEN3D
           if (!no_open3d && !wide_dev)
             run.open3dBest (c, "wide", wide_radii, "", true);
@@ -450,6 +502,12 @@ main (int argc, char** argv)
             one.setMethod (Filter::Method::CANDIDATE_HULL);
             one.setRefinementPasses (0);
             run.ours (c, "wide", "pclx_candidate_hull_1pass", one, "");
+          }
+          for (int t : dev_threads)  // --wide-lean --dev-threads 1 2: the default at forced thread counts
+          {
+            Filter f;
+            f.setNumberOfThreads (t);
+            run.ours (c, "wide", "pclx_auto_t" + std::to_string (t), f, ";threads=" + std::to_string (t));
           }
           if (!wide_dev && !wide_lean)
             methods.emplace_back ("pclx_candidate_hull_autoR", Filter::Method::CANDIDATE_HULL);

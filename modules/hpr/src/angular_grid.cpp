@@ -141,7 +141,8 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   const double pad = 1e-6;
   const double range_a = std::max (double (a_max) - a_min, 0.0) + 2 * pad;
   const double range_b = std::max (double (b_max) - b_min, 0.0) + 2 * pad;
-  const double cell = std::sqrt (range_a * range_b / double (sectors));
+  // A cell size set by setCellSize () wins unless it would need more than `sectors` cells.
+  const double cell = std::max (fixed_cell_, std::sqrt (range_a * range_b / double (sectors)));
   n_phi_ = std::max (1, int (std::ceil (range_a / cell - 1e-9)));
   n_theta_ = std::max (1, int (std::ceil (range_b / cell - 1e-9)));
   phi0_ = wrap_phi_ ? -kPi : a_min - pad;
@@ -594,7 +595,8 @@ AngularGrid::normalsAndSplats (const std::vector<Eigen::Vector3d>& points, std::
 
 std::vector<std::uint8_t>
 AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::vector<int>* survivors,
-                             std::vector<Eigen::Vector3d>* survivor_points) const
+                             std::vector<Eigen::Vector3d>* survivor_points,
+                             std::vector<std::uint8_t>* survivor_in_band) const
 {
   HPR_LAPS ();
   const std::size_t n = unit_.size (), k = cand_.size ();
@@ -815,6 +817,40 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   }
   }
   HPR_LAP ("interior.tests");
+  // The uncertain band: sectors whose 3×3 neighbourhood holds a culled point or a sector
+  // without candidate (a silhouette, the grid's edge). Elsewhere every point had only
+  // front-surface points around it, and a finer pass culls (nearly) nothing there.
+  std::vector<std::uint8_t> band;
+  if (survivors && survivor_in_band)
+  {
+    std::vector<std::uint8_t> seed (k, 0);
+    for (std::size_t r = 0; r < n; ++r)
+      if (inside_sorted[r])
+        seed[sector_[order[r]]] = 1;
+    for (std::size_t s = 0; s < k; ++s)
+      if (cand_[s] < 0)
+        seed[s] = 1;
+    band.assign (k, 0);
+    for (int a = 0; a < n_phi_; ++a)
+      for (int b = 0; b < n_theta_; ++b)
+      {
+        std::uint8_t any = 0;
+        for (int da = -1; da <= 1 && !any; ++da)
+        {
+          int aa = a + da;
+          if (wrap_phi_)
+            aa = (aa + n_phi_) % n_phi_;
+          for (int db = -1; db <= 1 && !any; ++db)
+          {
+            const int bb = b + db;
+            // Outside the grid counts as empty: the cloud's outline.
+            any = aa < 0 || aa >= n_phi_ || bb < 0 || bb >= n_theta_ ? 1 : seed[std::size_t (aa) * n_theta_ + bb];
+          }
+        }
+        band[std::size_t (a) * n_theta_ + b] = any;
+      }
+  }
+  HPR_LAP ("interior.band");
   if (survivors)
   {
     // The caller reads the survivors; the per-point mask (a random scatter) is left empty.
@@ -824,6 +860,8 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     survivors->resize (kept);
     if (survivor_points)
       survivor_points->resize (kept);
+    if (survivor_in_band)
+      survivor_in_band->resize (kept);
     std::size_t j = 0;
     for (std::size_t r = 0; r < n; ++r)
       if (!inside_sorted[r])
@@ -831,6 +869,8 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
         (*survivors)[j] = int (order[r]);
         if (survivor_points)
           (*survivor_points)[j] = sorted[r];
+        if (survivor_in_band)
+          (*survivor_in_band)[j] = band[sector_[order[r]]];
         ++j;
       }
   }

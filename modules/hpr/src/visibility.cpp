@@ -526,7 +526,8 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     HPR_LAP ("propagate");
     std::vector<int> alive;
     std::vector<Eigen::Vector3d> alive_pts;
-    grid.interiorPoints (pts, &alive, &alive_pts);
+    std::vector<std::uint8_t> in_band;
+    grid.interiorPoints (pts, &alive, &alive_pts, opt.refinement > 0 ? &in_band : nullptr);
     HPR_LAP ("interior");
     res.sectors = grid.sectorCount ();
     res.steps = cull_steps;
@@ -534,22 +535,42 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     // triangle sags less below the surface (the depth band it leaves ∝ R·(triangle size)²),
     // so hidden points just behind the surface (silhouettes, thin parts) are culled, and a
     // point inside a tetrahedron of survivors is inside the hull of all points: the test
-    // stays conservative (every hull vertex survives). Survivors come in the previous grid's
-    // sector order, which is nearly the finer grid's.
-    std::vector<int> next;
-    std::vector<Eigen::Vector3d> next_pts;
+    // stays conservative (every hull vertex survives), whichever survivors span it.
+    // Only the uncertain band goes on (survivors within one sector of a culled point or of
+    // a silhouette, see interiorPoints): elsewhere the previous pass saw front-surface
+    // points only, and the band's finer grid keeps the cell it would have had over all
+    // survivors. Survivors come in the previous grid's sector order, nearly the finer one's.
+    const double cell0 = grid.cellAngle ();
+    std::vector<int> next, band;
+    std::vector<Eigen::Vector3d> next_pts, band_pts;
     for (int pass = 1; pass <= opt.refinement && alive.size () >= 4; ++pass)
     {
       HPR_PASS (pass);
+      band.clear ();
+      band_pts.clear ();
+      for (std::size_t j = 0; j < alive.size (); ++j)
+        if (in_band[j])
+        {
+          band.push_back (alive[j]);
+          band_pts.push_back (alive_pts[j]);
+        }
+        else
+          sub.visible[alive[j]] = 1;
+      alive.swap (band);
+      alive_pts.swap (band_pts);
+      HPR_LAP ("band");
+      if (alive.size () < 4)
+        break;
       const std::size_t kp = std::min ({k_cull << pass, kMaxSectors, 64 * alive.size ()});
       AngularGrid fine;
       fine.setThreads (threads);
+      fine.setCellSize (cell0 / std::pow (std::sqrt (2.0), pass));
       fine.build (alive_pts, centre, R, kp);
       HPR_LAP ("build");
       // One step: the survivors are dense where it matters (F1 equal to 4 steps on the bench).
       fine.propagateAdaptive (1);
       HPR_LAP ("propagate");
-      fine.interiorPoints (alive_pts, &next, &next_pts);
+      fine.interiorPoints (alive_pts, &next, &next_pts, pass < opt.refinement ? &in_band : nullptr);
       HPR_LAP ("interior");
       for (int& j : next)
         j = alive[j];

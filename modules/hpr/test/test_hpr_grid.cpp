@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 using namespace pclx::testing;
@@ -331,4 +332,88 @@ TEST (HPRThreads, SameAnswerForAnyThreadCountAndAutomaticCountIsSane)
   // Small clouds never pay for a parallel region.
   EXPECT_EQ (pcl::hpr::autoThreads (1000), 1);
   EXPECT_GE (pcl::hpr::autoThreads (10000000), 1);
+}
+
+// The refinement passes go on only over the uncertain band (interiorPoints' survivor_in_band):
+// survivors within one sector of a culled point or of a sector without candidate. A front
+// sheet with a small sheet hidden behind its centre: the band is the centre and the outline,
+// not the rest of the sheet.
+TEST (AngularGrid, UncertainBandIsAroundCulledPointsAndTheOutline)
+{
+  std::vector<Eigen::Vector3d> pts;
+  for (int i = 0; i < 60; ++i)
+    for (int j = 0; j < 60; ++j)
+      pts.emplace_back (5.0, (i - 30) * 0.02 + 0.003, (j - 30) * 0.02 + 0.007);
+  const std::size_t front = pts.size ();
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 10; ++j)
+      pts.emplace_back (5.5, (i - 5) * 0.02 + 0.011, (j - 5) * 0.02 + 0.013);
+  pcl::hpr::AngularGrid g;
+  g.build (pts, Eigen::Vector3d (5.0, 0, 0), 1e4, 400);
+  std::vector<int> survivors;
+  std::vector<Eigen::Vector3d> survivor_points;
+  std::vector<std::uint8_t> in_band;
+  g.interiorPoints (pts, &survivors, &survivor_points, &in_band);
+  ASSERT_EQ (in_band.size (), survivors.size ());
+  std::size_t hidden_culled = 0, centre = 0, outline = 0, rest = 0;
+  for (std::size_t j = 0; j < survivors.size (); ++j)
+  {
+    const Eigen::Vector3d& p = pts[std::size_t (survivors[j])];
+    EXPECT_EQ (survivor_points[j], p);
+    if (std::size_t (survivors[j]) >= front)
+      continue;
+    const double r = std::max (std::abs (p.y ()), std::abs (p.z ()));
+    if (r < 0.06)
+    {
+      EXPECT_TRUE (in_band[j]) << p.transpose ();  // in front of the hidden sheet
+      ++centre;
+    }
+    else if (r > 0.57)
+    {
+      EXPECT_TRUE (in_band[j]) << p.transpose ();  // the outline
+      ++outline;
+    }
+    else if (r > 0.3 && r < 0.45)
+    {
+      EXPECT_FALSE (in_band[j]) << p.transpose ();  // front surface only around it
+      ++rest;
+    }
+  }
+  for (std::size_t i = front; i < pts.size (); ++i)
+    hidden_culled += std::find (survivors.begin (), survivors.end (), int (i)) == survivors.end ();
+  EXPECT_GT (hidden_culled, 50u);  // the hidden sheet is mostly culled (that seeds the band)
+  EXPECT_GT (centre, 20u);
+  EXPECT_GT (outline, 100u);
+  EXPECT_GT (rest, 500u);
+}
+
+// setCellSize: a refinement grid over a subset keeps the cell it would have over all points;
+// the sector count then only caps it.
+TEST (AngularGrid, FixedCellSizeIsKeptOverASubsetAndCappedByK)
+{
+  std::vector<Eigen::Vector3d> all, part;
+  for (int i = 0; i < 80; ++i)
+    for (int j = 0; j < 80; ++j)
+    {
+      all.emplace_back (5.0, (i - 40) * 0.01, (j - 40) * 0.01);
+      if (i < 20 && j < 30)
+        part.push_back (all.back ());
+    }
+  pcl::hpr::AngularGrid full;
+  full.build (all, Eigen::Vector3d (5.0, 0, 0), 1e4, 1600);
+  const double cell = full.cellAngle ();
+  pcl::hpr::AngularGrid sub;
+  sub.setCellSize (cell);
+  sub.build (part, Eigen::Vector3d (5.0, 0, 0), 1e4, 1600);
+  EXPECT_NEAR (sub.cellAngle (), cell, 1e-9 * cell);
+  EXPECT_LT (sub.sectorCount (), 1600u / 4);  // the subset spans under a tenth of the extent
+  // Without it, k is spread over the subset: cells ~3x smaller.
+  pcl::hpr::AngularGrid spread;
+  spread.build (part, Eigen::Vector3d (5.0, 0, 0), 1e4, 1600);
+  EXPECT_LT (spread.cellAngle (), 0.5 * cell);
+  // A cell finer than k allows is capped by k.
+  pcl::hpr::AngularGrid capped;
+  capped.setCellSize (cell / 100);
+  capped.build (part, Eigen::Vector3d (5.0, 0, 0), 1e4, 100);
+  EXPECT_LE (capped.sectorCount (), 120u);
 }

@@ -55,9 +55,13 @@ public:
   // When `survivors` is given it receives the points that are not interior, in sector
   // order (indices into `points`; their positions in `survivor_points`): a finer pass over
   // them then reads memory nearly in order. The returned mask is then empty.
+  // `survivor_in_band` (with `survivors`) flags, per survivor, whether its sector is within
+  // one sector of a culled point or of a sector without candidate (silhouettes, the grid's
+  // edge): the uncertain band where a finer pass can still cull something.
   std::vector<std::uint8_t> interiorPoints (const std::vector<Eigen::Vector3d>& points,
                                             std::vector<int>* survivors = nullptr,
-                                            std::vector<Eigen::Vector3d>* survivor_points = nullptr) const;
+                                            std::vector<Eigen::Vector3d>* survivor_points = nullptr,
+                                            std::vector<std::uint8_t>* survivor_in_band = nullptr) const;
 
   // Balls-in-bins calibration (§6) on this grid used as the coarse grid.
   struct Calibration
@@ -67,6 +71,11 @@ public:
     double occupied_solid_angle = 0;
   };
   Calibration calibrate () const;
+
+  // Angular cell size for the next build() (radians; 0: from k). A refinement pass over a
+  // subset of the points keeps the cell of the grid it refines instead of spreading k over
+  // the subset's smaller extent; k then only caps the number of cells.
+  void setCellSize (double cell) { fixed_cell_ = cell; }
 
   // OpenMP threads for every pass (0: omp_get_max_threads ()).
   void setThreads (int threads) { threads_ = threads; }
@@ -111,6 +120,7 @@ private:
   std::vector<int> cand_;      // per sector: candidate point or −1 (the seed's MAX array)
   std::vector<double> best_;   // per sector: score of the candidate
   int threads_ = 0;
+  double fixed_cell_ = 0;
   int nt () const;
   int empty_factor_ = 1;       // EMPTY is kept on a grid coarser by this factor per axis
   int coarse_theta_ = 0;
