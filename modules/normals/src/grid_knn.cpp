@@ -33,11 +33,23 @@ GridKnn::build (const std::vector<Eigen::Vector3f>& points, int points_per_cell,
     return;
   if (threads <= 0)
     threads = omp_get_max_threads ();
+  // Bounds, the keys' radix sort and the copy run in parallel: a serial stretch keeps the
+  // other thread spinning in OpenMP's wait (CPU time) and, on a shared machine, off the core.
   Eigen::Vector3d lo = points[0].cast<double> (), hi = lo;
-  for (const auto& p : points)
+#pragma omp parallel num_threads(threads)
   {
-    lo = lo.cwiseMin (p.cast<double> ());
-    hi = hi.cwiseMax (p.cast<double> ());
+    Eigen::Vector3d l = lo, h = hi;
+#pragma omp for schedule(static) nowait
+    for (int i = 0; i < n; ++i)
+    {
+      l = l.cwiseMin (points[i].cast<double> ());
+      h = h.cwiseMax (points[i].cast<double> ());
+    }
+#pragma omp critical
+    {
+      lo = lo.cwiseMin (l);
+      hi = hi.cwiseMax (h);
+    }
   }
   origin_ = lo;
   const double extent = (hi - lo).maxCoeff ();
@@ -71,7 +83,8 @@ GridKnn::build (const std::vector<Eigen::Vector3f>& points, int points_per_cell,
 
   // Cell keys, then an LSD radix sort (11-bit digits, only as many as the keys use: 3 passes
   // for a million points on a surface) instead of a comparison sort, which was most of
-  // the build.
+  // the build. Each pass counts and scatters by thread over contiguous chunks, the
+  // threads' slots of a digit in chunk order: stable, so the order is the serial one.
   std::vector<std::uint64_t> keys (n), keys2 (n);
   std::vector<int> order (n), order2 (n);
 #pragma omp parallel for num_threads(threads) schedule(static)
@@ -86,25 +99,39 @@ GridKnn::build (const std::vector<Eigen::Vector3f>& points, int points_per_cell,
   }
   const std::uint64_t max_key = key (dims_[0] - 1, dims_[1] - 1, dims_[2] - 1);
   constexpr int kDigit = 11;
-  std::vector<int> count (std::size_t (1) << kDigit);
+  constexpr int kDigits = 1 << kDigit;
+  std::vector<int> count (static_cast<std::size_t> (threads) * kDigits);
   for (int shift = 0; shift < 64 && (max_key >> shift) > 0; shift += kDigit)
   {
-    std::fill (count.begin (), count.end (), 0);
-    const std::uint64_t mask = (std::uint64_t (1) << kDigit) - 1;
-    for (int i = 0; i < n; ++i)
-      ++count[(keys[i] >> shift) & mask];
-    int sum = 0;
-    for (auto& c : count)
+    const std::uint64_t mask = kDigits - 1;
+#pragma omp parallel num_threads(threads)
     {
-      const int t = c;
-      c = sum;
-      sum += t;
-    }
-    for (int i = 0; i < n; ++i)
-    {
-      const int to = count[(keys[i] >> shift) & mask]++;
-      keys2[to] = keys[i];
-      order2[to] = order[i];
+      const int t = omp_get_thread_num (), nt = omp_get_num_threads ();
+      const int begin = static_cast<int> (static_cast<std::int64_t> (n) * t / nt);
+      const int end = static_cast<int> (static_cast<std::int64_t> (n) * (t + 1) / nt);
+      int* const mine = count.data () + static_cast<std::size_t> (t) * kDigits;
+      std::fill (mine, mine + kDigits, 0);
+      for (int i = begin; i < end; ++i)
+        ++mine[(keys[i] >> shift) & mask];
+#pragma omp barrier
+#pragma omp single
+      {
+        int sum = 0;
+        for (int d = 0; d < kDigits; ++d)
+          for (int u = 0; u < nt; ++u)
+          {
+            int& c = count[static_cast<std::size_t> (u) * kDigits + d];
+            const int here = c;
+            c = sum;
+            sum += here;
+          }
+      }
+      for (int i = begin; i < end; ++i)
+      {
+        const int to = mine[(keys[i] >> shift) & mask]++;
+        keys2[to] = keys[i];
+        order2[to] = order[i];
+      }
     }
     keys.swap (keys2);
     order.swap (order2);

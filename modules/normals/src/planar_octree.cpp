@@ -70,17 +70,18 @@ fitSurface (std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c, double 
   const int n = static_cast<int> (pts.size ());
   if (n < 3)
     return false;
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero ();
-  for (const auto& q : pts)
-    mean += (q - c).cast<double> ();
-  mean /= n;
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero ();
+  // One pass of sums shifted by c (the support's centre, so nothing cancels), as PCL's
+  // computeMeanAndCovarianceMatrix does (was two passes: the mean, then the covariance).
+  Eigen::Vector3d s1 = Eigen::Vector3d::Zero ();
+  Eigen::Matrix3d s2 = Eigen::Matrix3d::Zero ();
   for (const auto& q : pts)
   {
-    const Eigen::Vector3d d = (q - c).cast<double> () - mean;
-    cov.noalias () += d * d.transpose ();
+    const Eigen::Vector3d d = (q - c).cast<double> ();
+    s1 += d;
+    s2.noalias () += d * d.transpose ();
   }
-  const PlanePca p = planePca (cov / n);
+  const Eigen::Vector3d mean = s1 / n;
+  const PlanePca p = planePca (s2 / n - mean * mean.transpose ());
   if (spansNoPlane (p.lambda))
     return false;
   if (trim)
@@ -149,7 +150,14 @@ fitSurface (std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c, double 
     Eigen::Matrix<double, 6, 6> reg = ata;
     for (int i = 0; i < 3; ++i)
       reg (i, i) += 1e-3 * n;  // a small ridge keeps strip-like supports from over-bending
-    const Eigen::Matrix<double, 6, 1> cv = reg.ldlt ().solve (ath);
+    // The ridge makes reg positive definite unless the in-plane spread is degenerate:
+    // Cholesky without LDLT's pivoting, LDLT only where Cholesky fails.
+    Eigen::Matrix<double, 6, 1> cv;
+    const Eigen::LLT<Eigen::Matrix<double, 6, 6>> llt (reg);
+    if (llt.info () == Eigen::Success)
+      cv = llt.solve (ath);
+    else
+      cv = reg.ldlt ().solve (ath);
     if (!cv.allFinite ())
       return false;
     for (int i = 0; i < 6; ++i)
@@ -307,17 +315,36 @@ PlanarOctree::build (const std::vector<Eigen::Vector3f>& points, const PlanarOct
   leaf_slot_.clear ();
   const int n = static_cast<int> (points.size ());
   order_.resize (n);
-  std::iota (order_.begin (), order_.end (), 0);
-  sorted_ = points;
-  leaf_of_point_.assign (n, -1);
+  sorted_.resize (n);
+  leaf_of_point_.resize (n);
   if (n < 3)
-    return false;
-
-  Eigen::Vector3f lo = points[0], hi = points[0];
-  for (const auto& p : points)
   {
-    lo = lo.cwiseMin (p);
-    hi = hi.cwiseMax (p);
+    std::iota (order_.begin (), order_.end (), 0);
+    sorted_ = points;
+    std::fill (leaf_of_point_.begin (), leaf_of_point_.end (), -1);
+    return false;
+  }
+
+  // The copies and the bounds in parallel: a serial stretch keeps the other thread
+  // spinning in OpenMP's wait (CPU time) and, on a shared machine, off the core.
+  Eigen::Vector3f lo = points[0], hi = points[0];
+#pragma omp parallel num_threads(threadCount (threads_))
+  {
+    Eigen::Vector3f l = lo, h = hi;
+#pragma omp for schedule(static) nowait
+    for (int i = 0; i < n; ++i)
+    {
+      order_[i] = i;
+      sorted_[i] = points[i];
+      leaf_of_point_[i] = -1;
+      l = l.cwiseMin (points[i]);
+      h = h.cwiseMax (points[i]);
+    }
+#pragma omp critical
+    {
+      lo = lo.cwiseMin (l);
+      hi = hi.cwiseMax (h);
+    }
   }
   origin_ = ((lo + hi) / 2).cast<double> ();
   OctreeNode root;

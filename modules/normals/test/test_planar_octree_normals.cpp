@@ -773,6 +773,48 @@ TEST (GridKnn, MatchesBruteForce)
   EXPECT_EQ (empty.nearestK (Eigen::Vector3f::Zero (), 5, ids, d2, scratch), 0);
 }
 
+// The grid's radix sort and the octree's bounds and copies run in parallel: any thread
+// count must give the serial order (the answers' order and the cells' ranges depend on it).
+TEST (GridKnn, ThreadCountDoesNotChangeTheOrder)
+{
+  std::mt19937 rng (11);
+  std::normal_distribution<float> g (0.f, 1.f);
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 30000; ++i)
+    pts.push_back (Eigen::Vector3f (g (rng), g (rng), 0.3f * g (rng)).normalized () * (1.f + 0.01f * g (rng)));
+  pclx::normals::GridKnn serial, parallel;
+  serial.build (pts, 24, 1);
+  std::vector<int> ids1, ids3;
+  std::vector<float> d1, d3;
+  std::vector<std::uint64_t> scratch;
+  std::vector<Eigen::Vector3f> pos1, pos3;
+  for (int threads : {2, 3, 7})
+  {
+    parallel.build (pts, 24, threads);
+    for (int t = 0; t < 100; ++t)
+    {
+      const Eigen::Vector3f q = pts[(t * 7919) % pts.size ()];
+      ASSERT_EQ (serial.nearestK (q, 66, ids1, d1, scratch, &pos1), 66);
+      ASSERT_EQ (parallel.nearestK (q, 66, ids3, d3, scratch, &pos3), 66);
+      EXPECT_EQ (ids1, ids3) << threads << " threads";
+      EXPECT_EQ (d1, d3);
+      EXPECT_EQ (pos1, pos3);
+    }
+  }
+  pclx::normals::PlanarOctreeParams params;
+  pclx::normals::PlanarOctree a, b;
+  params.threads = 1;
+  a.build (pts, params);
+  params.threads = 3;
+  b.build (pts, params);
+  EXPECT_EQ (a.order (), b.order ());
+  EXPECT_EQ (a.leafOfPoint (), b.leafOfPoint ());
+  EXPECT_EQ (a.origin (), b.origin ());
+  ASSERT_EQ (a.nodes ().size (), b.nodes ().size ());
+  EXPECT_EQ (a.nodes ()[0].center, b.nodes ()[0].center);
+  EXPECT_EQ (a.nodes ()[0].half, b.nodes ()[0].half);
+}
+
 // The kNN selections order distanceSlotKey integers: the same order as (distance, slot)
 // pairs, ties (and zero distances) included, and both halves read back exactly.
 TEST (GridKnn, DistanceSlotKeysOrderLikePairs)

@@ -450,6 +450,8 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       }
     sorted.clear ();
     nn.clear ();
+    // One allocation per orphan's Hoppe set, not one per doubling.
+    nn.reserve (std::min<std::size_t> (this->getKSearch (), by_distance.size ()));
     for (const auto key : by_distance)
     {
       const auto slot = pclx::normals::slotOfKey (key);
