@@ -38,10 +38,10 @@ def read(paths, time="wall"):
                         row[rec[k]] = float(rec[k + 1])
                     except ValueError:
                         row[rec[k]] = rec[k + 1]
+                row["wall_seconds"] = row["seconds"]
                 if time == "cpu":
                     if "cpu_seconds" not in row:
                         continue
-                    row["wall_seconds"] = row["seconds"]
                     row["seconds"] = row["cpu_seconds"]
                 rows.append(row)
     # Open3D's best R per case is recomputed over every open3d_exact row of every file (a
@@ -68,6 +68,9 @@ def main():
     ap.add_argument("--ours", default="pclx_auto", help="method row to compare (default: pclx_auto)")
     ap.add_argument("--note", default="", help="a line about the run (machine load, date)")
     ap.add_argument("--time", choices=["wall", "cpu"], default="wall", help="seconds compared (default: wall)")
+    ap.add_argument("--threads-table", action="store_true",
+                    help="also a wall-time table: the default at 1 and 2 forced threads (pclx_auto_t1 / _t2 rows, "
+                         "bench_hpr --wide-lean --dev-threads 1 2) against Open3D's wall time at its best R")
     args = ap.parse_args()
     rows = read(args.csv, args.time)
     if not rows:
@@ -135,6 +138,22 @@ def main():
                 speed_ok += bool(b) and b[-1]["seconds"] / o[-1]["seconds"] >= TARGET_SPEEDUP
         lines.append(f"- {fmt_n(n)}: F1 >= {TARGET_F1} on {f1_ok} of {len(sel)} views, >= {TARGET_SPEEDUP:.0f}x on "
                      f"{speed_ok} of {len(sel)}.")
+    if args.threads_table:
+        lines += ["", "Wall time (seconds column of the CSVs; Open3D at the R of the table above), the default at forced "
+                  "thread counts and at the automatic count:", "",
+                  "| shape | view | n | Open3D wall s | ours 1 thread s | ours 2 threads s | ours auto s (threads) | "
+                  "speed-up 1 / 2 threads / auto | 2 threads vs 1 |", "|---|---|---|---|---|---|---|---|---|"]
+        for shape, view, n in keys:
+            sel = [r for r in rows if r["input"] == shape and int(r["params"].get("view", 0)) == view and
+                   r["points"] == n]
+            get = lambda m: ([r for r in sel if r["method"] == m] or [None])[-1]  # noqa: E731
+            b, t1, t2, a = get("open3d_exact_bestR"), get("pclx_auto_t1"), get("pclx_auto_t2"), get("pclx_auto")
+            if not (b and t1 and t2 and a):
+                continue
+            w = lambda r: r["wall_seconds"]  # noqa: E731
+            lines.append(f"| {shape} | {view} | {fmt_n(n)} | {w(b):.3g} | {w(t1):.3g} | {w(t2):.3g} | "
+                         f"{w(a):.3g} ({int(a.get('threads_used', 0))}) | {w(b) / w(t1):.1f}x / {w(b) / w(t2):.1f}x / "
+                         f"{w(b) / w(a):.1f}x | {w(t2) / w(t1):.2f} |")
     text = "\n".join(lines) + "\n"
     print(text, end="")
     if args.out:
