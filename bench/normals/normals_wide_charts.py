@@ -198,7 +198,7 @@ def speed(rows, out):
         axes[1][j].set_xscale("log")
         axes[0][j].set_title(f"{shape}: time (PCL / ours ratio written)", fontsize=10)
         axes[1][j].set_title(f"{shape}: RMS angle error", fontsize=10)
-        axes[0][j].set_ylabel("seconds (best of 2, 2 threads)")
+        axes[0][j].set_ylabel(f"wall seconds (best of {int(sp[0].get('repeats', 2))}, 2 threads)")
         axes[1][j].set_ylabel("RMS (deg)")
         for ax in (axes[0][j], axes[1][j]):
             ax.set_xlabel("points")
