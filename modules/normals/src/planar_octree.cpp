@@ -743,8 +743,6 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
       near.assign (bucket_start.begin (), bucket_start.end () - 1);  // fill positions
       for (std::size_t i = 0; i < local.size (); ++i)
         bucket_points[near[bucket_of[i]]++] = static_cast<int> (i);
-      // In-plane half extent of an axis-aligned box of half edge 1.
-      const float s1 = e1.cwiseAbs ().sum (), s2 = e2.cwiseAbs ().sum ();
 
       for (const PatchCell& C : tree)
       {
@@ -767,8 +765,10 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
           {
             const Eigen::Vector3f d = centre - L.center;
             const float u = d.dot (e1), v = d.dot (e2);
-            const int u0 = bucket (u - half * s1), u1 = bucket (u + half * s1);
-            const int v0 = bucket (v - half * s2), v1 = bucket (v + half * s2);
+            // A point within `half` of the centre is within `half` of it along e1 and e2
+            // (unit vectors), so these buckets hold the whole ball, in the same order.
+            const int u0 = bucket (u - half), u1 = bucket (u + half);
+            const int v0 = bucket (v - half), v1 = bucket (v + half);
             for (int bu = u0; bu <= u1; ++bu)
               for (int b = bu * D + v0; b <= bu * D + v1; ++b)
                 for (int k = bucket_start[b]; k < bucket_start[b + 1]; ++k)
