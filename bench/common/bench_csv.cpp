@@ -2,6 +2,7 @@
 
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
@@ -54,6 +55,14 @@ sharedDataDir ()
       return fs::canonical (c).string ();
   std::cerr << "[bench] ../shared/data not found (set PCLX_DATA_DIR): using generated scenes only\n";
   return std::nullopt;
+}
+
+double
+processCpuSeconds ()
+{
+  timespec ts{};
+  clock_gettime (CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double (ts.tv_sec) + 1e-9 * double (ts.tv_nsec);
 }
 
 double

@@ -3,6 +3,7 @@
 //   module,method,params,input,points,seconds,metric,value[,metric2,value2...]
 // Peers (Open3D, PCL) are just other `method`s in the same run, so ratios are
 // measured on the same machine at the same time.
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <functional>
@@ -41,6 +42,26 @@ timeBest (Fn&& fn, int repeats = 1)
     best = std::min (best, std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count ());
   }
   return best;
+}
+
+// CPU seconds of the whole process (every thread) so far: on a shared machine a call's wall
+// time grows with the other processes' load, its CPU time much less.
+double processCpuSeconds ();
+
+// Wall and process CPU seconds of fn (), each the best of `repeats` calls.
+template <typename Fn> std::pair<double, double>
+timeBestWallCpu (Fn&& fn, int repeats = 1)
+{
+  double wall = 1e300, cpu = 1e300;
+  for (int r = 0; r < repeats; ++r)
+  {
+    const double c0 = processCpuSeconds ();
+    const auto t0 = std::chrono::steady_clock::now ();
+    fn ();
+    wall = std::min (wall, std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count ());
+    cpu = std::min (cpu, processCpuSeconds () - c0);
+  }
+  return {wall, cpu};
 }
 
 // ../shared/data beside the checkout (or $PCLX_DATA_DIR); prints to stderr when absent

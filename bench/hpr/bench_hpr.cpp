@@ -24,7 +24,6 @@
 #include <functional>
 #include <iomanip>
 #include <limits>
-#include <ctime>
 #include <sstream>
 
 #include <sys/wait.h>
@@ -33,6 +32,7 @@
 using namespace pclx::testing;
 using pclx::bench::CsvWriter;
 using pclx::bench::Metrics;
+using pclx::bench::processCpuSeconds;
 using pclx::bench::timeBest;
 using Filter = pcl::HPRFilter<pcl::PointXYZ>;
 
@@ -110,17 +110,6 @@ public:
 private:
   pid_t pid_ = -1;
 };
-
-// CPU seconds of the whole process (every thread): on a shared machine the wall time of a
-// single-threaded call grows with the other processes' load, its CPU time much less; both
-// are written (seconds = wall, cpu_seconds = CPU), each the best over the repeats.
-double
-processCpuSeconds ()
-{
-  timespec ts;
-  clock_gettime (CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return double (ts.tv_sec) + 1e-9 * double (ts.tv_nsec);
-}
 
 // Mean wall time of `repeats` runs (best-of would hide the stalls a loaded machine causes).
 template <typename Fn>

@@ -37,7 +37,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <ctime>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -210,30 +209,6 @@ struct Result
   Metrics m;
   double cpu_seconds = 0;  // process CPU time (all threads), best of the repeats
 };
-
-double
-processCpuSeconds ()
-{
-  timespec t{};
-  clock_gettime (CLOCK_PROCESS_CPUTIME_ID, &t);
-  return double (t.tv_sec) + 1e-9 * double (t.tv_nsec);
-}
-
-// Wall and process CPU seconds of fn (), each the best of `repeats` calls (timeBest only has wall).
-template <typename Fn> std::pair<double, double>
-timeBestWallCpu (Fn&& fn, int repeats)
-{
-  double wall = 1e300, cpu = 1e300;
-  for (int r = 0; r < repeats; ++r)
-  {
-    const double c0 = processCpuSeconds ();
-    const auto t0 = std::chrono::steady_clock::now ();
-    fn ();
-    wall = std::min (wall, std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count ());
-    cpu = std::min (cpu, processCpuSeconds () - c0);
-  }
-  return {wall, cpu};
-}
 
 class WideRun
 {
