@@ -287,6 +287,10 @@ main (int argc, char** argv)
   app.add_option ("--dev-depths", dev_depths,
                   "with --wide-dev: the candidate hull at these occlusion depths (R is linear in it)");
   app.add_option ("--dev-passes", dev_passes, "with --wide-dev: ... and these refinement passes");
+  bool dev_exact = false;
+  app.add_flag ("--dev-exact", dev_exact,
+                "with --wide-dev or --fp-depth: also the exact operator at the default's own R (what refinement "
+                "converges to)");
   app.add_flag ("--load-rows", load_rows,
                 "only the loaded-machine rows (1, 2, auto threads; with and without a busy child process)");
   CLI11_PARSE (app, argc, argv);
@@ -446,6 +450,13 @@ main (int argc, char** argv)
             Filter f;
             f.setNumberOfThreads (1);
             histogram ("pclx_auto", run.ours (c, "fp_depth", "pclx_auto", f, ""));
+            if (dev_exact)
+            {
+              Filter e;
+              e.setMethod (Filter::Method::EXACT);
+              e.setRadius (f.getRadiusUsed ());
+              histogram ("pclx_exact_atR", run.ours (c, "fp_depth", "pclx_exact_atR", e, ""));
+            }
 #ifdef PCLX_HAVE_OPEN3D
             if (!no_open3d)
             {
@@ -463,8 +474,17 @@ main (int argc, char** argv)
           if (!no_open3d && !wide_dev)
             run.open3dBest (c, "wide", wide_radii, "", true);
 #endif
-          if (wide_dev && (!dev_threads.empty () || !dev_depths.empty ()))
+          if (wide_dev && (!dev_threads.empty () || !dev_depths.empty () || dev_exact))
           {
+            if (dev_exact)
+            {
+              Filter d, e;
+              d.setNumberOfThreads (1);
+              run.ours (c, "wide_dev", "pclx_auto_t1", d, ";threads=1");
+              e.setMethod (Filter::Method::EXACT);
+              e.setRadius (d.getRadiusUsed ());
+              run.ours (c, "wide_dev", "pclx_exact_atR", e, "");
+            }
             // Development rows: the default at forced thread counts (profiling), or the
             // candidate hull over occlusion depth x refinement passes (the R rule).
             for (int t : dev_threads)

@@ -143,6 +143,30 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   const double range_b = std::max (double (b_max) - b_min, 0.0) + 2 * pad;
   // A cell size set by setCellSize () wins unless it would need more than `sectors` cells.
   const double cell = std::max (fixed_cell_, std::sqrt (range_a * range_b / double (sectors)));
+  // Sector centres and their angles for the current n_phi_, n_theta_, phi0_, theta0_.
+  auto layout = [this] {
+    cell_ = std::sqrt (cell_phi_ * cell_theta_);
+    centre_a_.resize (n_phi_);
+    for (int i = 0; i < n_phi_; ++i)
+      centre_a_[i] = phi0_ + (i + 0.5) * cell_phi_;
+    centre_b_.resize (n_theta_);
+    for (int j = 0; j < n_theta_; ++j)
+      centre_b_[j] = theta0_ + (j + 0.5) * cell_theta_;
+    cos_phi_.resize (n_phi_);
+    sin_phi_.resize (n_phi_);
+    for (int i = 0; i < n_phi_; ++i)
+    {
+      cos_phi_[i] = std::cos (centre_a_[i]);
+      sin_phi_[i] = std::sin (centre_a_[i]);
+    }
+    cos_theta_.resize (n_theta_);
+    sin_theta_.resize (n_theta_);
+    for (int j = 0; j < n_theta_; ++j)
+    {
+      cos_theta_[j] = std::cos (centre_b_[j]);
+      sin_theta_[j] = std::sin (centre_b_[j]);
+    }
+  };
   n_phi_ = std::max (1, int (std::ceil (range_a / cell - 1e-9)));
   n_theta_ = std::max (1, int (std::ceil (range_b / cell - 1e-9)));
   phi0_ = wrap_phi_ ? -kPi : a_min - pad;
@@ -151,31 +175,23 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   cell_theta_ = cell;
   // Angular size of a cell (gnomonic cells shrink as 1/(1 + a² + b²) away from the axis;
   // the axis value is what calibration and splats use).
-  cell_ = std::sqrt (cell_phi_ * cell_theta_);
-  const std::size_t k = std::size_t (n_phi_) * n_theta_;
-
-  centre_a_.resize (n_phi_);
-  for (int i = 0; i < n_phi_; ++i)
-    centre_a_[i] = phi0_ + (i + 0.5) * cell_phi_;
-  centre_b_.resize (n_theta_);
-  for (int j = 0; j < n_theta_; ++j)
-    centre_b_[j] = theta0_ + (j + 0.5) * cell_theta_;
-  cos_phi_.resize (n_phi_);
-  sin_phi_.resize (n_phi_);
-  for (int i = 0; i < n_phi_; ++i)
-  {
-    cos_phi_[i] = std::cos (centre_a_[i]);
-    sin_phi_[i] = std::sin (centre_a_[i]);
-  }
-  cos_theta_.resize (n_theta_);
-  sin_theta_.resize (n_theta_);
-  for (int j = 0; j < n_theta_; ++j)
-  {
-    cos_theta_[j] = std::cos (centre_b_[j]);
-    sin_theta_[j] = std::sin (centre_b_[j]);
-  }
-
+  layout ();
+  // R from the cloud's own extent (the outline ring below adds no solid angle of the cloud).
   radius_ = radius_for_area (gridSolidAngle ());
+  if (outline_)
+  {
+    // One more sector on every side (not across the φ wrap): the outline candidates of
+    // fillEmptySectors () go there.
+    if (!wrap_phi_)
+    {
+      n_phi_ += 2;
+      phi0_ -= cell_phi_;
+    }
+    n_theta_ += 2;
+    theta0_ -= cell_theta_;
+    layout ();
+  }
+  const std::size_t k = std::size_t (n_phi_) * n_theta_;
 
   HPR_LAP ("build.layout");
   // §4.2: sector of every point and the extreme (best scored) point per sector.
@@ -235,7 +251,81 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
       const int a = int (s / n_theta_), b = int (s % n_theta_);
       occupied_coarse_[std::size_t (a / empty_factor_) * coarse_theta_ + b / empty_factor_] = 1;
     }
+  if (outline_)
+  {
+    fillEmptySectors ();
+    own_ = cand_;
+  }
+  else
+    own_.clear ();
   HPR_LAP ("build.candidates_empty");
+}
+
+void
+AngularGrid::fillEmptySectors ()
+{
+  const std::size_t k = cand_.size (), n = sector_.size ();
+  const int rows = n_phi_, cols = n_theta_;
+  // The sectors next to one without a point, and each point-less sector next to one with.
+  auto neighbourOf = [&] (int a, int b, int da, int db) -> std::ptrdiff_t {
+    int aa = a + da;
+    const int bb = b + db;
+    if (wrap_phi_)
+      aa = (aa + rows) % rows;
+    if (aa < 0 || aa >= rows || bb < 0 || bb >= cols)
+      return -1;
+    return std::ptrdiff_t (aa) * cols + bb;
+  };
+  std::vector<std::uint8_t> borders (k, 0);
+  std::vector<std::size_t> hollow;
+  for (int a = 0; a < rows; ++a)
+    for (int b = 0; b < cols; ++b)
+    {
+      const std::size_t s = std::size_t (a) * cols + b;
+      if (cand_[s] >= 0)
+        continue;
+      bool next_to_point = false;
+      for (int da = -1; da <= 1; ++da)
+        for (int db = -1; db <= 1; ++db)
+          if (const std::ptrdiff_t t = neighbourOf (a, b, da, db); t >= 0 && cand_[std::size_t (t)] >= 0)
+          {
+            borders[std::size_t (t)] = 1;
+            next_to_point = true;
+          }
+      if (next_to_point)
+        hollow.push_back (s);
+    }
+  if (hollow.empty ())
+    return;
+  std::vector<std::uint64_t> keys (k, std::numeric_limits<std::uint64_t>::max ());
+  const bool one_thread = nt () == 1;
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192)
+  for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (n); ++i)
+  {
+    const std::uint32_t s = sector_[i];
+    if (!borders[s])
+      continue;
+    const int a = int (s / cols), b = int (s % cols);
+    for (int da = -1; da <= 1; ++da)
+      for (int db = -1; db <= 1; ++db)
+      {
+        const std::ptrdiff_t t = neighbourOf (a, b, da, db);
+        if (t < 0 || cand_[std::size_t (t)] >= 0)
+          continue;
+        const std::uint64_t key =
+            packKey (float (scoreDir (int (i), direction (std::size_t (t)))), std::uint32_t (i));
+        if (one_thread)
+          keys[std::size_t (t)] = std::min (keys[std::size_t (t)], key);
+        else
+          atomicMin (keys[std::size_t (t)], key);
+      }
+  }
+  for (std::size_t t : hollow)
+    if (keys[t] != std::numeric_limits<std::uint64_t>::max ())
+    {
+      cand_[t] = int (keys[t] & 0xffffffffu);
+      best_[t] = score (cand_[t], t);
+    }
 }
 
 int
@@ -643,16 +733,24 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   const double R2 = 2.0 * radius_;
   // Direction and flipped position of each sector's candidate, once per sector (each is
   // used by the 16 tetrahedra of up to 9 sectors).
-  std::vector<Eigen::Vector3d> cand_dir (k), cand_flip (k);
-  std::vector<double> cand_rho (k, std::numeric_limits<double>::infinity ());
+  // Slot s: the candidate of sector s; slot k + s: its own best point when propagation
+  // replaced it by a neighbour's (a quad whose corners share a candidate has no tetrahedron;
+  // its own point, any point of the cloud, still spans one).
+  std::vector<Eigen::Vector3d> cand_dir (2 * k), cand_flip (2 * k);
+  std::vector<double> cand_rho (2 * k, std::numeric_limits<double>::infinity ());
+  const bool with_own = own_.size () == k;
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 1024)
   for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
-    if (cand_[s] >= 0)
+    for (int slot = 0; slot < 2; ++slot)
     {
-      const Eigen::Vector3d& p = points[cand_[s]];
-      cand_rho[s] = p.norm ();
-      cand_dir[s] = p / cand_rho[s];
-      cand_flip[s] = p * (R2 / cand_rho[s] - 1.0);
+      const int c = slot == 0 ? cand_[s] : with_own && own_[s] != cand_[s] ? own_[s] : -1;
+      if (c < 0)
+        continue;
+      const std::size_t v = std::size_t (s) + (slot ? k : 0);
+      const Eigen::Vector3d& p = points[c];
+      cand_rho[v] = p.norm ();
+      cand_dir[v] = p / cand_rho[v];
+      cand_flip[v] = p * (R2 / cand_rho[v] - 1.0);
     }
   HPR_LAP ("interior.cand_flip");
   // Tetrahedron (C, a, b, c) in flipped space: q is strictly inside when it is strictly
@@ -683,13 +781,29 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     }
     if (a0 < 0 || a1 >= n_phi_ || b0 < 0 || b1 >= n_theta_)
       return;
-    const std::size_t sc[4] = {std::size_t (a0) * n_theta_ + b0, std::size_t (a0) * n_theta_ + b1,
-                               std::size_t (a1) * n_theta_ + b1, std::size_t (a1) * n_theta_ + b0};
+    std::size_t sc[4] = {std::size_t (a0) * n_theta_ + b0, std::size_t (a0) * n_theta_ + b1,
+                         std::size_t (a1) * n_theta_ + b1, std::size_t (a1) * n_theta_ + b0};
+    int id[4] = {cand_[sc[0]], cand_[sc[1]], cand_[sc[2]], cand_[sc[3]]};
+    // A corner that repeats another's candidate takes its sector's own point (slot k + s).
+    if (with_own)
+      for (int i = 1; i < 4; ++i)
+        for (int j = 0; j < i; ++j)
+          if (id[i] >= 0 && id[i] == id[j])
+          {
+            // sc[m] < k: not replaced yet; own_ differs from cand_ only where propagation moved it.
+            auto swappable = [&] (int m) { return sc[m] < k && own_[sc[m]] >= 0 && own_[sc[m]] != cand_[sc[m]]; };
+            const int m = swappable (i) ? i : swappable (j) ? j : -1;
+            if (m >= 0)
+            {
+              id[m] = own_[sc[m]];
+              sc[m] += k;
+            }
+          }
     for (int ti = 0; ti < 4; ++ti)
     {
       const int* t = tri[ti];
       const std::size_t sa = sc[t[0]], sb = sc[t[1]], sc2 = sc[t[2]];
-      const int ia = cand_[sa], ib = cand_[sb], ic = cand_[sc2];
+      const int ia = id[t[0]], ib = id[t[1]], ic = id[t[2]];
       if (ia < 0 || ib < 0 || ic < 0 || ia == ib || ib == ic || ia == ic)
         continue;
       const Eigen::Vector3d &ua = cand_dir[sa], &ub = cand_dir[sb], &uc = cand_dir[sc2];

@@ -504,6 +504,7 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
   case VisibilityMethod::CANDIDATE_HULL:
   {
     const int cull_steps = opt.steps > 0 ? steps : 4;
+    grid.setOutlineCandidates (true);
     if (opt.radius > 0)
       grid.build (pts, centre, R, k_cull);
     else
@@ -564,6 +565,7 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
       const std::size_t kp = std::min ({k_cull << pass, kMaxSectors, 64 * alive.size ()});
       AngularGrid fine;
       fine.setThreads (threads);
+      fine.setOutlineCandidates (true);
       fine.setCellSize (cell0 / std::pow (std::sqrt (2.0), pass));
       fine.build (alive_pts, centre, R, kp);
       HPR_LAP ("build");

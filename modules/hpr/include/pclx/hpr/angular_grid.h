@@ -77,6 +77,18 @@ public:
   // the subset's smaller extent; k then only caps the number of cells.
   void setCellSize (double cell) { fixed_cell_ = cell; }
 
+  // Outline candidates for the culling tests (candidate hull): the grid gets one more sector
+  // on every side, every sector without a point of its own that borders one with points
+  // takes the point of its 3×3 neighbourhood that scores best towards it, and a quad whose
+  // corners share a propagated candidate uses the corners' own best points. Without them, a
+  // sector's tetrahedra reached only as far out as its neighbours' candidates, and a quad
+  // with a repeated candidate had none: beside silhouettes, in the cloud's outline and where
+  // propagation spread one candidate over several sectors, hidden points deep behind the
+  // surface were never tested. Any point is a valid tetrahedron vertex (the culling stays
+  // inside the hull of all points, so it stays conservative). R is unchanged (the ring is
+  // not counted in the grid's solid angle).
+  void setOutlineCandidates (bool on) { outline_ = on; }
+
   // OpenMP threads for every pass (0: omp_get_max_threads ()).
   void setThreads (int threads) { threads_ = threads; }
 
@@ -102,7 +114,8 @@ private:
   double score (int point, std::size_t sector) const;
   double scoreDir (int point, const Eigen::Vector3d& sector_direction) const;  // the same, direction given
   Eigen::Vector3d direction (std::size_t sector) const;
-  bool isEmpty (std::size_t sector) const;  // EMPTY map: outside the object's projection
+  bool isEmpty (std::size_t sector) const;
+  void fillEmptySectors ();  // see setOutlineCandidates ()  // EMPTY map: outside the object's projection
   void neighbours (std::size_t s, int radius, std::vector<std::size_t>& out) const;
 
   std::vector<Eigen::Vector3f> unit_;  // per point: direction from C, in frame coordinates
@@ -121,6 +134,8 @@ private:
   std::vector<double> best_;   // per sector: score of the candidate
   int threads_ = 0;
   double fixed_cell_ = 0;
+  bool outline_ = false;
+  std::vector<int> own_;       // with outline_: per sector its own best point, before propagation
   int nt () const;
   int empty_factor_ = 1;       // EMPTY is kept on a grid coarser by this factor per axis
   int coarse_theta_ = 0;
