@@ -266,7 +266,6 @@ AngularGrid::fillEmptySectors ()
 {
   const std::size_t k = cand_.size (), n = sector_.size ();
   const int rows = n_phi_, cols = n_theta_;
-  // The sectors next to one without a point, and each point-less sector next to one with.
   auto neighbourOf = [&] (int a, int b, int da, int db) -> std::ptrdiff_t {
     int aa = a + da;
     const int bb = b + db;
@@ -276,8 +275,12 @@ AngularGrid::fillEmptySectors ()
       return -1;
     return std::ptrdiff_t (aa) * cols + bb;
   };
+  // Point-less sectors next to one with points ("hollow", numbered), their directions, and
+  // the sectors next to them (whose points are scored towards them).
   std::vector<std::uint8_t> borders (k, 0);
+  std::vector<std::int32_t> hollow_of (k, -1);
   std::vector<std::size_t> hollow;
+  std::vector<Eigen::Vector3f> hollow_dir;
   for (int a = 0; a < rows; ++a)
     for (int b = 0; b < cols; ++b)
     {
@@ -293,11 +296,17 @@ AngularGrid::fillEmptySectors ()
             next_to_point = true;
           }
       if (next_to_point)
+      {
+        hollow_of[s] = std::int32_t (hollow.size ());
         hollow.push_back (s);
+        hollow_dir.push_back (direction (s).cast<float> ());
+      }
     }
   if (hollow.empty ())
     return;
-  std::vector<std::uint64_t> keys (k, std::numeric_limits<std::uint64_t>::max ());
+  // The score of build()'s assignment pass (float, depth term relative to ρ_min).
+  std::vector<std::uint64_t> keys (hollow.size (), std::numeric_limits<std::uint64_t>::max ());
+  const double inv_2r = 1.0 / (2.0 * radius_);
   const bool one_thread = nt () == 1;
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192)
   for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (n); ++i)
@@ -306,25 +315,27 @@ AngularGrid::fillEmptySectors ()
     if (!borders[s])
       continue;
     const int a = int (s / cols), b = int (s % cols);
+    const float depth = float ((rho_[i] - rho0_) * inv_2r), near = float (1.0 - rho_[i] * inv_2r);
     for (int da = -1; da <= 1; ++da)
       for (int db = -1; db <= 1; ++db)
       {
         const std::ptrdiff_t t = neighbourOf (a, b, da, db);
-        if (t < 0 || cand_[std::size_t (t)] >= 0)
+        const std::int32_t h = t < 0 ? -1 : hollow_of[std::size_t (t)];
+        if (h < 0)
           continue;
-        const std::uint64_t key =
-            packKey (float (scoreDir (int (i), direction (std::size_t (t)))), std::uint32_t (i));
+        const float g = 0.5f * (unit_[i] - hollow_dir[std::size_t (h)]).squaredNorm () * near + depth;
+        const std::uint64_t key = packKey (g, std::uint32_t (i));
         if (one_thread)
-          keys[std::size_t (t)] = std::min (keys[std::size_t (t)], key);
+          keys[std::size_t (h)] = std::min (keys[std::size_t (h)], key);
         else
-          atomicMin (keys[std::size_t (t)], key);
+          atomicMin (keys[std::size_t (h)], key);
       }
   }
-  for (std::size_t t : hollow)
-    if (keys[t] != std::numeric_limits<std::uint64_t>::max ())
+  for (std::size_t h = 0; h < hollow.size (); ++h)
+    if (keys[h] != std::numeric_limits<std::uint64_t>::max ())
     {
-      cand_[t] = int (keys[t] & 0xffffffffu);
-      best_[t] = score (cand_[t], t);
+      cand_[hollow[h]] = int (keys[h] & 0xffffffffu);
+      best_[hollow[h]] = score (cand_[hollow[h]], hollow[h]);
     }
 }
 
