@@ -697,7 +697,7 @@ AngularGrid::normalsAndSplats (const std::vector<Eigen::Vector3d>& points, std::
 std::vector<std::uint8_t>
 AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::vector<int>* survivors,
                              std::vector<Eigen::Vector3d>* survivor_points,
-                             std::vector<std::uint8_t>* survivor_in_band) const
+                             std::vector<std::uint8_t>* survivor_in_band, std::vector<int>* outside_band) const
 {
   HPR_LAPS ();
   const std::size_t n = unit_.size (), k = cand_.size ();
@@ -946,12 +946,15 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   // without candidate (a silhouette, the grid's edge). Elsewhere every point had only
   // front-surface points around it, and a finer pass culls (nearly) nothing there.
   std::vector<std::uint8_t> band;
-  if (survivors && survivor_in_band)
+  // Sector of the r-th point in row order, without a random read of sector_.
+  auto sectorSorted = [&] (int row, std::uint32_t r) { return std::size_t (row) * cols + col_sorted[r]; };
+  if (survivors && (survivor_in_band || outside_band))
   {
     std::vector<std::uint8_t> seed (k, 0);
-    for (std::size_t r = 0; r < n; ++r)
-      if (inside_sorted[r])
-        seed[sector_[order[r]]] = 1;
+    for (int row = 0; row < n_phi_; ++row)
+      for (std::uint32_t r = start[row]; r < start[row + 1]; ++r)
+        if (inside_sorted[r])
+          seed[sectorSorted (row, r)] = 1;
     for (std::size_t s = 0; s < k; ++s)
       if (cand_[s] < 0)
         seed[s] = 1;
@@ -981,23 +984,43 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     // The caller reads the survivors; the per-point mask (a random scatter) is left empty.
     // Sized exactly first: growing from a guess re-copied up to 24 MB at 1M points.
     interior.clear ();
-    const std::size_t kept = n - std::size_t (std::count (inside_sorted.begin (), inside_sorted.end (), 1));
-    survivors->resize (kept);
+    // With `outside_band`, survivors outside the band go there and the others (the band) to
+    // `survivors`: the caller marks the first visible and refines the second, without a
+    // second pass that splits them.
+    std::size_t kept = 0, kept_band = 0;
+    for (int row = 0; row < n_phi_; ++row)
+      for (std::uint32_t r = start[row]; r < start[row + 1]; ++r)
+        if (!inside_sorted[r])
+        {
+          ++kept;
+          kept_band += outside_band && band[sectorSorted (row, r)];
+        }
+    const std::size_t to_survivors = outside_band ? kept_band : kept;
+    survivors->resize (to_survivors);
     if (survivor_points)
-      survivor_points->resize (kept);
+      survivor_points->resize (to_survivors);
     if (survivor_in_band)
-      survivor_in_band->resize (kept);
-    std::size_t j = 0;
-    for (std::size_t r = 0; r < n; ++r)
-      if (!inside_sorted[r])
-      {
-        (*survivors)[j] = int (order[r]);
-        if (survivor_points)
-          (*survivor_points)[j] = sorted[r];
-        if (survivor_in_band)
-          (*survivor_in_band)[j] = band[sector_[order[r]]];
-        ++j;
-      }
+      survivor_in_band->resize (to_survivors);
+    if (outside_band)
+      outside_band->resize (kept - kept_band);
+    std::size_t j = 0, o = 0;
+    for (int row = 0; row < n_phi_; ++row)
+      for (std::uint32_t r = start[row]; r < start[row + 1]; ++r)
+        if (!inside_sorted[r])
+        {
+          const bool in_band = !band.empty () && band[sectorSorted (row, r)];
+          if (outside_band && !in_band)
+          {
+            (*outside_band)[o++] = int (order[r]);
+            continue;
+          }
+          (*survivors)[j] = int (order[r]);
+          if (survivor_points)
+            (*survivor_points)[j] = sorted[r];
+          if (survivor_in_band)
+            (*survivor_in_band)[j] = in_band;
+          ++j;
+        }
   }
   else
     for (std::size_t r = 0; r < n; ++r)

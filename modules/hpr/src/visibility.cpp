@@ -535,8 +535,10 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     HPR_LAP ("propagate");
     std::vector<int> alive;
     std::vector<Eigen::Vector3d> alive_pts;
-    std::vector<std::uint8_t> in_band;
-    grid.interiorPoints (pts, &alive, &alive_pts, opt.refinement > 0 ? &in_band : nullptr);
+    std::vector<int> settled;  // survivors outside the uncertain band: visible
+    grid.interiorPoints (pts, &alive, &alive_pts, nullptr, opt.refinement > 0 ? &settled : nullptr);
+    for (int i : settled)
+      sub.visible[i] = 1;
     HPR_LAP ("interior");
     res.sectors = grid.sectorCount ();
     res.steps = cull_steps;
@@ -550,26 +552,11 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     // points only, and the band's finer grid keeps the cell it would have had over all
     // survivors. Survivors come in the previous grid's sector order, nearly the finer one's.
     const double cell0 = grid.cellAngle ();
-    std::vector<int> next, band;
-    std::vector<Eigen::Vector3d> next_pts, band_pts;
+    std::vector<int> next;
+    std::vector<Eigen::Vector3d> next_pts;
     for (int pass = 1; pass <= opt.refinement && alive.size () >= 4; ++pass)
     {
       HPR_PASS (pass);
-      band.clear ();
-      band_pts.clear ();
-      for (std::size_t j = 0; j < alive.size (); ++j)
-        if (in_band[j])
-        {
-          band.push_back (alive[j]);
-          band_pts.push_back (alive_pts[j]);
-        }
-        else
-          sub.visible[alive[j]] = 1;
-      alive.swap (band);
-      alive_pts.swap (band_pts);
-      HPR_LAP ("band");
-      if (alive.size () < 4)
-        break;
       const std::size_t kp = std::min ({k_cull << pass, kMaxSectors, 64 * alive.size ()});
       AngularGrid fine;
       fine.setThreads (threads);
@@ -580,10 +567,13 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
       // One step: the survivors are dense where it matters (F1 equal to 4 steps on the bench).
       fine.propagateAdaptive (1);
       HPR_LAP ("propagate");
-      fine.interiorPoints (alive_pts, &next, &next_pts, pass < opt.refinement ? &in_band : nullptr);
+      fine.interiorPoints (alive_pts, &next, &next_pts, nullptr, pass < opt.refinement ? &settled : nullptr);
       HPR_LAP ("interior");
       for (int& j : next)
         j = alive[j];
+      if (pass < opt.refinement)
+        for (int j : settled)
+          sub.visible[alive[j]] = 1;
       alive.swap (next);
       alive_pts.swap (next_pts);
       HPR_LAP ("remap");

@@ -57,11 +57,14 @@ public:
   // them then reads memory nearly in order. The returned mask is then empty.
   // `survivor_in_band` (with `survivors`) flags, per survivor, whether its sector is within
   // one sector of a culled point or of a sector without candidate (silhouettes, the grid's
-  // edge): the uncertain band where a finer pass can still cull something.
+  // edge): the uncertain band where a finer pass can still cull something. With
+  // `outside_band` (and `survivors`), the survivors outside the band go there, and
+  // `survivors` (with `survivor_points`, `survivor_in_band`) holds the band only.
   std::vector<std::uint8_t> interiorPoints (const std::vector<Eigen::Vector3d>& points,
                                             std::vector<int>* survivors = nullptr,
                                             std::vector<Eigen::Vector3d>* survivor_points = nullptr,
-                                            std::vector<std::uint8_t>* survivor_in_band = nullptr) const;
+                                            std::vector<std::uint8_t>* survivor_in_band = nullptr,
+                                            std::vector<int>* outside_band = nullptr) const;
 
   // Balls-in-bins calibration (§6) on this grid used as the coarse grid.
   struct Calibration
