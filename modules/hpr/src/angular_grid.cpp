@@ -937,7 +937,8 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
           }
         }
       }
-      inside_sorted[r] = inside;
+      // 2: culled within band_depth_ of the nearest candidate around it (seeds the band).
+      inside_sorted[r] = inside ? (band_depth_ > 0 && rho - min_rho > band_depth_ ? 1 : 2) : 0;
     }
   }
   }
@@ -953,7 +954,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     std::vector<std::uint8_t> seed (k, 0);
     for (int row = 0; row < n_phi_; ++row)
       for (std::uint32_t r = start[row]; r < start[row + 1]; ++r)
-        if (inside_sorted[r])
+        if (inside_sorted[r] == 2)
           seed[sectorSorted (row, r)] = 1;
     for (std::size_t s = 0; s < k; ++s)
       if (cand_[s] < 0)
@@ -1024,7 +1025,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   }
   else
     for (std::size_t r = 0; r < n; ++r)
-      interior[order[r]] = inside_sorted[r];
+      interior[order[r]] = inside_sorted[r] != 0;
   HPR_LAP ("interior.output");
   return interior;
 }

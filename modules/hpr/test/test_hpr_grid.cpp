@@ -387,6 +387,67 @@ TEST (AngularGrid, UncertainBandIsAroundCulledPointsAndTheOutline)
   EXPECT_GT (rest, 500u);
 }
 
+// setBandDepth: only culls at most that far behind the nearest candidate seed the band. A front
+// sheet with one small sheet just behind it (0.05) and one far behind (0.5): with a band depth
+// of 0.2 only the shallow one seeds the band; with none (every cull) both do.
+TEST (AngularGrid, BandDepthKeepsDeepCullsOutOfTheBand)
+{
+  std::vector<Eigen::Vector3d> pts;
+  for (int i = 0; i < 60; ++i)
+    for (int j = 0; j < 60; ++j)
+      pts.emplace_back (5.0, (i - 30) * 0.02 + 0.003, (j - 30) * 0.02 + 0.007);
+  const std::size_t front = pts.size ();
+  for (int i = 0; i < 8; ++i)
+    for (int j = 0; j < 8; ++j)
+    {
+      pts.emplace_back (5.05, -0.3 + (i - 4) * 0.02 + 0.011, (j - 4) * 0.02 + 0.013);  // shallow
+      pts.emplace_back (5.5, 0.3 + (i - 4) * 0.02 + 0.011, (j - 4) * 0.02 + 0.013);    // deep
+    }
+  for (const double depth : {0.0, 0.2})
+  {
+    pcl::hpr::AngularGrid g;
+    g.setBandDepth (depth);
+    g.build (pts, Eigen::Vector3d (5.0, 0, 0), 20.0, 400);
+    std::vector<int> survivors, settled;
+    std::vector<Eigen::Vector3d> survivor_points;
+    g.interiorPoints (pts, &survivors, &survivor_points, nullptr, &settled);
+    std::vector<int> band_of (pts.size (), -1);  // 1: in the band, 0: settled
+    for (int i : survivors)
+      band_of[std::size_t (i)] = 1;
+    for (int i : settled)
+      band_of[std::size_t (i)] = 0;
+    std::size_t culled_shallow = 0, culled_deep = 0, near_shallow = 0, near_deep = 0, deep_in_band = 0;
+    for (std::size_t i = 0; i < pts.size (); ++i)
+    {
+      const Eigen::Vector3d& p = pts[i];
+      if (i >= front)
+      {
+        (p.x () < 5.2 ? culled_shallow : culled_deep) += band_of[i] < 0;
+        continue;
+      }
+      // Front points right in front of each hidden sheet's centre.
+      if (std::abs (p.z ()) < 0.04 && std::abs (p.y () + 0.3) < 0.04)
+      {
+        ++near_shallow;
+        EXPECT_EQ (band_of[i], 1) << "depth " << depth << ": " << p.transpose ();
+      }
+      if (std::abs (p.z ()) < 0.04 && std::abs (p.y () - 0.3) < 0.04)
+      {
+        ++near_deep;
+        deep_in_band += band_of[i] == 1;
+      }
+    }
+    EXPECT_GT (culled_shallow, 20u) << depth;
+    EXPECT_GT (culled_deep, 40u) << depth;
+    EXPECT_GT (near_shallow, 10u);
+    EXPECT_GT (near_deep, 10u);
+    if (depth > 0)
+      EXPECT_EQ (deep_in_band, 0u);  // the deep sheet's culls seed nothing
+    else
+      EXPECT_EQ (deep_in_band, near_deep);  // every cull seeds the band
+  }
+}
+
 // setCellSize: a refinement grid over a subset keeps the cell it would have over all points;
 // the sector count then only caps it.
 TEST (AngularGrid, FixedCellSizeIsKeptOverASubsetAndCappedByK)

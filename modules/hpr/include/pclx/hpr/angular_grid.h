@@ -91,6 +91,9 @@ public:
   // inside the hull of all points, so it stays conservative). R is unchanged (the ring is
   // not counted in the grid's solid angle).
   void setOutlineCandidates (bool on) { outline_ = on; }
+  // Only culls at most this far (ρ) behind the nearest candidate around them seed the
+  // uncertain band of interiorPoints () (<= 0: every cull).
+  void setBandDepth (double depth) { band_depth_ = depth; }
 
   // OpenMP threads for every pass (0: omp_get_max_threads ()).
   void setThreads (int threads) { threads_ = threads; }
@@ -138,6 +141,7 @@ private:
   int threads_ = 0;
   double fixed_cell_ = 0;
   bool outline_ = false;
+  double band_depth_ = 0;
   std::vector<int> own_;       // with outline_: per sector its own best point, before propagation
   int nt () const;
   int empty_factor_ = 1;       // EMPTY is kept on a grid coarser by this factor per axis
