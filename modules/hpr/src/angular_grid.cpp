@@ -281,26 +281,27 @@ AngularGrid::fillEmptySectors ()
   std::vector<std::int32_t> hollow_of (k, -1);
   std::vector<std::size_t> hollow;
   std::vector<Eigen::Vector3f> hollow_dir;
+  // From the occupied sectors (on the finer grids most sectors are empty).
   for (int a = 0; a < rows; ++a)
     for (int b = 0; b < cols; ++b)
     {
       const std::size_t s = std::size_t (a) * cols + b;
-      if (cand_[s] >= 0)
+      if (cand_[s] < 0)
         continue;
-      bool next_to_point = false;
       for (int da = -1; da <= 1; ++da)
         for (int db = -1; db <= 1; ++db)
-          if (const std::ptrdiff_t t = neighbourOf (a, b, da, db); t >= 0 && cand_[std::size_t (t)] >= 0)
+        {
+          const std::ptrdiff_t t = neighbourOf (a, b, da, db);
+          if (t < 0 || cand_[std::size_t (t)] >= 0)
+            continue;
+          borders[s] = 1;
+          if (hollow_of[std::size_t (t)] < 0)
           {
-            borders[std::size_t (t)] = 1;
-            next_to_point = true;
+            hollow_of[std::size_t (t)] = std::int32_t (hollow.size ());
+            hollow.push_back (std::size_t (t));
+            hollow_dir.push_back (direction (std::size_t (t)).cast<float> ());
           }
-      if (next_to_point)
-      {
-        hollow_of[s] = std::int32_t (hollow.size ());
-        hollow.push_back (s);
-        hollow_dir.push_back (direction (s).cast<float> ());
-      }
+        }
     }
   if (hollow.empty ())
     return;
