@@ -1,5 +1,6 @@
 #include <pclx/normals/scale_selection.h>
 #include <pclx/normals/plane_pca.h>
+#include <pclx/normals/grid_knn.h>
 
 #include <pcl/common/eigen.h>
 
@@ -34,7 +35,186 @@ constexpr double kResidualZ = 2.0;
 // as good as from 12, or up to 0.05° better).
 constexpr int kResidualMinCount = 30;
 
+// Standard error (radians) of a PCA normal over count points whose covariance has the
+// eigenvalues lambda (ascending), under noise variance l3: the eigenvector perturbation
+// formula; π when the in-plane spread is no larger than the noise.
+double
+normalStdError (const Eigen::Vector3d& lambda, int count, double l3)
+{
+  const double e1 = lambda (2) - l3, e2 = lambda (1) - l3;
+  if (!(e2 > 1e-9 * lambda (2)))
+    return M_PI;
+  return std::min (M_PI, std::sqrt ((lambda (2) * l3 / (e1 * e1) + lambda (1) * l3 / (e2 * e2)) / count));
+}
+
+// One-sided support: its centroid lies off x in the plane by more than 0.3 of its radius
+// (the farthest point's distance), beyond the noise (x itself is off the surface by that
+// much). A rim or a border: more points bring another sheet, not less noise.
+bool
+oneSided (const Eigen::Vector3d& mean, const Eigen::Vector3d& normal, double radius, double noise2)
+{
+  return (mean - mean.dot (normal) * normal).norm () > 0.3 * radius + 3.0 * std::sqrt (noise2);
+}
+
+// Lepski's agreement of a larger support's normal (error err_q) with a smaller one's (err_a),
+// nested: the difference has variance err_a² − err_q² (the larger support is the more
+// efficient estimate), not (err_a + err_q)², which let slowly growing bias through (bunny
+// σ = 0.0012: 200 taken where 50 was best). A noise-dominated smaller support (error ≥
+// kCompareError) says nothing about the bias of the larger one.
+bool
+agrees (const Eigen::Vector3d& na, double err_a, const Eigen::Vector3d& nq, double err_q, double tau)
+{
+  if (!(err_a < kCompareError))
+    return true;
+  const double angle = std::acos (std::min (1.0, std::abs (na.dot (nq))));
+  return angle <= tau * std::sqrt (std::max (0.0, err_a * err_a - err_q * err_q)) + 1e-3;
+}
+
+// The PCA plane of a support from its sums (positions relative to x); false: no plane.
+bool
+fitSums (const Eigen::Vector3d& s1, const Eigen::Matrix3d& s2, int count, Eigen::Vector3d& mean, Eigen::Vector3d& normal,
+         Eigen::Vector3d& lambda)
+{
+  if (count < 3)
+    return false;
+  mean = s1 / count;
+  // Only the normal is read here: one eigenvector, not eigen33's three.
+  const PlanePca p = planePca (s2 / count - mean * mean.transpose ());
+  lambda = p.lambda.reverse ();  // ascending
+  normal = p.normal;
+  return lambda (2) > 0 && lambda (1) > 1e-12 * lambda (2);
+}
+
+// Residual variance of a quadric height field h = c0 u² + c1 uw + c2 w² + c3 u + c4 w + c5
+// (6 unknowns) over the plane with normal nz (u, w scaled by `scale`), over nested
+// prefixes of a support: the moments of the monomials up to degree 4 (the normal
+// equations' entries) are summed point by point, by hand: Eigen's rank update of the
+// 6 × 6 matrix was 3/4 of the selection's time.
+class QuadricMoments
+{
+public:
+  QuadricMoments (const Eigen::Vector3d& nz, double scale)
+    : nz_ (nz), e1_ (nz.unitOrthogonal ()), e2_ (nz.cross (e1_)), scale_ (scale)
+  {}
+
+  void
+  add (const Eigen::Vector3d& d)
+  {
+    const double u = d.dot (e1_) / scale_, w = d.dot (e2_) / scale_, h = d.dot (nz_);
+    const double uu = u * u, uw = u * w, ww = w * w;
+    mom_[U] += u;
+    mom_[W] += w;
+    mom_[UU] += uu;
+    mom_[UW] += uw;
+    mom_[WW] += ww;
+    mom_[U3] += uu * u;
+    mom_[U2W] += uu * w;
+    mom_[UW2] += u * ww;
+    mom_[W3] += ww * w;
+    mom_[U4] += uu * uu;
+    mom_[U3W] += uu * uw;
+    mom_[U2W2] += uu * ww;
+    mom_[UW3] += uw * ww;
+    mom_[W4] += ww * ww;
+    mom_[HUU] += h * uu;
+    mom_[HUW] += h * uw;
+    mom_[HWW] += h * ww;
+    mom_[HU] += h * u;
+    mom_[HW] += h * w;
+    mom_[H] += h;
+    mom_[HH] += h * h;
+  }
+
+  // Over the `count` points added so far (> 6); NaN when the fit fails.
+  double
+  residual (int count) const
+  {
+    const double* m = mom_;
+    // Unknowns in the order uu, uw, ww, u, w, 1.
+    Eigen::Matrix<double, 6, 6> ata;
+    ata << m[U4], m[U3W], m[U2W2], m[U3], m[U2W], m[UU],  //
+        m[U3W], m[U2W2], m[UW3], m[U2W], m[UW2], m[UW],   //
+        m[U2W2], m[UW3], m[W4], m[UW2], m[W3], m[WW],     //
+        m[U3], m[U2W], m[UW2], m[UU], m[UW], m[U],        //
+        m[U2W], m[UW2], m[W3], m[UW], m[WW], m[W],        //
+        m[UU], m[UW], m[WW], m[U], m[W], static_cast<double> (count);
+    Eigen::Matrix<double, 6, 1> ath;
+    ath << m[HUU], m[HUW], m[HWW], m[HU], m[HW], m[H];
+    const Eigen::Matrix<double, 6, 1> c = ata.ldlt ().solve (ath);
+    if (!c.allFinite ())
+      return std::numeric_limits<double>::quiet_NaN ();
+    return std::max (0.0, m[HH] - c.dot (ath)) / (count - 6);
+  }
+
+private:
+  enum { U, W, UU, UW, WW, U3, U2W, UW2, W3, U4, U3W, U2W2, UW3, W4, HUU, HUW, HWW, HU, HW, H, HH, MOMENTS };
+  Eigen::Vector3d nz_, e1_, e2_;
+  double scale_;
+  double mom_[MOMENTS] = {};
+};
+
+// Residual growth from a rung (p: its normal's error, point count and residual) to the
+// next: detail or another sheet came in. Read only from a well-defined rung of enough points.
+bool
+residualGrows (double p_error, int p_count, double p_residual, double residual)
+{
+  return p_error < kResidualError && p_count >= kResidualMinCount &&
+         residual > p_residual * (1.0 + kResidualZ * std::sqrt (2.0 / (p_count - 6)));
+}
+
 }  // namespace
+
+bool
+keepsLargerRung (const Eigen::Vector3f& x, const std::uint64_t* keys, const std::vector<Eigen::Vector3f>& positions,
+                 int k1, int k, double noise2, double tau, ScaleChoice& out)
+{
+  out = ScaleChoice ();
+  if (k1 < 3 || k1 >= k)
+    return false;
+  Eigen::Vector3d s1 = Eigen::Vector3d::Zero (), s1_small;
+  Eigen::Matrix3d s2 = Eigen::Matrix3d::Zero (), s2_small;
+  double radius = 0;
+  for (int i = 0; i < k; ++i)
+  {
+    const Eigen::Vector3d d = (positions[slotOfKey (keys[i])] - x).cast<double> ();
+    s1 += d;
+    s2.noalias () += d * d.transpose ();
+    if (i + 1 == k1)
+    {
+      s1_small = s1;
+      s2_small = s2;
+    }
+    if (i + 1 == k)
+      radius = d.norm ();
+  }
+  Eigen::Vector3d mean, normal, lambda;
+  out.ok = fitSums (s1, s2, k, mean, normal, lambda);
+  if (!out.ok)
+    return false;
+  out.normal = normal.cast<float> ();
+  out.curvature = static_cast<float> (lambda (0) / lambda.sum ());
+  out.support = k;
+  Eigen::Vector3d mean_a, normal_a, lambda_a;
+  if (!fitSums (s1_small, s2_small, k1, mean_a, normal_a, lambda_a))
+    return true;  // the smaller support spans no plane: nothing to compare (as in selectScale)
+  if (oneSided (mean, normal, radius, noise2))
+    return false;
+  const double err_a = normalStdError (lambda_a, k1, noise2);
+  if (!agrees (normal_a, err_a, normal, normalStdError (lambda, k, noise2), tau))
+    return false;
+  if (!(err_a < kResidualError && k1 >= kResidualMinCount))
+    return true;
+  // selectScale's pass 2 over the two rungs, in the larger one's frame.
+  QuadricMoments moments (normal, std::sqrt (lambda (1) + lambda (2)));
+  double residual_a = 0;
+  for (int i = 0; i < k; ++i)
+  {
+    moments.add ((positions[slotOfKey (keys[i])] - x).cast<double> ());
+    if (i + 1 == k1)
+      residual_a = moments.residual (k1);
+  }
+  return !residualGrows (err_a, k1, residual_a, moments.residual (k));
+}
 
 bool
 sampleNoise (const std::vector<Eigen::Vector3f>& sorted, double& residual2, double& spacing2)
@@ -167,14 +347,6 @@ selectScale (const Eigen::Vector3f& x, const std::vector<Eigen::Vector3f>& sorte
   };
   Rung fitted[24];
   int m = 0;
-  // Standard error (radians) of rung q's normal under noise variance l3: the eigenvector
-  // perturbation formula; π when the in-plane spread is no larger than the noise.
-  auto stderror = [&] (const Rung& q, double l3) {
-    const double e1 = q.lambda (2) - l3, e2 = q.lambda (1) - l3;
-    if (!(e2 > 1e-9 * q.lambda (2)))
-      return M_PI;
-    return std::min (M_PI, std::sqrt ((q.lambda (2) * l3 / (e1 * e1) + q.lambda (1) * l3 / (e2 * e2)) / q.count));
-  };
   // Pass 1: the PCA plane of each rung (prefix sums), growing from the smallest until a
   // rung is one-sided, and whether each agrees with the smaller ones.
   int last = -1;
@@ -192,27 +364,22 @@ selectScale (const Eigen::Vector3f& x, const std::vector<Eigen::Vector3f>& sorte
       if (count != rungs[r] && count != n)
         continue;
       ++r;
-      if (count < 3)
-        continue;
-      const Eigen::Vector3d mean = s1 / count;
-      // Only the normal is read here: one eigenvector, not eigen33's three.
-      const PlanePca p = planePca (s2 / count - mean * mean.transpose ());
-      const Eigen::Vector3d l = p.lambda.reverse ();  // ascending
-      if (!(l (2) > 0) || l (1) <= 1e-12 * l (2))
+      Eigen::Vector3d mean, normal, l;
+      if (!fitSums (s1, s2, count, mean, normal, l))
         continue;  // no plane yet (collinear or coincident): try a larger support
       const int j = m++;
       Rung& q = fitted[j];
-      q.normal = p.normal;
+      q.normal = normal;
       q.lambda = l;
       q.count = count;
-      q.error = stderror (q, noise2);
+      q.error = normalStdError (l, count, noise2);
       q.residual = std::numeric_limits<double>::quiet_NaN ();
       q.agrees = true;
       if (j > 0)
       {
         // One-sided: a rim or a border; more points bring another sheet, not less noise.
         // (x itself is off the surface by the noise: that much offset says nothing.)
-        refused = (mean - mean.dot (q.normal) * q.normal).norm () > 0.3 * d.norm () + 3.0 * std::sqrt (noise2);
+        refused = oneSided (mean, q.normal, d.norm (), noise2);
         if (refused)
         {
           --m;
@@ -223,14 +390,7 @@ selectScale (const Eigen::Vector3f& x, const std::vector<Eigen::Vector3f>& sorte
         // larger support is the more efficient estimate), not (err_a + err_q)², which let
         // slowly growing bias through (bunny σ = 0.0012: 200 taken where 50 was best).
         for (int a = 0; a < j && q.agrees; ++a)
-        {
-          if (!(fitted[a].error < kCompareError))
-            continue;  // noise-dominated: its normal says nothing about the bias of q
-          const double angle = std::acos (std::min (1.0, std::abs (fitted[a].normal.dot (q.normal))));
-          const double spread =
-              std::sqrt (std::max (0.0, fitted[a].error * fitted[a].error - q.error * q.error));
-          q.agrees = angle <= tau * spread + 1e-3;
-        }
+          q.agrees = agrees (fitted[a].normal, fitted[a].error, q.normal, q.error, tau);
       }
       // Lepski: the largest rung that agrees with all smaller ones, whether or not the
       // rungs between do (a chance disagreement of a small rung does not cap the support).
@@ -254,73 +414,26 @@ selectScale (const Eigen::Vector3f& x, const std::vector<Eigen::Vector3f>& sorte
     readable = fitted[j].error < kResidualError && fitted[j].count >= kResidualMinCount;
   if (readable)
   {
-    const Eigen::Vector3d nz = fitted[m - 1].normal;
-    const Eigen::Vector3d e1 = nz.unitOrthogonal (), e2 = nz.cross (e1);
-    const double scale = std::sqrt (fitted[m - 1].lambda (1) + fitted[m - 1].lambda (2));
-    // Moments of the monomials up to degree 4 (the normal equations' entries), summed by
-    // hand: Eigen's rank update of the 6 × 6 matrix was 3/4 of the selection's time.
-    enum { U, W, UU, UW, WW, U3, U2W, UW2, W3, U4, U3W, U2W2, UW3, W4, HUU, HUW, HWW, HU, HW, H, HH, MOMENTS };
-    double mom[MOMENTS] = {};
+    QuadricMoments moments (fitted[m - 1].normal,
+                            std::sqrt (fitted[m - 1].lambda (1) + fitted[m - 1].lambda (2)));
     int q = 0;
     for (int i = 0; i < n && q <= last; ++i)
     {
-      const Eigen::Vector3d d = (sorted[i] - x).cast<double> ();
-      const double u = d.dot (e1) / scale, w = d.dot (e2) / scale, h = d.dot (nz);
-      const double uu = u * u, uw = u * w, ww = w * w;
-      mom[U] += u;
-      mom[W] += w;
-      mom[UU] += uu;
-      mom[UW] += uw;
-      mom[WW] += ww;
-      mom[U3] += uu * u;
-      mom[U2W] += uu * w;
-      mom[UW2] += u * ww;
-      mom[W3] += ww * w;
-      mom[U4] += uu * uu;
-      mom[U3W] += uu * uw;
-      mom[U2W2] += uu * ww;
-      mom[UW3] += uw * ww;
-      mom[W4] += ww * ww;
-      mom[HUU] += h * uu;
-      mom[HUW] += h * uw;
-      mom[HWW] += h * ww;
-      mom[HU] += h * u;
-      mom[HW] += h * w;
-      mom[H] += h;
-      mom[HH] += h * h;
+      moments.add ((sorted[i] - x).cast<double> ());
       if (i + 1 != fitted[q].count)
         continue;
       Rung& r = fitted[q];
       if (r.count >= kResidualMinCount)
+        r.residual = moments.residual (r.count);
+      if (q > 0 && residualGrows (fitted[q - 1].error, fitted[q - 1].count, fitted[q - 1].residual, r.residual))
       {
-        // Unknowns in the order uu, uw, ww, u, w, 1.
-        Eigen::Matrix<double, 6, 6> ata;
-        ata << mom[U4], mom[U3W], mom[U2W2], mom[U3], mom[U2W], mom[UU],  //
-            mom[U3W], mom[U2W2], mom[UW3], mom[U2W], mom[UW2], mom[UW],   //
-            mom[U2W2], mom[UW3], mom[W4], mom[UW2], mom[W3], mom[WW],     //
-            mom[U3], mom[U2W], mom[UW2], mom[UU], mom[UW], mom[U],        //
-            mom[U2W], mom[UW2], mom[W3], mom[UW], mom[WW], mom[W],        //
-            mom[UU], mom[UW], mom[WW], mom[U], mom[W], static_cast<double> (r.count);
-        Eigen::Matrix<double, 6, 1> ath;
-        ath << mom[HUU], mom[HUW], mom[HWW], mom[HU], mom[HW], mom[H];
-        const Eigen::Matrix<double, 6, 1> c = ata.ldlt ().solve (ath);
-        if (c.allFinite ())
-          r.residual = std::max (0.0, mom[HH] - c.dot (ath)) / (r.count - 6);
-      }
-      if (q > 0)
-      {
-        const Rung& p = fitted[q - 1];
-        if (p.error < kResidualError && p.count >= kResidualMinCount &&
-            r.residual > p.residual * (1.0 + kResidualZ * std::sqrt (2.0 / (p.count - 6))))
-        {
-          // The largest agreeing rung below the growth.
-          last = 0;
-          for (int a = q - 1; a > 0 && last == 0; --a)
-            if (fitted[a].agrees)
-              last = a;
-          out.exhausted = false;
-          break;
-        }
+        // The largest agreeing rung below the growth.
+        last = 0;
+        for (int a = q - 1; a > 0 && last == 0; --a)
+          if (fitted[a].agrees)
+            last = a;
+        out.exhausted = false;
+        break;
       }
       ++q;
     }

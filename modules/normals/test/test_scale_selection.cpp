@@ -1,6 +1,7 @@
 // pclx::normals::selectScale on generated neighbourhoods with an analytic truth: the rule
 // must stop before bias sets in (a rippled patch), and must keep growing where more points
 // only average noise (a plane, a sphere: curvature alone does not bias a centred support).
+#include <pclx/normals/grid_knn.h>
 #include <pclx/normals/scale_selection.h>
 
 #include <Eigen/Dense>
@@ -195,4 +196,57 @@ TEST (ScaleSelection, DegenerateInput)
   ASSERT_TRUE (c.ok);
   EXPECT_LE (c.support, 60);
   EXPECT_LT (angleDeg (c.normal, Eigen::Vector3f::UnitZ ()), 1e-3);
+}
+
+TEST (ScaleSelection, KeepsLargerRungIsTheLaddersStepBetweenTwoRungs)
+{
+  // The check a cell member runs on a shared rung must be the ladder's own rules for that
+  // step: on patches where the step is taken (noisy plane), refused by agreement (ripple,
+  // a dihedral edge: the larger support reaches the other face) or by the residual, it
+  // keeps the larger rung exactly when selectScale over the two rungs takes it, and gives
+  // the larger rung's normal. The neighbours come as unsorted keys except at the two rungs.
+  const int n = 8000;
+  const double spacing = std::sqrt (4.0 / n);
+  const std::vector<std::pair<std::function<double (double, double)>, double>> patches{
+      {[] (double, double) { return 0.0; }, 0.3},
+      {[] (double, double) { return 0.0; }, 1.2},
+      {[] (double u, double) { return 0.02 * std::sin (2 * M_PI * u / 0.4); }, 0.3},
+      {[] (double u, double) { return u > 0 ? 0.8 * u : 0.0; }, 0.3},  // a dihedral edge at u = 0
+      {[] (double u, double) { return u > 0 ? 0.8 * u : 0.0; }, 1.2},
+  };
+  std::mt19937 rng (11);
+  int kept = 0, refused = 0;
+  for (std::size_t s = 0; s < patches.size (); ++s)
+  {
+    const double sigma = patches[s].second * spacing;
+    const auto p = makePatch (n, patches[s].first, sigma, 20 + static_cast<unsigned> (s));
+    std::uniform_int_distribution<std::size_t> pick (0, p.points.size () - 1);
+    for (int t = 0; t < 150; ++t)
+    {
+      const Eigen::Vector3f x = p.points[pick (rng)];
+      if (std::abs (x.x ()) > 0.5f || std::abs (x.y ()) > 0.5f)
+        continue;
+      const auto sorted = sortedFrom (x, p.points, 300);
+      for (const auto& [k1, k] : {std::pair<int, int> (50, 100), std::pair<int, int> (100, 200)})
+      {
+        // Keys of the k nearest, shuffled within [0, k1) and within [k1, k) (a selection
+        // leaves them so), the k1-th and k-th nearest last of their prefix.
+        std::vector<std::uint64_t> keys;
+        for (int i = 0; i < k; ++i)
+          keys.push_back (pclx::normals::distanceSlotKey ((sorted[i] - x).squaredNorm (), static_cast<std::uint32_t> (i)));
+        std::shuffle (keys.begin (), keys.begin () + (k1 - 1), rng);
+        std::shuffle (keys.begin () + k1, keys.begin () + (k - 1), rng);
+        pclx::normals::ScaleChoice c;
+        const bool keep = pclx::normals::keepsLargerRung (x, keys.data (), sorted, k1, k, sigma * sigma, 2.5, c);
+        const auto ladder = selectScale (x, sorted, {k1, k}, sigma * sigma, 2.5);
+        ASSERT_TRUE (c.ok && ladder.ok);
+        EXPECT_EQ (keep, ladder.support == k) << "patch " << s << " rungs " << k1 << ", " << k;
+        EXPECT_LT (angleDeg (c.normal, pcaNormal (sorted, k)), 1e-2);
+        (keep ? kept : refused)++;
+      }
+    }
+  }
+  // Both outcomes occur (else the comparison above says little).
+  EXPECT_GT (kept, 100);
+  EXPECT_GT (refused, 50);
 }
