@@ -466,11 +466,13 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     cal = calibrateHPR (pts, copt);
   }
   // CANDIDATE_HULL calibrates its R at 0.8 of the occlusion depth (R is linear in it). With
-  // the outline candidates its culling reaches the exact operator's at the same R on organic
-  // shapes, and the smaller R culls the backs of thin parts seen face-on: wide bench, 1M points,
-  // two refinement passes, F1 on the 8 views ≥ 0.952 at 0.8 (fins view 1 0.9519), ≥ 0.939 at
-  // 1.0 (fins view 1; the others lose 0.001–0.003 at 0.8), ≥ 0.946 at 0.9, ≥ 0.953 at 0.7 (the
-  // organic shapes lose 0.002–0.005 more; at 100k 0.8 costs them 0.003–0.008, fins view 1 +0.016).
+  // the outline candidates its culling gets close to the exact operator's at the same R, and
+  // the smaller R culls the backs of thin parts seen face-on. Wide bench, 1M points, two
+  // refinement passes (measured before the band-depth rule): lowest F1 of the 8 views 0.939 at
+  // 1.0 (fins view 1), 0.952 at 0.8 (fins view 1), 0.953 at 0.7; fins view 1 0.946 at 0.9. The
+  // organic shapes lose 0.001–0.003 at 0.8 and 0.002–0.005 more at 0.7; at 100k 0.8 costs them
+  // 0.003–0.008 and gives fins view 1 +0.016. On noisy input it costs recall (--quick's noise
+  // sweep, σ = 0.25 % of the diagonal: bunny F1 0.750 → 0.708).
   constexpr double kCandidateHullDepthScale = 0.8;
   // The culling grid of CANDIDATE_HULL and of the exact pre-filter: k = 2·n^0.7 was the best
   // on the bench (bunny and torus scene, 100k–3M points): finer grids make smaller triangles
