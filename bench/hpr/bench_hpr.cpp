@@ -259,6 +259,9 @@ main (int argc, char** argv)
   app.add_flag ("--quick", quick, "demo size: 100k points, one view, no 3M");
   app.add_flag ("--no-sweeps", no_sweeps, "only the main time-vs-accuracy sweep");
   app.add_flag ("--sweeps-only", sweeps_only, "only the noise and density sweeps");
+  bool sweeps_ch_only = false;
+  app.add_flag ("--sweeps-ch-only", sweeps_ch_only,
+                "noise and density sweeps: only the candidate hull (development: its occlusion-depth rule)");
   app.add_flag ("--distance-sweep", distance_sweep,
                 "only the viewpoint-distance sweep (1.2x-1000x the diagonal, every method, Open3D at its best R)");
   app.add_option ("--sweep-points", sweep_points, "points of the distance sweep")->capture_default_str ();
@@ -304,7 +307,7 @@ main (int argc, char** argv)
   if (auto data = pclx::bench::sharedDataDir ())
   {
     inputs.push_back ({"bunny", loadPlyMesh (*data + "/bunny/reconstruction/bun_zipper.ply")});
-    if (distance_sweep || load_rows || wide)  // not in the main sweep (its figures stay comparable)
+    if (distance_sweep || load_rows || wide || sweeps_ch_only)  // not in the main sweep (its figures stay comparable)
       inputs.push_back ({"fertility", loadPlyMesh (*data + "/meshes/fertility.ply")});
   }
   {
@@ -316,7 +319,7 @@ main (int argc, char** argv)
     scene.append (slab);
     inputs.push_back ({"torus_scene", scene});
   }
-  if (wide)
+  if (wide || sweeps_ch_only)
     inputs.push_back ({"fins", makeFinsScene ()});
 
   if (!only_inputs.empty ())
@@ -684,6 +687,13 @@ main (int argc, char** argv)
     const std::size_t n = 100000;
     const Eigen::Vector3f vp = vps[0];
     auto stability = [&] (const Case& c, const std::string& sweep, const std::string& tag) {
+      if (sweeps_ch_only)
+      {
+        Filter ch;
+        ch.setMethod (Filter::Method::CANDIDATE_HULL);
+        run.ours (c, sweep, "pclx_candidate_hull_autoR", ch, tag);
+        return;
+      }
 #ifdef PCLX_HAVE_OPEN3D
       run.open3d (c, sweep, 1e4, tag);
 #endif

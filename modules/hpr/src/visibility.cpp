@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -343,6 +344,117 @@ radiusForSeparation (const HPRCalibration& cal, double alpha, double occlusion_d
   return std::max (R, cal.max_distance * (1.0 + 1e-3));
 }
 
+double
+estimateSurfaceNoise (const std::vector<Eigen::Vector3d>& points, double cloud_radius, std::size_t seeds, int k)
+{
+  const std::size_t n = points.size ();
+  if (k < 4 || seeds == 0 || n < std::size_t (4 * k) || !(cloud_radius > 0))
+    return 0;
+  // Voxels of side h hold ~10 points of a surface of area ~2πr² (a closed object in a ball of
+  // radius r): the 2×2×2 voxels nearest a seed then hold its k nearest neighbours with
+  // room to spare. Denser or sparser surfaces only change how many points are sorted.
+  const double h = cloud_radius * std::sqrt (64.0 / double (n));
+  const double inv_h = 1.0 / h;
+  auto key = [] (std::int64_t x, std::int64_t y, std::int64_t z) {
+    return (std::uint64_t (x & 0x1fffff) << 42) | (std::uint64_t (y & 0x1fffff) << 21) | std::uint64_t (z & 0x1fffff);
+  };
+  // A hashed bit set of the seeds' voxels rejects almost every point with one load; the
+  // few that pass are bucketed by their exact voxel.
+  constexpr int kBits = 18;
+  std::vector<std::uint64_t> bits ((std::size_t (1) << kBits) / 64, 0);
+  auto slot = [] (std::uint64_t kk) { return std::size_t ((kk * 0x9E3779B97F4A7C15ull) >> (64 - kBits)); };
+  const std::size_t stride = std::max<std::size_t> (1, n / seeds);
+  std::vector<std::size_t> seed_ids;
+  std::vector<std::array<std::uint64_t, 8>> seed_voxels;
+  std::unordered_map<std::uint64_t, std::vector<int>> buckets;
+  for (std::size_t i = stride / 2; i < n; i += stride)
+  {
+    const Eigen::Vector3d v = points[i] * inv_h;
+    const Eigen::Vector3d f = v.array ().floor ();
+    // The 2×2×2 block of voxels whose centre is nearest the seed.
+    const Eigen::Vector3d lo = f - (v - f).unaryExpr ([] (double t) { return t < 0.5 ? 1.0 : 0.0; });
+    std::array<std::uint64_t, 8> vox;
+    for (int c = 0; c < 8; ++c)
+    {
+      vox[c] = key (std::int64_t (lo.x ()) + (c & 1), std::int64_t (lo.y ()) + ((c >> 1) & 1),
+                    std::int64_t (lo.z ()) + ((c >> 2) & 1));
+      const std::size_t b = slot (vox[c]);
+      bits[b / 64] |= std::uint64_t (1) << (b % 64);
+      buckets.emplace (vox[c], std::vector<int> ());
+    }
+    seed_ids.push_back (i);
+    seed_voxels.push_back (vox);
+  }
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const Eigen::Vector3d v = points[i] * inv_h;
+    const std::uint64_t kk =
+        key (std::int64_t (std::floor (v.x ())), std::int64_t (std::floor (v.y ())), std::int64_t (std::floor (v.z ())));
+    const std::size_t b = slot (kk);
+    if (!(bits[b / 64] >> (b % 64) & 1))
+      continue;
+    const auto it = buckets.find (kk);
+    if (it != buckets.end ())
+      it->second.push_back (int (i));
+  }
+  std::vector<double> thickness;
+  thickness.reserve (seed_ids.size ());
+  std::vector<std::pair<double, int>> near;
+  for (std::size_t s = 0; s < seed_ids.size (); ++s)
+  {
+    const Eigen::Vector3d& p = points[seed_ids[s]];
+    near.clear ();
+    for (std::uint64_t kk : seed_voxels[s])
+      for (int j : buckets[kk])
+        near.emplace_back ((points[j] - p).squaredNorm (), j);
+    if (near.size () < std::size_t (k))
+      continue;
+    std::nth_element (near.begin (), near.begin () + (k - 1), near.end ());
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero ();
+    for (int j = 0; j < k; ++j)
+      mean += points[near[j].second];
+    mean /= double (k);
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero ();
+    for (int j = 0; j < k; ++j)
+    {
+      const Eigen::Vector3d d = points[near[j].second] - mean;
+      cov += d * d.transpose ();
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+    es.computeDirect (cov / double (k), Eigen::EigenvaluesOnly);
+    thickness.push_back (std::sqrt (std::max (es.eigenvalues ()[0], 0.0)));
+  }
+  if (thickness.size () < 16)
+    return 0;
+  // The lower quartile, not the median: edges, corners and thin walls (both faces within the
+  // neighbourhood) read thicker than the surface's noise; noise is everywhere.
+  auto mid = thickness.begin () + thickness.size () / 4;
+  std::nth_element (thickness.begin (), mid, thickness.end ());
+  return *mid;
+}
+
+double
+candidateHullDepth (double occlusion_depth, double cloud_radius, double noise)
+{
+  // CANDIDATE_HULL calibrates its R at 0.8 of the occlusion depth (R is linear in it). With
+  // the outline candidates its culling gets close to the exact operator's at the same R, and
+  // the smaller R culls the backs of thin parts seen face-on. Wide bench, 1M points, two
+  // refinement passes (measured before the band-depth rule): lowest F1 of the 8 views 0.939 at
+  // 1.0 (fins view 1), 0.952 at 0.8 (fins view 1), 0.953 at 0.7; fins view 1 0.946 at 0.9. The
+  // organic shapes lose 0.001–0.003 at 0.8 and 0.002–0.005 more at 0.7; at 100k 0.8 costs them
+  // 0.003–0.008 and gives fins view 1 +0.016.
+  constexpr double kCandidateHullDepthScale = 0.8;
+  // On noisy input the candidates are the front-most noisy points and a smaller R culls the
+  // noisy front surface behind them: the depth grows to kNoiseDepths × the measured noise
+  // (estimateSurfaceNoise, which reads ~0.3 σ) where that is deeper. --quick's noise sweep
+  // (100k, σ = 0.25 / 0.5 / 1 / 2 % of the diagonal), c = 50 / 60 / 70: torus scene at 0.25 %
+  // 0.868 / 0.868 / 0.863, at 2 % 0.639 / 0.666 / 0.685; bunny at 0.25 % 0.862 / 0.883 / 0.896
+  // (0.8 alone: torus 0.793, bunny 0.708; 1.0 before the outline candidates: 0.823, 0.760).
+  // Clean clouds measure far below the threshold (the depth stays 0.8 × occlusion_depth).
+  constexpr double kNoiseDepths = 60.0;
+  return std::max (kCandidateHullDepthScale * occlusion_depth, kNoiseDepths * noise / std::max (cloud_radius, 1e-300));
+}
+
 int
 propagationSteps (const HPRCalibration& cal, std::size_t k)
 {
@@ -465,15 +577,6 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     copt.threads = threads;
     cal = calibrateHPR (pts, copt);
   }
-  // CANDIDATE_HULL calibrates its R at 0.8 of the occlusion depth (R is linear in it). With
-  // the outline candidates its culling gets close to the exact operator's at the same R, and
-  // the smaller R culls the backs of thin parts seen face-on. Wide bench, 1M points, two
-  // refinement passes (measured before the band-depth rule): lowest F1 of the 8 views 0.939 at
-  // 1.0 (fins view 1), 0.952 at 0.8 (fins view 1), 0.953 at 0.7; fins view 1 0.946 at 0.9. The
-  // organic shapes lose 0.001–0.003 at 0.8 and 0.002–0.005 more at 0.7; at 100k 0.8 costs them
-  // 0.003–0.008 and gives fins view 1 +0.016. On noisy input it costs recall (--quick's noise
-  // sweep, σ = 0.25 % of the diagonal: bunny F1 0.750 → 0.708).
-  constexpr double kCandidateHullDepthScale = 0.8;
   // The culling grid of CANDIDATE_HULL and of the exact pre-filter: k = 2·n^0.7 was the best
   // on the bench (bunny and torus scene, 100k–3M points): finer grids make smaller triangles
   // that cover fewer points, coarser ones sag. Its triangles span a cell diagonal, not the
@@ -517,6 +620,10 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     // R from the culling grid's own solid angle: no calibration grid is needed here.
     const HPRCalibration dist = distancesOf (pts, centre, threads);
     HPR_LAP ("distances");
+    // The occlusion depth of this cloud: 0.8 × the option when clean, more when noisy.
+    const double noise = opt.radius > 0 ? 0.0 : estimateSurfaceNoise (pts, dist.cloud_radius);
+    const double ch_depth = candidateHullDepth (opt.occlusion_depth, dist.cloud_radius, noise);
+    HPR_LAP ("noise");
     if (opt.radius > 0)
       grid.build (pts, centre, R, k_cull);
     else
@@ -525,8 +632,7 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
                   [&] (double area) {
                     HPRCalibration c = dist;
                     c.grid_area = area;
-                    return radiusForSeparation (c, std::sqrt (2.0 * area / double (k_cull)),
-                                                kCandidateHullDepthScale * opt.occlusion_depth);
+                    return radiusForSeparation (c, std::sqrt (2.0 * area / double (k_cull)), ch_depth);
                   },
                   k_cull);
       R = grid.radius ();
@@ -539,7 +645,7 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     // call −11…−19 % (alternating A/B, 5 rounds), fins ±5 %; F1 within ±0.002 on all 16 views
     // at 100k and 1M. 2 depths lost up to 0.01 at 100k (torus scene).
     constexpr double kBandDepths = 4.0;
-    const double band_depth = kBandDepths * kCandidateHullDepthScale * opt.occlusion_depth * dist.cloud_radius;
+    const double band_depth = kBandDepths * ch_depth * dist.cloud_radius;
     grid.setBandDepth (band_depth);
     grid.propagateAdaptive (cull_steps);
     HPR_LAP ("propagate");

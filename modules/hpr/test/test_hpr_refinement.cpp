@@ -5,6 +5,8 @@
 
 #include <pclx/hpr/angular_grid.h>
 #include <pclx/hpr/hpr_filter.h>
+#include <pclx/hpr/visibility.h>
+#include <pclx/testing/degradation.h>
 #include <pclx/testing/ray_caster.h>
 #include <pclx/testing/shapes.h>
 
@@ -226,4 +228,52 @@ TEST (HPRCandidateHull, RowCullingIsConservativeOnAWrappedGridAndThreadInvariant
   // per-sector culling, 0.7716 now: the viewer inside the scene is the hard case).
   const std::vector<bool> truth = RayCaster (mesh).visibleFrom (samples.cloud, C);
   EXPECT_GT (hprtest::score (out[0], truth).f1, 0.74);
+}
+
+// The candidate hull's occlusion depth follows the cloud's measured noise: a clean cloud keeps
+// 0.8 × occlusion_depth (what the clean wide bench was calibrated at); noise of 0.5 % of the
+// diagonal deepens it, hence R (linear in it), so the noisy front surface is not culled.
+TEST (HPRCandidateHull, NoiseDeepensTheOcclusionDepthAndACleanCloudKeepsTheCleanValue)
+{
+  const TriangleMesh mesh = makeTorus (1.f, 0.3f, 128, 48);
+  const float diagonal = mesh.diagonal ();
+  const Eigen::Vector3f C = 3.f * diagonal * Eigen::Vector3f (1.f, 0.4f, 0.3f).normalized ();
+  const float sigmas[2] = {0.f, 0.005f};
+  double noise[2], depth[2], R[2];
+  for (int i = 0; i < 2; ++i)
+  {
+    SampledCloud s = sampleUniform (mesh, 40000, 3);
+    if (sigmas[i] > 0)
+      addGaussianNoise (s, sigmas[i], 5);
+    const auto cloud = xyz (s);
+    std::vector<Eigen::Vector3d> rel;
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero ();
+    for (const auto& p : *cloud)
+    {
+      rel.push_back (p.getVector3fMap ().cast<double> () - C.cast<double> ());
+      centre += rel.back ();
+    }
+    centre /= double (rel.size ());
+    double r = 0;
+    for (const auto& p : rel)
+      r = std::max (r, (p - centre).norm ());
+    noise[i] = pcl::hpr::estimateSurfaceNoise (rel, r);
+    depth[i] = pcl::hpr::candidateHullDepth (0.05, r, noise[i]);
+    Filter ch;
+    ch.setInputCloud (cloud);
+    ch.setViewPoint (C);
+    ch.setMethod (Filter::Method::CANDIDATE_HULL);
+    pcl::Indices visible;
+    ch.filter (visible);
+    R[i] = ch.getRadiusUsed ();
+  }
+  std::printf ("noise %.3g (clean) %.3g (sigma %.3g); depth %.3g %.3g; R %.4g %.4g\n", noise[0], noise[1],
+               sigmas[1] * diagonal, depth[0], depth[1], R[0], R[1]);
+  EXPECT_EQ (depth[0], 0.8 * 0.05);  // clean: the clean value, exactly
+  EXPECT_GT (noise[1], 0.15 * sigmas[1] * diagonal);  // the lower quartile of 8-point fits: ~0.3 σ
+  EXPECT_LT (noise[1], 0.6 * sigmas[1] * diagonal);
+  EXPECT_GT (depth[1], 2.0 * depth[0]);
+  EXPECT_GT (R[1], 2.0 * R[0]);
+  EXPECT_EQ (pcl::hpr::candidateHullDepth (0.05, 1.0, 0.0), 0.8 * 0.05);
+  EXPECT_GT (pcl::hpr::candidateHullDepth (0.05, 1.0, 0.01), 0.8 * 0.05);
 }

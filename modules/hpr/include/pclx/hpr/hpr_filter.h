@@ -82,7 +82,8 @@ public:
   void setGamma (double gamma) { gamma_ = gamma; radius_mode_ = RadiusMode::GAMMA; }
   // Calibrated R (default): a point `occlusion_depth` × cloud radius behind two
   // neighbouring visible points is hidden (seed §6, Fig. 9). CANDIDATE_HULL (what AUTO runs
-  // above 20k points) calibrates its own R at 0.8 of this depth (measured on the wide bench).
+  // above 20k points) calibrates its own R at 0.8 of this depth (measured on the wide bench),
+  // or deeper on noisy input (60 × the measured noise, see candidateHullDepth in visibility.h).
   void setAutoRadius (double occlusion_depth = 0.05) { occlusion_depth_ = occlusion_depth; radius_mode_ = RadiusMode::AUTO; }
   RadiusMode getRadiusMode () const { return radius_mode_; }
 
