@@ -257,15 +257,23 @@ TEST (HPRCandidateHull, NoiseDeepensTheOcclusionDepthAndACleanCloudKeepsTheClean
     double r = 0;
     for (const auto& p : rel)
       r = std::max (r, (p - centre).norm ());
-    noise[i] = pcl::hpr::estimateSurfaceNoise (rel, r);
+    noise[i] = pcl::hpr::estimateSurfaceNoise (rel);
     depth[i] = pcl::hpr::candidateHullDepth (0.05, r, noise[i]);
-    Filter ch;
-    ch.setInputCloud (cloud);
-    ch.setViewPoint (C);
-    ch.setMethod (Filter::Method::CANDIDATE_HULL);
-    pcl::Indices visible;
-    ch.filter (visible);
-    R[i] = ch.getRadiusUsed ();
+    // The filter gathers the same neighbours in its own pass, with 1 or 2 threads.
+    for (const unsigned threads : {1u, 2u})
+    {
+      Filter ch;
+      ch.setInputCloud (cloud);
+      ch.setViewPoint (C);
+      ch.setMethod (Filter::Method::CANDIDATE_HULL);
+      ch.setNumberOfThreads (threads);
+      pcl::Indices visible;
+      ch.filter (visible);
+      if (threads == 1)
+        R[i] = ch.getRadiusUsed ();
+      else
+        EXPECT_EQ (ch.getRadiusUsed (), R[i]) << "sigma " << sigmas[i];
+    }
   }
   std::printf ("noise %.3g (clean) %.3g (sigma %.3g); depth %.3g %.3g; R %.4g %.4g\n", noise[0], noise[1],
                sigmas[1] * diagonal, depth[0], depth[1], R[0], R[1]);

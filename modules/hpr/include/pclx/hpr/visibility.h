@@ -74,13 +74,16 @@ HPRCalibration calibrateHPR (const std::vector<Eigen::Vector3d>& points, const V
 double radiusForSeparation (const HPRCalibration& cal, double alpha, double occlusion_depth);
 // Measured noise of the surface: the lower quartile, over ~`seeds` points spread through the
 // cloud, of the thickness (√ of the smallest covariance eigenvalue) of a plane fit to each
-// one's `k` nearest neighbours (found among the points of the 2×2×2 voxels around it, one
-// pass over the cloud). Isotropic noise σ per axis reads ≈ 0.3 σ at k = 8; a clean, smooth
-// surface reads its curvature over the neighbourhood. Walls thinner than the neighbourhood
-// (both faces in it) read as noise where they are most of the cloud. 0 when the cloud is too
-// small to tell.
-double estimateSurfaceNoise (const std::vector<Eigen::Vector3d>& points, double cloud_radius,
-                             std::size_t seeds = 256, int k = 8);
+// one's `k` nearest neighbours, found among the points of the 2×2×2 voxels around it (one
+// pass over the cloud; voxel side from the seeds' extent and n). Isotropic noise σ per axis
+// reads ≈ 0.3 σ at k = 8; a clean, smooth surface reads its curvature over the
+// neighbourhood. Walls thinner than the neighbourhood (both faces in it) read as noise where
+// they are most of the cloud. 0 when the cloud is too small to tell. The candidate hull
+// gathers the same neighbours in its first pass over the points (no pass of its own).
+constexpr std::size_t kNoiseSeeds = 256;
+constexpr int kNoiseNeighbours = 8;
+double estimateSurfaceNoise (const std::vector<Eigen::Vector3d>& points, std::size_t seeds = kNoiseSeeds,
+                             int k = kNoiseNeighbours);
 // The candidate hull's occlusion depth (relative to the cloud radius, as occlusion_depth):
 // 0.8 × occlusion_depth on a clean cloud, more where the measured noise needs it (see
 // visibility.cpp, kNoiseDepths).
