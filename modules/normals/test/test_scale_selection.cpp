@@ -229,13 +229,11 @@ TEST (ScaleSelection, KeepsLargerRungIsTheLaddersStepBetweenTwoRungs)
       const auto sorted = sortedFrom (x, p.points, 300);
       for (const auto& [k1, k] : {std::pair<int, int> (50, 100), std::pair<int, int> (100, 200)})
       {
-        // Keys of the k nearest, shuffled within [0, k1) and within [k1, k) (a selection
-        // leaves them so), the k1-th and k-th nearest last of their prefix.
+        // Keys of the k nearest, in any order.
         std::vector<std::uint64_t> keys;
         for (int i = 0; i < k; ++i)
           keys.push_back (pclx::normals::distanceSlotKey ((sorted[i] - x).squaredNorm (), static_cast<std::uint32_t> (i)));
-        std::shuffle (keys.begin (), keys.begin () + (k1 - 1), rng);
-        std::shuffle (keys.begin () + k1, keys.begin () + (k - 1), rng);
+        std::shuffle (keys.begin (), keys.end (), rng);
         pclx::normals::ScaleChoice c;
         const bool keep = pclx::normals::keepsLargerRung (x, keys.data (), sorted, k1, k, sigma * sigma, 2.5, c);
         const auto ladder = selectScale (x, sorted, {k1, k}, sigma * sigma, 2.5);

@@ -99,15 +99,17 @@ struct ScaleChoice
 ScaleChoice selectScale (const Eigen::Vector3f& x, const std::vector<Eigen::Vector3f>& sorted,
                          const std::vector<int>& rungs, double noise2, double tau);
 
-// selectScale's rules for one step of the ladder, for a point x whose neighbours are the
-// slots (distanceSlotKey) of the first k keys in positions, the k1 nearest first (k1 < k,
-// each prefix's farthest point last): out = the plane of the k nearest (out.ok false: no
-// plane); returns whether the rule keeps it over the k1 nearest: false when it is
-// one-sided, disagrees with the smaller one (when that is well defined) or its quadric
-// residual grows past the smaller one's (when that is readable). Where the estimator
-// shares the ladder's choice over a cell (noise wider than a spacing), each member checks
-// the shared rung this way on its own neighbours and climbs its own ladder when refused.
-bool keepsLargerRung (const Eigen::Vector3f& x, const std::uint64_t* keys, const std::vector<Eigen::Vector3f>& positions,
+// selectScale's rules for one step of the ladder, for a point x whose k nearest
+// neighbours are the slots (distanceSlotKey) of the first k keys in positions (any order):
+// out = their plane (out.ok false: none); returns whether the rule keeps it over the k1
+// nearest (k1 < k): false when it is one-sided, disagrees with the smaller one (when that
+// is well defined) or its quadric residual grows past the smaller one's (when that is
+// readable). The smaller rung is fitted only when its error, predicted from the larger
+// one's spread, is below twice the comparison limit; then the first k keys are reordered
+// (the k1 nearest first). Where the estimator shares the ladder's choice over a cell
+// (noise wider than a spacing), each member checks the shared rung this way on its own
+// neighbours and climbs its own ladder when refused.
+bool keepsLargerRung (const Eigen::Vector3f& x, std::uint64_t* keys, const std::vector<Eigen::Vector3f>& positions,
                       int k1, int k, double noise2, double tau, ScaleChoice& out);
 
 }  // namespace normals

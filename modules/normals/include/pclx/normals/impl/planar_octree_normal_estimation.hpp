@@ -636,21 +636,19 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
               distanceKeys (x, scratch.pos, candidates.size (), by_distance);
               const int k = std::min<int> (k0, by_distance.size ());
               std::nth_element (by_distance.begin (), by_distance.begin () + (k - 1), by_distance.end ());
-              // The member checks the shared rung on its own neighbours against the rung
-              // below (the ladder's one-sided, agreement and residual rules) and climbs its
-              // own ladder, capped at the shared rung, only where that refuses it. Taking the
-              // shared rung unchecked cost 151A σ = 0.006 0.65° (19.87° against 19.22°): near
-              // thin parts and edges a member's own support disagrees where the centroid's
-              // does not. The check costs ~3 % of the noisy path's time, a full ladder per
-              // member ~25 %.
+              // setCheckSharedRung: the member checks the shared rung on its own neighbours
+              // against the rung below (the ladder's one-sided, agreement and residual rules)
+              // and climbs its own ladder, capped at the shared rung, only where that refuses
+              // it. Unchecked, 151A σ = 0.006 lost 0.65° (19.87° against 19.22°): near thin
+              // parts and edges a member's own support disagrees where the centroid's does
+              // not. The check costs 12-17 % of the noisy path's CPU there (a full ladder per
+              // member 25-35 %), so it is off by default.
               int k1 = 0;  // the rung below k
               for (const int r : rungs)
                 if (r < k)
                   k1 = r;
-              if (k1 >= 3)
-                std::nth_element (by_distance.begin (), by_distance.begin () + (k1 - 1), by_distance.begin () + (k - 1));
               pclx::normals::ScaleChoice c;
-              if (k1 < 3)
+              if (k1 < 3 || !check_shared_rung_)
               {
                 // From the candidates' gathered positions: the cloud's points are random reads.
                 c.ok = detail::planeOfPositions (x, by_distance.data (), k, scratch.pos, c.normal, c.curvature);
@@ -665,7 +663,8 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
                   if (r < k)
                     member_rungs.push_back (r);
                 member_rungs.push_back (k);
-                for (auto r = member_rungs.rbegin () + 2; r < member_rungs.rend (); ++r)
+                std::nth_element (by_distance.begin (), by_distance.begin () + (k - 1), by_distance.begin () + k);
+                for (auto r = member_rungs.rbegin () + 1; r < member_rungs.rend (); ++r)
                   std::nth_element (by_distance.begin (), by_distance.begin () + (*r - 1),
                                     by_distance.begin () + (*(r - 1) - 1));
                 sorted.clear ();
