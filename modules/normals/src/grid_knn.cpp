@@ -189,7 +189,8 @@ GridKnn::runRange (std::int64_t x, std::int64_t y, std::int64_t z0, std::int64_t
 
 int
 GridKnn::nearestK (const Eigen::Vector3f& q, int k, std::vector<int>& indices, std::vector<float>& sqr_distances,
-                   std::vector<std::uint64_t>& scratch, std::vector<Eigen::Vector3f>* positions) const
+                   std::vector<std::uint64_t>& scratch, std::vector<Eigen::Vector3f>* positions,
+                   float* radius_hint) const
 {
   indices.clear ();
   sqr_distances.clear ();
@@ -213,6 +214,76 @@ GridKnn::nearestK (const Eigen::Vector3f& q, int k, std::vector<int>& indices, s
     r_all = std::max (r_all, std::max (c[a], dims_[a] - 1 - c[a]));
   }
   dmin = std::max (0.0, dmin);
+  auto emit = [&] (int m) {
+    for (int i = 0; i < m; ++i)
+    {
+      const auto slot = slotOfKey (scratch[i]);
+      indices.push_back (ids_[slot]);
+      sqr_distances.push_back (distanceOfKey (scratch[i]));
+      if (positions)
+        positions->push_back (points_[slot]);
+    }
+    return m;
+  };
+  // With a radius hint: only the cells that meet the ball of that radius, keeping the points
+  // inside it. If k are inside, they hold the k nearest (every point outside is farther).
+  // Consecutive queries of a caller are usually neighbours, so the last query's k-th distance
+  // is a tight hint: this scans about half the points of the cube of rings below.
+  if (radius_hint && *radius_hint > 0 && std::isfinite (*radius_hint))
+  {
+    const double r = *radius_hint;
+    const float r2 = static_cast<float> (r * r);
+    // Cells are enumerated for a slightly larger ball, so float rounding never drops a point.
+    const double re = r * (1 + 1e-5) + 1e-6 * cell_;
+    const double re2 = re * re;
+    std::int64_t lo_c[3], hi_c[3];
+    Eigen::Vector3d u;
+    for (int a = 0; a < 3; ++a)
+    {
+      u[a] = (q[a] - origin_[a]) / cell_;
+      lo_c[a] = static_cast<std::int64_t> (std::floor (std::max (-1e12, std::min (1e12, u[a] - re / cell_))));
+      hi_c[a] = static_cast<std::int64_t> (std::floor (std::max (-1e12, std::min (1e12, u[a] + re / cell_))));
+      lo_c[a] = std::max<std::int64_t> (lo_c[a], 0);
+      hi_c[a] = std::min (hi_c[a], dims_[a] - 1);
+    }
+    // Distance (in cells) from u to the slab [c, c + 1] along one axis.
+    auto gap = [] (double u, std::int64_t c) { return u < c ? c - u : (u > c + 1 ? u - (c + 1) : 0.0); };
+    const double re2_cells = re2 / (cell_ * cell_);
+    for (std::int64_t x = lo_c[0]; x <= hi_c[0]; ++x)
+    {
+      const double gx = gap (u[0], x);
+      const double gx2 = gx * gx;
+      if (gx2 > re2_cells)
+        continue;
+      for (std::int64_t y = lo_c[1]; y <= hi_c[1]; ++y)
+      {
+        const double gy = gap (u[1], y);
+        const double gxy2 = gx2 + gy * gy;
+        if (gxy2 > re2_cells)
+          continue;
+        const double rz = std::sqrt (re2_cells - gxy2);
+        const std::int64_t z0 = std::max<std::int64_t> (lo_c[2], static_cast<std::int64_t> (std::floor (u[2] - rz)));
+        const std::int64_t z1 = std::min<std::int64_t> (hi_c[2], static_cast<std::int64_t> (std::floor (u[2] + rz)));
+        if (z0 > z1)
+          continue;
+        const auto range = runRange (x, y, z0, z1);
+        for (int i = range.first; i < range.second; ++i)
+        {
+          const float d2 = (points_[i] - q).squaredNorm ();
+          if (d2 <= r2)
+            scratch.push_back (distanceSlotKey (d2, static_cast<std::uint32_t> (i)));
+        }
+      }
+    }
+    if (static_cast<int> (scratch.size ()) >= k)
+    {
+      std::nth_element (scratch.begin (), scratch.begin () + (k - 1), scratch.end ());
+      // The next query's hint: this k-th distance with a margin for a sparser neighbourhood.
+      *radius_hint = 1.15f * std::sqrt (distanceOfKey (scratch[k - 1]));
+      return emit (k);
+    }
+    scratch.clear ();
+  }
   // Candidates as distanceSlotKey integers (slot: the point's place in the grid's order).
   auto scan = [&] (int begin, int end) {
     for (int i = begin; i < end; ++i)
@@ -263,15 +334,9 @@ GridKnn::nearestK (const Eigen::Vector3f& q, int k, std::vector<int>& indices, s
                                                [&] (std::uint64_t s) { return distanceOfKey (s) <= covered2; });
         if (m > 0)
           std::nth_element (scratch.begin (), scratch.begin () + (m - 1), end);
-        for (int i = 0; i < m; ++i)
-        {
-          const auto slot = slotOfKey (scratch[i]);
-          indices.push_back (ids_[slot]);
-          sqr_distances.push_back (distanceOfKey (scratch[i]));
-          if (positions)
-            positions->push_back (points_[slot]);
-        }
-        return m;
+        if (radius_hint && m == k)
+          *radius_hint = 1.15f * std::sqrt (distanceOfKey (scratch[m - 1]));
+        return emit (m);
       }
     }
   }

@@ -822,6 +822,58 @@ TEST (GridKnn, MatchesBruteForce)
   EXPECT_EQ (empty.nearestK (Eigen::Vector3f::Zero (), 5, ids, d2, scratch), 0);
 }
 
+// A radius hint only changes which cells are scanned first: any hint (too small, too large,
+// stale from a far query, zero) gives the same neighbours as none, and it is updated.
+TEST (GridKnn, RadiusHintGivesTheSameNeighbours)
+{
+  std::mt19937 rng (5);
+  std::normal_distribution<float> g (0.f, 1.f);
+  std::uniform_real_distribution<float> u (-2.f, 2.f);
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 20000; ++i)
+    pts.push_back (Eigen::Vector3f (g (rng), g (rng), 0.2f * g (rng)).normalized () * (1.f + 0.02f * g (rng)));
+  for (int i = 0; i < 2000; ++i)  // a dense cluster: the hint from a sparse region is far too large there
+    pts.push_back (Eigen::Vector3f (0.f, 0.f, 1.f) + 1e-3f * Eigen::Vector3f (g (rng), g (rng), g (rng)));
+  // Small cells (many per ball): a cell missed at the ball's rim would show.
+  pclx::normals::GridKnn grid;
+  grid.build (pts, 3, 2);
+  std::vector<int> ids0, ids1;
+  std::vector<float> d0, d1;
+  std::vector<std::uint64_t> scratch;
+  std::vector<Eigen::Vector3f> pos0, pos1;
+  float hint = 0.f;
+  int ball_answers = 0;
+  for (int t = 0; t < 400; ++t)
+  {
+    // Mostly neighbouring queries (as the orphans come), some anywhere, some outside the grid.
+    const Eigen::Vector3f q = t % 10 == 9 ? Eigen::Vector3f (u (rng), u (rng), 3.f * u (rng))
+                                          : pts[(t * 37) % pts.size ()];
+    const int k = t % 3 == 0 ? 229 : 66;
+    if (t % 50 == 7)
+      hint = 1e-6f;  // far too small: falls back to the rings
+    if (t % 50 == 19)
+      hint = 10.f;  // far too large: scans much, same answer
+    const float before = hint;
+    ASSERT_EQ (grid.nearestK (q, k, ids0, d0, scratch, &pos0), k);
+    ASSERT_EQ (grid.nearestK (q, k, ids1, d1, scratch, &pos1, &hint), k);
+    ball_answers += before > 0 && before * before >= *std::max_element (d1.begin (), d1.end ());
+    EXPECT_GT (hint, 0.f);
+    EXPECT_FLOAT_EQ (hint, 1.15f * std::sqrt (*std::max_element (d1.begin (), d1.end ())));
+    // Same set (the order within it may differ), same distances and positions per id.
+    std::vector<std::pair<int, float>> a, b;
+    for (int i = 0; i < k; ++i)
+    {
+      a.emplace_back (ids0[i], d0[i]);
+      b.emplace_back (ids1[i], d1[i]);
+      EXPECT_EQ (pos1[i], pts[ids1[i]]);
+    }
+    std::sort (a.begin (), a.end ());
+    std::sort (b.begin (), b.end ());
+    EXPECT_EQ (a, b) << "query " << t;
+  }
+  EXPECT_GT (ball_answers, 200);  // the hinted ball did answer most queries
+}
+
 // The grid's radix sort and the octree's bounds and copies run in parallel: any thread
 // count must give the serial order (the answers' order and the cells' ranges depend on it).
 TEST (GridKnn, ThreadCountDoesNotChangeTheOrder)

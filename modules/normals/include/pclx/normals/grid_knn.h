@@ -48,8 +48,12 @@ public:
   // The k nearest points of q (indices into the build points, unsorted) and their squared
   // distances; fewer when the cloud has fewer. scratch: reusable per thread. positions,
   // if given, gets the points themselves (from the grid's own cell-ordered copy).
+  // radius_hint (optional, per thread, in and out): a guess of the k-th distance; the
+  // search first scans only the ball of that radius, and writes the next guess. The
+  // result is the same with or without it.
   int nearestK (const Eigen::Vector3f& q, int k, std::vector<int>& indices, std::vector<float>& sqr_distances,
-                std::vector<std::uint64_t>& scratch, std::vector<Eigen::Vector3f>* positions = nullptr) const;
+                std::vector<std::uint64_t>& scratch, std::vector<Eigen::Vector3f>* positions = nullptr,
+                float* radius_hint = nullptr) const;
   double cellSize () const { return cell_; }
   bool empty () const { return ids_.empty (); }
 

@@ -233,6 +233,21 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
     std::vector<int> ids;
     std::vector<std::uint64_t> keys;  // distanceSlotKey selections (the grid's, the noise sample's)
     std::vector<Eigen::Vector3f> pos;  // positions of the last knn's neighbours, in its order
+    // The grid's guesses of the k-th distance (GridKnn::nearestK's radius_hint), one for
+    // each of the last two k: the orphans ask for a short and a long list in turn.
+    float hint[2] = {0, 0};
+    int hint_k[2] = {0, 0};
+    float* hintFor (int k)
+    {
+      if (hint_k[0] != k && hint_k[1] != k)
+      {
+        hint_k[1] = hint_k[0];
+        hint[1] = hint[0];
+        hint_k[0] = k;
+        hint[0] = 0;
+      }
+      return hint_k[0] == k ? &hint[0] : &hint[1];
+    }
   };
   // k nearest search-surface points of a query (any order), their positions in s.pos:
   // from the grid's cell-ordered copy, not gathered from the cloud point by point.
@@ -245,7 +260,8 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
         s.pos.push_back ((*surface_)[out[i]].getVector3fMap ());
       return m;
     }
-    const int m = grid.nearestK (query.getVector3fMap (), k, s.ids, dist, s.keys, &s.pos);
+    // Orphans come sorted by cell, so the last query's k-th distance bounds this one's well.
+    const int m = grid.nearestK (query.getVector3fMap (), k, s.ids, dist, s.keys, &s.pos, s.hintFor (k));
     out.resize (m);
     for (int i = 0; i < m; ++i)
       out[i] = octree_to_surface_[s.ids[i]];
