@@ -180,9 +180,7 @@ TEST (HPRFarViewpoint, FilterKeepsTheDoublePrecisionOfPMinusC)
   // pre-filter, whose margin scales with R, must change nothing at this distance either).
   const auto cloud = xyz (sampleUniform (makeTorus (1.f, 0.35f, 160, 64), 20000, 13));
   const Eigen::Vector3f C = Eigen::Vector3f (0.37f, -0.81f, 0.45f).normalized () * 2700.f;
-  std::vector<Eigen::Vector3d> rel;
-  for (const auto& p : *cloud)
-    rel.push_back (p.getVector3fMap ().cast<double> () - C.cast<double> ());
+  const std::vector<Eigen::Vector3d> rel = hprtest::relativeTo (*cloud, C);
   for (const double R_over_d : {1e5, 1e7})
   {
     pcl::hpr::VisibilityOptions opt;

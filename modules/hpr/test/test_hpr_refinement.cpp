@@ -94,14 +94,8 @@ TEST (HPRCandidateHull, OutlineCandidatesCullDeepPointsBehindSilhouettesAndStayC
                                                                    Eigen::Vector3f (1.f, 0.4f, 0.3f).normalized ();
   const RayCaster caster (mesh);
   const std::vector<bool> truth = caster.visibleFrom (samples.cloud, C);
-  std::vector<Eigen::Vector3d> rel;
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero ();
-  for (const auto& p : *cloud)
-  {
-    rel.push_back (p.getVector3fMap ().cast<double> () - C.cast<double> ());
-    centre += rel.back ();
-  }
-  centre /= double (rel.size ());
+  Eigen::Vector3d centre;
+  const std::vector<Eigen::Vector3d> rel = hprtest::relativeTo (*cloud, C, &centre);
   Filter ch;  // the radius the candidate hull uses
   ch.setInputCloud (cloud);
   ch.setViewPoint (C);
@@ -246,14 +240,8 @@ TEST (HPRCandidateHull, NoiseDeepensTheOcclusionDepthAndACleanCloudKeepsTheClean
     if (sigmas[i] > 0)
       addGaussianNoise (s, sigmas[i], 5);
     const auto cloud = xyz (s);
-    std::vector<Eigen::Vector3d> rel;
-    Eigen::Vector3d centre = Eigen::Vector3d::Zero ();
-    for (const auto& p : *cloud)
-    {
-      rel.push_back (p.getVector3fMap ().cast<double> () - C.cast<double> ());
-      centre += rel.back ();
-    }
-    centre /= double (rel.size ());
+    Eigen::Vector3d centre;
+    const std::vector<Eigen::Vector3d> rel = hprtest::relativeTo (*cloud, C, &centre);
     double r = 0;
     for (const auto& p : rel)
       r = std::max (r, (p - centre).norm ());

@@ -164,6 +164,30 @@ residualGrows (double p_error, int p_count, double p_residual, double residual)
 
 }  // namespace
 
+double
+shiftedSums (const Eigen::Vector3f& x, const std::uint64_t* keys, int count, const std::vector<Eigen::Vector3f>& positions,
+             double* s)
+{
+  double radius2 = 0;
+  for (int i = 0; i < count; ++i)
+  {
+    const Eigen::Vector3f& p = positions[slotOfKey (keys[i])];
+    const double dx = static_cast<double> (p.x ()) - x.x (), dy = static_cast<double> (p.y ()) - x.y (),
+                 dz = static_cast<double> (p.z ()) - x.z ();
+    s[0] += dx;
+    s[1] += dy;
+    s[2] += dz;
+    s[3] += dx * dx;
+    s[4] += dx * dy;
+    s[5] += dx * dz;
+    s[6] += dy * dy;
+    s[7] += dy * dz;
+    s[8] += dz * dz;
+    radius2 = std::max (radius2, dx * dx + dy * dy + dz * dz);
+  }
+  return radius2;
+}
+
 bool
 keepsLargerRung (const Eigen::Vector3f& x, std::uint64_t* keys, const std::vector<Eigen::Vector3f>& positions, int k1,
                  int k, double noise2, double tau, ScaleChoice& out)
@@ -174,22 +198,7 @@ keepsLargerRung (const Eigen::Vector3f& x, std::uint64_t* keys, const std::vecto
   // Sums of the 3 + 6 distinct moments by hand (a full 3 × 3 rank update per point made
   // the check a sixth of the noisy path's time).
   auto accumulate = [&] (int count, double* acc, double& radius2) {
-    for (int i = 0; i < count; ++i)
-    {
-      const Eigen::Vector3f& p = positions[slotOfKey (keys[i])];
-      const double dx = static_cast<double> (p.x ()) - x.x (), dy = static_cast<double> (p.y ()) - x.y (),
-                   dz = static_cast<double> (p.z ()) - x.z ();
-      acc[0] += dx;
-      acc[1] += dy;
-      acc[2] += dz;
-      acc[3] += dx * dx;
-      acc[4] += dx * dy;
-      acc[5] += dx * dz;
-      acc[6] += dy * dy;
-      acc[7] += dy * dz;
-      acc[8] += dz * dz;
-      radius2 = std::max (radius2, dx * dx + dy * dy + dz * dz);
-    }
+    radius2 = std::max (radius2, shiftedSums (x, keys, count, positions, acc));
   };
   auto fit = [&] (const double* a, int count, Eigen::Vector3d& mean, Eigen::Vector3d& normal, Eigen::Vector3d& lambda) {
     Eigen::Vector3d s1;

@@ -112,5 +112,11 @@ ScaleChoice selectScale (const Eigen::Vector3f& x, const std::vector<Eigen::Vect
 bool keepsLargerRung (const Eigen::Vector3f& x, std::uint64_t* keys, const std::vector<Eigen::Vector3f>& positions,
                       int k1, int k, double noise2, double tau, ScaleChoice& out);
 
+// Sums over the positions of the first count keys' slots (distanceSlotKey), shifted by x
+// (close to all of them, so the sums keep their digits): s[0..2] = Σ d, s[3..8] = Σ dx², dx dy,
+// dx dz, dy², dy dz, dz² (d = p − x). Adds to s; returns the largest |d|².
+double shiftedSums (const Eigen::Vector3f& x, const std::uint64_t* keys, int count,
+                    const std::vector<Eigen::Vector3f>& positions, double* s);
+
 }  // namespace normals
 }  // namespace pclx

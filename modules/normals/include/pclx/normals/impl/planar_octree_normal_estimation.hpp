@@ -44,31 +44,17 @@ planeOfPositions (const Eigen::Vector3f& x, const std::uint64_t* keys, int k, co
 {
   if (k < 3)
     return false;
-  double accu[9] = {};
-  for (int q = 0; q < k; ++q)
-  {
-    const Eigen::Vector3f& p = positions[pclx::normals::slotOfKey (keys[q])];
-    const double dx = static_cast<double> (p.x ()) - x.x (), dy = static_cast<double> (p.y ()) - x.y (),
-                 dz = static_cast<double> (p.z ()) - x.z ();
-    accu[0] += dx * dx;
-    accu[1] += dx * dy;
-    accu[2] += dx * dz;
-    accu[3] += dy * dy;
-    accu[4] += dy * dz;
-    accu[5] += dz * dz;
-    accu[6] += dx;
-    accu[7] += dy;
-    accu[8] += dz;
-  }
-  for (double& a : accu)
+  double s[9] = {};
+  pclx::normals::shiftedSums (x, keys, k, positions, s);
+  for (double& a : s)
     a /= k;
   Eigen::Matrix3d cov;
-  cov (0, 0) = accu[0] - accu[6] * accu[6];
-  cov (0, 1) = cov (1, 0) = accu[1] - accu[6] * accu[7];
-  cov (0, 2) = cov (2, 0) = accu[2] - accu[6] * accu[8];
-  cov (1, 1) = accu[3] - accu[7] * accu[7];
-  cov (1, 2) = cov (2, 1) = accu[4] - accu[7] * accu[8];
-  cov (2, 2) = accu[5] - accu[8] * accu[8];
+  cov (0, 0) = s[3] - s[0] * s[0];
+  cov (0, 1) = cov (1, 0) = s[4] - s[0] * s[1];
+  cov (0, 2) = cov (2, 0) = s[5] - s[0] * s[2];
+  cov (1, 1) = s[6] - s[1] * s[1];
+  cov (1, 2) = cov (2, 1) = s[7] - s[1] * s[2];
+  cov (2, 2) = s[8] - s[2] * s[2];
   if (!cov.allFinite ())
     return false;
   const pclx::normals::PlanePca p = pclx::normals::planePca (cov);
