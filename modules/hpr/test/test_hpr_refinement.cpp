@@ -20,14 +20,26 @@ using namespace pclx::testing;
 using hprtest::xyz;
 using Filter = pcl::HPRFilter<pcl::PointXYZ>;
 
+namespace {
+// The generated fins scene (60k points) seen from the side its fins face: the back of each
+// fin is 0.04 behind its front.
+struct FinsView
+{
+  TriangleMesh mesh = makeFinsScene (12, 8);
+  SampledCloud samples = sampleUniform (mesh, 60000, 5);
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud = xyz (samples);
+  Eigen::Vector3f C = Eigen::Vector3f (0.f, 0.f, 0.4f) +
+                      3.f * mesh.diagonal () * Eigen::Vector3f (1.f, 0.4f, 0.3f).normalized ();
+};
+}  // namespace
+
 TEST (HPRCandidateHull, RefinementCullsHiddenPointsBehindThinWallsAndStaysConservative)
 {
-  const TriangleMesh mesh = makeFinsScene (12, 8);
-  const SampledCloud samples = sampleUniform (mesh, 60000, 5);
-  const auto cloud = xyz (samples);
-  // From the side the fins face: the back of each fin is 0.04 behind its front.
-  const Eigen::Vector3f C = Eigen::Vector3f (0.f, 0.f, 0.4f) + 3.f * mesh.diagonal () *
-                                                                   Eigen::Vector3f (1.f, 0.4f, 0.3f).normalized ();
+  const FinsView view;
+  const TriangleMesh& mesh = view.mesh;
+  const SampledCloud& samples = view.samples;
+  const auto& cloud = view.cloud;
+  const Eigen::Vector3f C = view.C;
   const std::vector<bool> truth = RayCaster (mesh).visibleFrom (samples.cloud, C);
 
   Filter one;
@@ -87,11 +99,11 @@ TEST (HPRCandidateHull, RefinementCullsHiddenPointsBehindThinWallsAndStaysConser
 // pass (fins at 1M, view 1: 3.4k false positives deeper than 0.05 diameters; 3 with them).
 TEST (HPRCandidateHull, OutlineCandidatesCullDeepPointsBehindSilhouettesAndStayConservative)
 {
-  const TriangleMesh mesh = makeFinsScene (12, 8);
-  const SampledCloud samples = sampleUniform (mesh, 60000, 5);
-  const auto cloud = xyz (samples);
-  const Eigen::Vector3f C = Eigen::Vector3f (0.f, 0.f, 0.4f) + 3.f * mesh.diagonal () *
-                                                                   Eigen::Vector3f (1.f, 0.4f, 0.3f).normalized ();
+  const FinsView view;
+  const TriangleMesh& mesh = view.mesh;
+  const SampledCloud& samples = view.samples;
+  const auto& cloud = view.cloud;
+  const Eigen::Vector3f C = view.C;
   const RayCaster caster (mesh);
   const std::vector<bool> truth = caster.visibleFrom (samples.cloud, C);
   Eigen::Vector3d centre;

@@ -120,8 +120,8 @@ private:
   double score (int point, std::size_t sector) const;
   double scoreDir (int point, const Eigen::Vector3d& sector_direction) const;  // the same, direction given
   Eigen::Vector3d direction (std::size_t sector) const;
-  bool isEmpty (std::size_t sector) const;
-  void fillEmptySectors ();  // see setOutlineCandidates ()  // EMPTY map: outside the object's projection
+  bool isEmpty (std::size_t sector) const;  // EMPTY map: outside the object's projection
+  void fillEmptySectors ();                  // see setOutlineCandidates ()
   void neighbours (std::size_t s, int radius, std::vector<std::size_t>& out) const;
 
   std::vector<Eigen::Vector3f> unit_;  // per point: direction from C, in frame coordinates
