@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -145,6 +146,72 @@ TEST (HPRFilterSemantics, NegativeRemovedIndicesAndSetIndices)
   pcl::PointCloud<pcl::PointXYZ> out;
   f.filter (out);
   EXPECT_EQ (out.size (), vis.size ());
+}
+
+// The filter copies the finite requested points and writes its output per block of 65536
+// indices, in parallel. Over several blocks, with non-finite points and a subset of indices:
+// the same answer for 1 and 3 threads, every requested index either kept or removed (in the
+// requested order), and the visible set of the finite points alone, mapped back.
+TEST (HPRFilterSemantics, BlockedCopyAndOutputKeepOrderOverSeveralBlocks)
+{
+  const auto clean = xyz (sampleUniform (makeSphere (1.f, 4), 200000, 12));
+  auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>> (*clean);
+  pcl::IndicesPtr subset (new pcl::Indices);
+  for (int i = 0; i < int (cloud->size ()); ++i)
+    if (i % 3 != 1)
+      subset->push_back (i);
+  for (std::size_t i = 0; i < cloud->size (); i += 7)
+    (*cloud)[i].y = kNaN;
+  // The finite requested points alone, and where each came from.
+  auto finite = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>> ();
+  pcl::Indices origin;
+  for (auto i : *subset)
+    if (i % 7 != 0)
+    {
+      finite->push_back ((*clean)[i]);
+      origin.push_back (i);
+    }
+  const Eigen::Vector3f C (0.3f, 2.5f, 0.4f);
+  auto configure = [&] (Filter& f, unsigned threads) {
+    f.setViewPoint (C);
+    f.setMethod (Filter::Method::CANDIDATE_HULL);
+    f.setNumberOfThreads (threads);
+  };
+  Filter ref;
+  configure (ref, 1);
+  ref.setInputCloud (finite);
+  pcl::Indices expected;
+  for (auto j : run (ref))
+    expected.push_back (origin[j]);
+  ASSERT_GT (expected.size (), 10000u);
+
+  for (bool negative : {false, true})
+  {
+    std::vector<pcl::Indices> kept_by_threads;
+    for (unsigned t : {1u, 3u})
+    {
+      Filter f (true);
+      configure (f, t);
+      f.setInputCloud (cloud);
+      f.setIndices (subset);
+      f.setNegative (negative);
+      const pcl::Indices kept = run (f);
+      const pcl::Indices& removed = *f.getRemovedIndices ();
+      ASSERT_EQ (kept.size () + removed.size (), subset->size ());
+      EXPECT_TRUE (std::is_sorted (kept.begin (), kept.end ()));
+      EXPECT_TRUE (std::is_sorted (removed.begin (), removed.end ()));
+      pcl::Indices both (kept);
+      both.insert (both.end (), removed.begin (), removed.end ());
+      std::sort (both.begin (), both.end ());
+      EXPECT_EQ (both, *subset);
+      if (!negative)
+        EXPECT_EQ (kept, expected);
+      for (auto i : kept)
+        EXPECT_NE (i % 7, 0) << "a non-finite point kept";
+      kept_by_threads.push_back (kept);
+    }
+    EXPECT_EQ (kept_by_threads[1], kept_by_threads[0]) << "negative " << negative;
+  }
 }
 
 TEST (HPRFilterSemantics, KeepOrganizedKeepsNaNInPlace)

@@ -46,24 +46,52 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   // Finite points among the requested indices, relative to the viewpoint, in double: in
   // float, p − C loses the depth differences when C is far (at 1000× the diameter one float
   // ulp of |p − C| is ~6 % of the spacing of 1M samples).
-  std::vector<int> finite;
-  std::vector<Eigen::Vector3d> rel;
-  finite.reserve (indices_->size ());
-  rel.reserve (indices_->size ());
+  // In parallel over fixed blocks of the indices (count, then write at the block's offset:
+  // the serial order for any thread count); serial, this copy and the output below were
+  // 14 % of a 1M-point call on two threads.
+  const int threads = threads_ > 0 ? int (threads_) : hpr::autoThreads (indices_->size ());
+  const std::size_t m = indices_->size ();
+  constexpr std::size_t kBlock = 65536;
+  const std::size_t blocks = (m + kBlock - 1) / kBlock;
+  // Per requested index: 0 = not finite, 1 = finite (hidden once the visibility is known),
+  // 2 = visible. Per block: finite points before it.
+  std::vector<std::uint8_t> state (m);
+  std::vector<std::size_t> block_start (blocks + 1, 0);
   const Eigen::Vector3d eye = viewpoint_.cast<double> ();
-  double max_rho = 0, max_coord = 0;
-  for (const auto i : *indices_)
+  double max_rho2 = 0, max_coord2 = 0;
+#pragma omp parallel for num_threads(threads) schedule(static) reduction(max : max_rho2, max_coord2)
+  for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
   {
-    const PointT& p = (*input_)[i];
-    if (!std::isfinite (p.x) || !std::isfinite (p.y) || !std::isfinite (p.z))
-      continue;
-    finite.push_back (static_cast<int> (i));
-    rel.push_back (p.getVector3fMap ().template cast<double> () - eye);
-    max_rho = std::max (max_rho, rel.back ().squaredNorm ());
-    max_coord = std::max<double> (max_coord, p.getVector3fMap ().squaredNorm ());
+    std::size_t count = 0;
+    for (std::size_t pos = std::size_t (b) * kBlock, end = std::min (m, pos + kBlock); pos < end; ++pos)
+    {
+      const PointT& p = (*input_)[(*indices_)[pos]];
+      state[pos] = std::isfinite (p.x) && std::isfinite (p.y) && std::isfinite (p.z);
+      if (!state[pos])
+        continue;
+      ++count;
+      max_rho2 = std::max (max_rho2, (p.getVector3fMap ().template cast<double> () - eye).squaredNorm ());
+      max_coord2 = std::max<double> (max_coord2, p.getVector3fMap ().squaredNorm ());
+    }
+    block_start[b + 1] = count;
   }
-  max_rho = std::sqrt (max_rho);
-  max_coord = std::sqrt (max_coord);
+  for (std::size_t b = 0; b < blocks; ++b)
+    block_start[b + 1] += block_start[b];
+  std::vector<int> finite (block_start[blocks]);
+  std::vector<Eigen::Vector3d> rel (block_start[blocks]);
+#pragma omp parallel for num_threads(threads) schedule(static)
+  for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
+  {
+    std::size_t j = block_start[b];
+    for (std::size_t pos = std::size_t (b) * kBlock, end = std::min (m, pos + kBlock); pos < end; ++pos)
+      if (state[pos])
+      {
+        const auto i = (*indices_)[pos];
+        finite[j] = static_cast<int> (i);
+        rel[j++] = (*input_)[i].getVector3fMap ().template cast<double> () - eye;
+      }
+  }
+  const double max_rho = std::sqrt (max_rho2), max_coord = std::sqrt (max_coord2);
 
   hpr::VisibilityOptions opt;
   method_used_ = method_;
@@ -100,7 +128,7 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   opt.max_edge = max_edge_;
   opt.normals = compute_normals_;
   opt.coordinate_scale = max_coord + double (viewpoint_.norm ());
-  opt.threads = int (threads_);
+  opt.threads = threads;
 
   const hpr::VisibilityResult res = hpr::computeVisibility (rel, opt);
   if (!res.error.empty ())
@@ -112,19 +140,38 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   steps_used_ = res.steps;
   threads_used_ = res.threads;
 
-  // Kept = visible (or hidden when negative); NaN points are removed either way.
-  // Per input point: 0 = not finite, 1 = hidden, 2 = visible.
-  std::vector<std::uint8_t> state (input_->size (), 0);
-  for (std::size_t j = 0; j < finite.size (); ++j)
-    state[finite[j]] = res.visible[j] ? 2 : 1;
-  indices.reserve (indices_->size ());
-  for (const auto i : *indices_)
+  // Kept = visible (or hidden when negative); NaN points are removed either way. Blocks
+  // as above: count, then write in order.
+  std::vector<std::size_t> block_kept (blocks + 1, 0);
+#pragma omp parallel for num_threads(threads) schedule(static)
+  for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
   {
-    const bool keep = state[i] != 0 && (state[i] == 2) != negative_;
-    if (keep)
-      indices.push_back (i);
-    else if (extract_removed_indices_)
-      removed_indices_->push_back (i);
+    std::size_t j = block_start[b], kept = 0;
+    for (std::size_t pos = std::size_t (b) * kBlock, end = std::min (m, pos + kBlock); pos < end; ++pos)
+      if (state[pos])
+      {
+        state[pos] = res.visible[j++] ? 2 : 1;
+        kept += (state[pos] == 2) != negative_;
+      }
+    block_kept[b + 1] = kept;
+  }
+  for (std::size_t b = 0; b < blocks; ++b)
+    block_kept[b + 1] += block_kept[b];
+  indices.resize (block_kept[blocks]);
+  if (extract_removed_indices_)
+    removed_indices_->resize (m - block_kept[blocks]);
+#pragma omp parallel for num_threads(threads) schedule(static)
+  for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
+  {
+    std::size_t kept = block_kept[b], removed = std::size_t (b) * kBlock - block_kept[b];
+    for (std::size_t pos = std::size_t (b) * kBlock, end = std::min (m, pos + kBlock); pos < end; ++pos)
+    {
+      const bool keep = state[pos] != 0 && (state[pos] == 2) != negative_;
+      if (keep)
+        indices[kept++] = (*indices_)[pos];
+      else if (extract_removed_indices_)
+        (*removed_indices_)[removed++] = (*indices_)[pos];
+    }
   }
 
   if (reconstruct_)
