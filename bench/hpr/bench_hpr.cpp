@@ -142,16 +142,22 @@ public:
     f.setInputCloud (c.cloud);
     f.setViewPoint (c.viewpoint);
     pcl::Indices vis;
-    double cpu = std::numeric_limits<double>::infinity ();
+    double cpu = std::numeric_limits<double>::infinity (), first = -1;
+    // The filter keeps its working memory between calls: the first call (fresh filter)
+    // also faults in its pages, the repeats reuse them. Both are reported.
     auto call = [&] {
       const double c0 = processCpuSeconds ();
+      const auto w0 = std::chrono::steady_clock::now ();
       f.filter (vis);
+      if (first < 0)
+        first = std::chrono::duration<double> (std::chrono::steady_clock::now () - w0).count ();
       cpu = std::min (cpu, processCpuSeconds () - c0);
     };
     const double t = mean_of > 0 ? timeMean (call, mean_of) : timeBest (call, repeats_ours_);
     std::vector<int> v (vis.begin (), vis.end ());
     Metrics m = accuracy (v, c.truth);
     m.emplace_back ("cpu_seconds", cpu);
+    m.emplace_back ("first_call_seconds", first);
     if (more)
     {
       const Metrics extra_metrics = more (v);

@@ -80,7 +80,8 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   sector_.resize (n);
   // Wide views only: (φ, θ) per point (atan2 and acos are worth storing; the gnomonic
   // coordinates are two divisions, recomputed where needed rather than written and read back).
-  std::vector<float> ca, cb;
+  std::vector<float>& ca = scratch_.ca;
+  std::vector<float>& cb = scratch_.cb;
   float min_x = 1.f;
   double rho0 = std::numeric_limits<double>::infinity ();
   float a_min = std::numeric_limits<float>::max (), a_max = std::numeric_limits<float>::lowest ();
@@ -195,7 +196,8 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
 
   HPR_LAP ("build.layout");
   // §4.2: sector of every point and the extreme (best scored) point per sector.
-  std::vector<std::uint64_t> keys (k, std::numeric_limits<std::uint64_t>::max ());
+  std::vector<std::uint64_t>& keys = scratch_.keys;
+  keys.assign (k, std::numeric_limits<std::uint64_t>::max ());
   const float inv_a = float (1.0 / cell_phi_), inv_b = float (1.0 / cell_theta_);
   const float a0 = float (phi0_), b0 = float (theta0_);
   const double inv_2r = 1.0 / (2.0 * radius_);
@@ -703,7 +705,8 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   HPR_LAPS ();
   const std::size_t n = unit_.size (), k = cand_.size ();
   std::vector<std::uint8_t> interior (survivors ? 0 : n, 0);
-  std::vector<std::uint8_t> is_cand (n, 0);
+  std::vector<std::uint8_t>& is_cand = scratch_.is_cand;
+  is_cand.assign (n, 0);
   for (int c : cand_)
     if (c >= 0)
       is_cand[c] = 1;
@@ -715,20 +718,29 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   const double inv_cols = 1.0 / cols;
   // Exact: s + 0.5 keeps the product off the integers for every s < 2^31.
   auto rowOf = [inv_cols] (std::uint32_t s) { return std::uint32_t ((double (s) + 0.5) * inv_cols); };
-  std::vector<std::uint32_t> start (std::size_t (n_phi_) + 1, 0), order (n);
+  std::vector<std::uint32_t>& start = scratch_.start;
+  std::vector<std::uint32_t>& order = scratch_.order;
+  start.assign (std::size_t (n_phi_) + 1, 0);
+  order.resize (n);
   // The points in row order, scattered once while sorting: the tests then read memory in
   // order (reading points[order[r]] there was memory-bound, 3x slower at 1M points).
   // Candidates are never interior.
-  std::vector<Eigen::Vector3d> sorted (n);
-  std::vector<std::uint8_t> inside_sorted (n, 0), cand_sorted (n);
-  std::vector<std::uint32_t> col_sorted (n);
+  std::vector<Eigen::Vector3d>& sorted = scratch_.sorted;
+  std::vector<std::uint8_t>& inside_sorted = scratch_.inside;
+  std::vector<std::uint8_t>& cand_sorted = scratch_.cand_sorted;
+  std::vector<std::uint32_t>& col_sorted = scratch_.col;
+  sorted.resize (n);
+  inside_sorted.assign (n, 0);
+  cand_sorted.resize (n);
+  col_sorted.resize (n);
   // Counting sort in parallel: each thread counts its own contiguous slice per row, the
   // slices' offsets are laid out row by row in thread order, and each thread scatters its
   // slice. Thread t's points of a row follow thread t − 1's, so the order is the serial one
   // for any thread count. Serial, count and scatter were a quarter of the call's wall time
   // with two threads at 1M points.
   const int threads = nt ();
-  std::vector<std::uint32_t> slot (std::size_t (threads) * n_phi_, 0);
+  std::vector<std::uint32_t>& slot = scratch_.slot;
+  slot.assign (std::size_t (threads) * n_phi_, 0);
 #pragma omp parallel num_threads(threads)
   {
 #ifdef _OPENMP
@@ -776,8 +788,12 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   // Slot s: the candidate of sector s; slot k + s: its own best point when propagation
   // replaced it by a neighbour's (a quad whose corners share a candidate has no tetrahedron;
   // its own point, any point of the cloud, still spans one).
-  std::vector<Eigen::Vector3d> cand_dir (2 * k), cand_flip (2 * k);
-  std::vector<double> cand_rho (2 * k, std::numeric_limits<double>::infinity ());
+  std::vector<Eigen::Vector3d>& cand_dir = scratch_.cand_dir;
+  std::vector<Eigen::Vector3d>& cand_flip = scratch_.cand_flip;
+  std::vector<double>& cand_rho = scratch_.cand_rho;
+  cand_dir.resize (2 * k);
+  cand_flip.resize (2 * k);
+  cand_rho.assign (2 * k, std::numeric_limits<double>::infinity ());
   const bool with_own = own_.size () == k;
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 1024)
   for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
@@ -975,12 +991,14 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   // The uncertain band: sectors whose 3×3 neighbourhood holds a culled point or a sector
   // without candidate (a silhouette, the grid's edge). Elsewhere every point had only
   // front-surface points around it, and a finer pass culls (nearly) nothing there.
-  std::vector<std::uint8_t> band;
+  std::vector<std::uint8_t>& band = scratch_.band;
+  band.clear ();
   // Sector of the r-th point in row order, without a random read of sector_.
   auto sectorSorted = [&] (int row, std::uint32_t r) { return std::size_t (row) * cols + col_sorted[r]; };
   if (survivors && (survivor_in_band || outside_band))
   {
-    std::vector<std::uint8_t> seed (k, 0);
+    std::vector<std::uint8_t>& seed = scratch_.seed;
+    seed.assign (k, 0);
     // A row's sectors are its own: rows in parallel write disjoint seeds.
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 4)
     for (std::ptrdiff_t row = 0; row < std::ptrdiff_t (n_phi_); ++row)

@@ -526,8 +526,23 @@ propagationSteps (const HPRCalibration& cal, std::size_t k)
   return int (std::min (std::ceil (cal.alpha / fine_cell), 1e6)) + 1;
 }
 
+void
+VisibilityWorkspace::release ()
+{
+  grid = AngularGrid ();
+  fine = AngularGrid ();
+  std::vector<int> ().swap (alive);
+  std::vector<int> ().swap (next);
+  std::vector<int> ().swap (settled);
+  std::vector<Eigen::Vector3d> ().swap (alive_pts);
+  std::vector<Eigen::Vector3d> ().swap (next_pts);
+  std::vector<Eigen::Vector3d> ().swap (points);
+  std::vector<int> ().swap (finite);
+  std::vector<std::uint8_t> ().swap (state);
+}
+
 VisibilityResult
-computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityOptions& opt)
+computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityOptions& opt, VisibilityWorkspace* ws)
 {
   HPR_PASS (0);
   HPR_LAPS ();
@@ -663,7 +678,10 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
   sub.visible.assign (pts.size (), 0);
   const Eigen::Vector3d centre = at_eye > 0 ? centroidOf (pts) : Eigen::Vector3d (point_sum / double (n));
   HPR_LAP ("centroid");
-  AngularGrid grid;
+  // The candidate hull reuses the workspace's grids (every setting is made again below).
+  AngularGrid local_grid, local_fine;
+  const bool reuse = ws && opt.method == VisibilityMethod::CANDIDATE_HULL;
+  AngularGrid& grid = reuse ? ws->grid : local_grid;
   grid.setThreads (threads);
 
   auto everyPoint = [&pts] {
@@ -679,6 +697,7 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
   {
     const int cull_steps = opt.steps > 0 ? steps : 4;
     grid.setOutlineCandidates (true);
+    grid.setCellSize (0);
     // R from the culling grid's own solid angle: no calibration grid is needed here.
     // The occlusion depth of this cloud: 0.8 × the option when clean, more when noisy.
     NoiseProbe probe (pts, opt.radius > 0 ? 0 : kNoiseSeeds, kNoiseNeighbours);
@@ -712,9 +731,12 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     grid.setBandDepth (band_depth);
     grid.propagateAdaptive (cull_steps);
     HPR_LAP ("propagate");
-    std::vector<int> alive;
-    std::vector<Eigen::Vector3d> alive_pts;
-    std::vector<int> settled;  // survivors outside the uncertain band: visible
+    std::vector<int> local_alive, local_settled, local_next;
+    std::vector<Eigen::Vector3d> local_alive_pts, local_next_pts;
+    std::vector<int>& alive = reuse ? ws->alive : local_alive;
+    std::vector<Eigen::Vector3d>& alive_pts = reuse ? ws->alive_pts : local_alive_pts;
+    std::vector<int>& settled = reuse ? ws->settled : local_settled;  // survivors outside the band: visible
+    settled.clear ();
     grid.interiorPoints (pts, &alive, &alive_pts, nullptr, opt.refinement > 0 ? &settled : nullptr);
     for (int i : settled)
       sub.visible[i] = 1;
@@ -731,13 +753,13 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     // points only, and the band's finer grid keeps the cell it would have had over all
     // survivors. Survivors come in the previous grid's sector order, nearly the finer one's.
     const double cell0 = grid.cellAngle ();
-    std::vector<int> next;
-    std::vector<Eigen::Vector3d> next_pts;
+    std::vector<int>& next = reuse ? ws->next : local_next;
+    std::vector<Eigen::Vector3d>& next_pts = reuse ? ws->next_pts : local_next_pts;
     for (int pass = 1; pass <= opt.refinement && alive.size () >= 4; ++pass)
     {
       HPR_PASS (pass);
       const std::size_t kp = std::min ({k_cull << pass, kMaxSectors, 64 * alive.size ()});
-      AngularGrid fine;
+      AngularGrid& fine = reuse ? ws->fine : local_fine;
       fine.setThreads (threads);
       fine.setOutlineCandidates (true);
       fine.setBandDepth (band_depth);

@@ -214,6 +214,55 @@ TEST (HPRFilterSemantics, BlockedCopyAndOutputKeepOrderOverSeveralBlocks)
   }
 }
 
+// The filter keeps its working memory between calls. A call must not see what the previous
+// one left there: clouds of other sizes, another method, fewer refinement passes, other
+// options, and after releasing the memory, all give what a fresh filter gives.
+TEST (HPRFilterSemantics, ReusedWorkingMemoryGivesTheFreshAnswer)
+{
+  const auto big = xyz (sampleUniform (makeTorus (1.f, 0.3f, 64, 32), 90000, 21));
+  const auto small = xyz (sampleUniform (makeSphere (1.f, 4), 30000, 22));
+  struct Call
+  {
+    pcl::PointCloud<pcl::PointXYZ>::Ptr cloud;
+    Filter::Method method;
+    int refinement;
+    Eigen::Vector3f C;
+  };
+  const std::vector<Call> calls = {
+      {big, Filter::Method::CANDIDATE_HULL, 2, Eigen::Vector3f (0.2f, 2.5f, 1.f)},
+      {small, Filter::Method::CANDIDATE_HULL, 0, Eigen::Vector3f (0.f, 0.f, 3.f)},
+      {big, Filter::Method::EXACT, 2, Eigen::Vector3f (0.2f, 2.5f, 1.f)},
+      {big, Filter::Method::CANDIDATE_HULL, 1, Eigen::Vector3f (-2.f, 0.3f, 0.5f)},
+      {small, Filter::Method::ANGULAR_GRID, 2, Eigen::Vector3f (0.f, 3.f, 0.f)},
+      {big, Filter::Method::CANDIDATE_HULL, 2, Eigen::Vector3f (0.2f, 2.5f, 1.f)},
+  };
+  auto configure = [] (Filter& f, const Call& c) {
+    f.setInputCloud (c.cloud);
+    f.setViewPoint (c.C);
+    f.setMethod (c.method);
+    f.setRefinementPasses (c.refinement);
+    f.setNumberOfThreads (2);
+  };
+  Filter reused;
+  for (std::size_t i = 0; i < calls.size (); ++i)
+  {
+    Filter fresh;
+    configure (fresh, calls[i]);
+    const pcl::Indices expected = run (fresh);
+    ASSERT_FALSE (expected.empty ());
+    configure (reused, calls[i]);
+    EXPECT_EQ (run (reused), expected) << "call " << i;
+    if (i == 3)
+    {
+      reused.releaseWorkingMemory ();
+      EXPECT_EQ (run (reused), expected) << "after releasing, call " << i;
+    }
+  }
+  // A copy starts with its own (empty) working memory and answers the same.
+  Filter copy (reused);
+  EXPECT_EQ (run (copy), run (reused));
+}
+
 TEST (HPRFilterSemantics, KeepOrganizedKeepsNaNInPlace)
 {
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ> (40, 30));

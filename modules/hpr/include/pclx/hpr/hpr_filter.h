@@ -126,6 +126,11 @@ public:
   void setNumberOfThreads (unsigned int threads = 0) { threads_ = threads; }
   int getThreadsUsed () const { return threads_used_; }
 
+  // The filter keeps its working memory between calls (about 120 bytes per point of the
+  // largest cloud so far, see hpr::VisibilityWorkspace), so a filter run on every frame does
+  // not fault in fresh pages each time. This gives it back.
+  void releaseWorkingMemory () { workspace_.release (); }
+
   const PolygonMesh& getMesh () const { return mesh_; }
   const pcl::PointCloud<pcl::Normal>& getNormals () const { return normals_; }
   const std::vector<float>& getSplatRadii () const { return splat_radii_; }
@@ -179,6 +184,7 @@ private:
   std::size_t sectors_used_ = 0;
   int steps_used_ = 0;
   Method method_used_ = Method::AUTO;
+  hpr::VisibilityWorkspace workspace_;
 };
 
 }  // namespace pcl

@@ -55,7 +55,8 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   const std::size_t blocks = (m + kBlock - 1) / kBlock;
   // Per requested index: 0 = not finite, 1 = finite (hidden once the visibility is known),
   // 2 = visible. Per block: finite points before it.
-  std::vector<std::uint8_t> state (m);
+  std::vector<std::uint8_t>& state = workspace_.state;
+  state.resize (m);
   std::vector<std::size_t> block_start (blocks + 1, 0);
   const Eigen::Vector3d eye = viewpoint_.cast<double> ();
   double max_rho2 = 0, max_coord2 = 0;
@@ -77,8 +78,10 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   }
   for (std::size_t b = 0; b < blocks; ++b)
     block_start[b + 1] += block_start[b];
-  std::vector<int> finite (block_start[blocks]);
-  std::vector<Eigen::Vector3d> rel (block_start[blocks]);
+  std::vector<int>& finite = workspace_.finite;
+  std::vector<Eigen::Vector3d>& rel = workspace_.points;
+  finite.resize (block_start[blocks]);
+  rel.resize (block_start[blocks]);
 #pragma omp parallel for num_threads(threads) schedule(static)
   for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
   {
@@ -130,7 +133,7 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   opt.coordinate_scale = max_coord + double (viewpoint_.norm ());
   opt.threads = threads;
 
-  const hpr::VisibilityResult res = hpr::computeVisibility (rel, opt);
+  const hpr::VisibilityResult res = hpr::computeVisibility (rel, opt, &workspace_);
   if (!res.error.empty ())
     return reject (res.error);
   if (!res.warning.empty ())
