@@ -46,12 +46,19 @@ void
 AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre, double radius,
                     std::size_t sectors)
 {
-  build (points, centre, [radius] (double) { return radius; }, sectors);
+  buildGrid (points, centre, nullptr, radius, sectors);
 }
 
 void
 AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre,
                     const std::function<double (double)>& radius_for_area, std::size_t sectors)
+{
+  buildGrid (points, centre, &radius_for_area, 0.0, sectors);
+}
+
+void
+AngularGrid::buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre,
+                        const std::function<double (double)>* radius_for_area, double radius, std::size_t sectors)
 {
   HPR_LAPS ();
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t> (points.size ());
@@ -178,7 +185,9 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   // the axis value is what calibration and splats use).
   layout ();
   // R from the cloud's own extent (the outline ring below adds no solid angle of the cloud).
-  radius_ = radius_for_area (gridSolidAngle ());
+  // The grid's solid angle only where R depends on it (a sum over every sector: 2 ms for the
+  // 130k sectors of a second refinement pass at 1M points).
+  radius_ = radius_for_area ? (*radius_for_area) (gridSolidAngle ()) : radius;
   if (outline_)
   {
     // One more sector on every side (not across the φ wrap): the outline candidates of
@@ -196,48 +205,67 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
 
   HPR_LAP ("build.layout");
   // §4.2: sector of every point and the extreme (best scored) point per sector.
+  // Each thread keeps its own best key per sector (merged below) while that costs at most
+  // 64 MB: with one shared array, two threads' loads and compare-exchanges on the same lines
+  // made the pass only 1.13× faster than one thread at 1M points.
+  const int threads = nt ();
+  const std::size_t copies =
+      threads > 1 && k * std::size_t (threads) * sizeof (std::uint64_t) <= (std::size_t (64) << 20) ? threads : 1;
   std::vector<std::uint64_t>& keys = scratch_.keys;
-  keys.assign (k, std::numeric_limits<std::uint64_t>::max ());
+  keys.assign (k * copies, std::numeric_limits<std::uint64_t>::max ());
   const float inv_a = float (1.0 / cell_phi_), inv_b = float (1.0 / cell_theta_);
   const float a0 = float (phi0_), b0 = float (theta0_);
   const double inv_2r = 1.0 / (2.0 * radius_);
-  const bool one_thread = nt () == 1;
-#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192)
-  for (std::ptrdiff_t i = 0; i < n; ++i)
+  const bool shared = threads > 1 && copies == 1;
+#pragma omp parallel num_threads(threads)
   {
-    const Eigen::Vector3f& u = unit_[i];
-    const float pa = gnomonic_ ? u.y () / u.x () : ca[i], pb = gnomonic_ ? u.z () / u.x () : cb[i];
-    const int a = std::clamp (int ((pa - a0) * inv_a), 0, n_phi_ - 1);
-    const int b = std::clamp (int ((pb - b0) * inv_b), 0, n_theta_ - 1);
-    const std::size_t s = std::size_t (a) * n_theta_ + b;
-    sector_[i] = static_cast<std::uint32_t> (s);
-    Eigen::Vector3f d;
-    if (gnomonic_)
+#ifdef _OPENMP
+    std::uint64_t* best_key = keys.data () + (copies > 1 ? k * std::size_t (omp_get_thread_num ()) : 0);
+#else
+    std::uint64_t* best_key = keys.data ();
+#endif
+#pragma omp for schedule(dynamic, 8192)
+    for (std::ptrdiff_t i = 0; i < n; ++i)
     {
-      const float da = float (centre_a_[a]), db = float (centre_b_[b]);
-      d = Eigen::Vector3f (1.f, da, db) / std::sqrt (1.f + da * da + db * db);
+      const Eigen::Vector3f& u = unit_[i];
+      const float pa = gnomonic_ ? u.y () / u.x () : ca[i], pb = gnomonic_ ? u.z () / u.x () : cb[i];
+      const int a = std::clamp (int ((pa - a0) * inv_a), 0, n_phi_ - 1);
+      const int b = std::clamp (int ((pb - b0) * inv_b), 0, n_theta_ - 1);
+      const std::size_t s = std::size_t (a) * n_theta_ + b;
+      sector_[i] = static_cast<std::uint32_t> (s);
+      Eigen::Vector3f d;
+      if (gnomonic_)
+      {
+        const float da = float (centre_a_[a]), db = float (centre_b_[b]);
+        d = Eigen::Vector3f (1.f, da, db) / std::sqrt (1.f + da * da + db * db);
+      }
+      else
+        d = direction (s).cast<float> ();
+      const float one_minus_cos = 0.5f * (unit_[i] - d).squaredNorm ();
+      // See score(): the depth enters as (ρ − ρ_min)/2R, exact in float at any distance.
+      const float g = one_minus_cos * float (1.0 - rho_[i] * inv_2r) + float ((rho_[i] - rho0_) * inv_2r);
+      const std::uint64_t key = packKey (g, std::uint32_t (i));
+      if (shared)
+        atomicMin (best_key[s], key);
+      else
+        best_key[s] = std::min (best_key[s], key);
     }
-    else
-      d = direction (s).cast<float> ();
-    const float one_minus_cos = 0.5f * (unit_[i] - d).squaredNorm ();
-    // See score(): the depth enters as (ρ − ρ_min)/2R, exact in float at any distance.
-    const float g = one_minus_cos * float (1.0 - rho_[i] * inv_2r) + float ((rho_[i] - rho0_) * inv_2r);
-    const std::uint64_t key = packKey (g, std::uint32_t (i));
-    if (one_thread)  // a locked compare-exchange per point costs ~8 % of the pass
-      keys[s] = std::min (keys[s], key);
-    else
-      atomicMin (keys[s], key);
   }
   HPR_LAP ("build.assign_score");
   cand_.assign (k, -1);
   best_.assign (k, std::numeric_limits<double>::infinity ());
-#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192)
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 8192)
   for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
-    if (keys[s] != std::numeric_limits<std::uint64_t>::max ())
+  {
+    std::uint64_t key = keys[s];
+    for (std::size_t c = 1; c < copies; ++c)
+      key = std::min (key, keys[c * k + std::size_t (s)]);
+    if (key != std::numeric_limits<std::uint64_t>::max ())
     {
-      cand_[s] = int (keys[s] & 0xffffffffu);
+      cand_[s] = int (key & 0xffffffffu);
       best_[s] = score (cand_[s], std::size_t (s));
     }
+  }
 
   // §4.3 EMPTY map: when k/n > 25 % it is kept on a coarser grid, so sectors inside the
   // object's projection that merely received no sample are still visited.
@@ -307,33 +335,49 @@ AngularGrid::fillEmptySectors ()
     }
   if (hollow.empty ())
     return;
-  // The score of build()'s assignment pass (float, depth term relative to ρ_min).
-  std::vector<std::uint64_t> keys (hollow.size (), std::numeric_limits<std::uint64_t>::max ());
+  // The score of build()'s assignment pass (float, depth term relative to ρ_min); one best
+  // key per hollow sector and thread, as in build().
+  const std::size_t m = hollow.size ();
+  const int threads = nt ();
+  const std::size_t copies =
+      threads > 1 && m * std::size_t (threads) * sizeof (std::uint64_t) <= (std::size_t (64) << 20) ? threads : 1;
+  std::vector<std::uint64_t> keys (m * copies, std::numeric_limits<std::uint64_t>::max ());
   const double inv_2r = 1.0 / (2.0 * radius_);
-  const bool one_thread = nt () == 1;
-#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192)
-  for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (n); ++i)
+  const bool shared = threads > 1 && copies == 1;
+#pragma omp parallel num_threads(threads)
   {
-    const std::uint32_t s = sector_[i];
-    if (!borders[s])
-      continue;
-    const int a = int (s / cols), b = int (s % cols);
-    const float depth = float ((rho_[i] - rho0_) * inv_2r), near = float (1.0 - rho_[i] * inv_2r);
-    for (int da = -1; da <= 1; ++da)
-      for (int db = -1; db <= 1; ++db)
-      {
-        const std::ptrdiff_t t = neighbourOf (a, b, da, db);
-        const std::int32_t h = t < 0 ? -1 : hollow_of[std::size_t (t)];
-        if (h < 0)
-          continue;
-        const float g = 0.5f * (unit_[i] - hollow_dir[std::size_t (h)]).squaredNorm () * near + depth;
-        const std::uint64_t key = packKey (g, std::uint32_t (i));
-        if (one_thread)
-          keys[std::size_t (h)] = std::min (keys[std::size_t (h)], key);
-        else
-          atomicMin (keys[std::size_t (h)], key);
-      }
+#ifdef _OPENMP
+    std::uint64_t* best_key = keys.data () + (copies > 1 ? m * std::size_t (omp_get_thread_num ()) : 0);
+#else
+    std::uint64_t* best_key = keys.data ();
+#endif
+#pragma omp for schedule(dynamic, 8192)
+    for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (n); ++i)
+    {
+      const std::uint32_t s = sector_[i];
+      if (!borders[s])
+        continue;
+      const int a = int (s / cols), b = int (s % cols);
+      const float depth = float ((rho_[i] - rho0_) * inv_2r), near = float (1.0 - rho_[i] * inv_2r);
+      for (int da = -1; da <= 1; ++da)
+        for (int db = -1; db <= 1; ++db)
+        {
+          const std::ptrdiff_t t = neighbourOf (a, b, da, db);
+          const std::int32_t h = t < 0 ? -1 : hollow_of[std::size_t (t)];
+          if (h < 0)
+            continue;
+          const float g = 0.5f * (unit_[i] - hollow_dir[std::size_t (h)]).squaredNorm () * near + depth;
+          const std::uint64_t key = packKey (g, std::uint32_t (i));
+          if (shared)
+            atomicMin (best_key[std::size_t (h)], key);
+          else
+            best_key[std::size_t (h)] = std::min (best_key[std::size_t (h)], key);
+        }
+    }
   }
+  for (std::size_t h = 0; h < m; ++h)
+    for (std::size_t c = 1; c < copies; ++c)
+      keys[h] = std::min (keys[h], keys[c * m + h]);
   for (std::size_t h = 0; h < hollow.size (); ++h)
     if (keys[h] != std::numeric_limits<std::uint64_t>::max ())
     {
@@ -434,9 +478,12 @@ AngularGrid::propagateAdaptive (int max_steps)
       changed.push_back (s);
   // Each step is a Jacobi step: candidates move at most one sector per step.
   const int cap = max_steps > 0 ? max_steps : 4 * (n_phi_ + n_theta_);
-  std::vector<int> prop_cand (k, -1);
-  std::vector<double> prop_best (k);
-  std::vector<std::uint32_t> stamp (k, 0);
+  std::vector<int>& prop_cand = scratch_.prop_cand;
+  std::vector<double>& prop_best = scratch_.prop_best;
+  std::vector<std::uint32_t>& stamp = scratch_.stamp;
+  prop_cand.assign (k, -1);
+  prop_best.resize (k);
+  stamp.assign (k, 0);
   std::vector<std::size_t> nb, touched;
   int steps = 0;
   while (!changed.empty () && steps < cap)

@@ -115,6 +115,9 @@ public:
   double gridSolidAngle () const;
 
 private:
+  // Both build ()s: R from radius_for_area when given, else `radius`.
+  void buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre,
+                  const std::function<double (double)>* radius_for_area, double radius, std::size_t sectors);
   // g = 1 − cos α + cos α·ρ/(2R) is the seed's DIST = (2R − ρ)·cos α rescaled so that
   // smaller is better and the tiny differences survive in floating point (R ≫ ρ).
   double score (int point, std::size_t sector) const;
@@ -147,9 +150,10 @@ private:
   int empty_factor_ = 1;       // EMPTY is kept on a grid coarser by this factor per axis
   int coarse_theta_ = 0;
   std::vector<std::uint8_t> occupied_coarse_;
-  // Per-call buffers of build () and interiorPoints (), kept with their capacity: a grid used
-  // again (HPRFilter on every frame) then writes to pages it already has. At 1M points the
-  // page faults of fresh buffers were ~13 % of a candidate-hull call's CPU time.
+  // Per-call buffers of build (), propagateAdaptive () and interiorPoints (), kept with their
+  // capacity: a grid used again (HPRFilter on every frame) then writes to pages it already
+  // has. At 1M points the page faults of fresh buffers were ~13 % of a candidate-hull call's
+  // CPU time.
   struct Scratch
   {
     std::vector<float> ca, cb;
@@ -157,7 +161,9 @@ private:
     std::vector<std::uint8_t> is_cand, inside, cand_sorted, seed, band;
     std::vector<std::uint32_t> start, order, col, slot;
     std::vector<Eigen::Vector3d> sorted, cand_dir, cand_flip;
-    std::vector<double> cand_rho;
+    std::vector<double> cand_rho, prop_best;
+    std::vector<int> prop_cand;
+    std::vector<std::uint32_t> stamp;
   };
   mutable Scratch scratch_;  // contents meaningless between calls
 };
