@@ -938,6 +938,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     }
   };
 
+  const double inv_cell_phi = 1.0 / cell_phi_, inv_cell_theta = 1.0 / cell_theta_;
 #pragma omp parallel num_threads(nt ())
   {
     // The quads of the rows above (qa = a − 1) and below (qa = a) the sector row a, indexed by
@@ -988,14 +989,17 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       const double rho = p.norm ();
       if (rho <= min_rho)
         continue;
-      const Eigen::Vector3d uq = p / rho, q = p * (R2 / rho - 1.0);  // same flip as flipped()
+      // The cone tests take p itself, their margin scaled by ρ (no division per point;
+      // the margin, 1e-9 of the cone's size, dwarfs the rounding either way).
+      const Eigen::Vector3d q = p * (R2 / rho - 1.0);  // same flip as flipped()
       // Try first the quad whose sector centres surround the point (the one most likely to
       // contain it), then the other three.
       int first = 0;
       if (gnomonic_)
       {
         const Eigen::Vector3d u = frame_ * p;
-        const double fa = (u.y () / u.x () - phi0_) / cell_phi_ - a, fb = (u.z () / u.x () - theta0_) / cell_theta_ - b;
+        const double inv_x = 1.0 / u.x ();
+        const double fa = (u.y () * inv_x - phi0_) * inv_cell_phi - a, fb = (u.z () * inv_x - theta0_) * inv_cell_theta - b;
         first = 2 * (fa >= 0.5) + (fb >= 0.5);
       }
       // Once the point is inside the cone of a tetrahedron of one quad and above the planes of
@@ -1011,7 +1015,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
           const Tetra& T = Q.t[t];
           int outside = -1;
           for (int e = 0; e < 3 && outside < 0; ++e)
-            if (T.edge[e].dot (uq) <= T.cone_eps)
+            if (T.edge[e].dot (p) <= T.cone_eps * rho)
               outside = e;
           if (outside >= 0)
           {
