@@ -551,30 +551,40 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
   res.visible.assign (n, 0);
   if (n == 0)
     return res;
-  // Extremes of ρ and the centroid in one pass (they were two serial passes). The sums are
-  // per fixed block, added in block order: the centroid does not depend on the thread count.
+  // Extremes of ρ and the centroid in one pass (they were two serial passes), unless the
+  // caller gathered them. The sums are per fixed block, added in block order: the centroid
+  // does not depend on the thread count.
   const int threads = opt.threads > 0 ? opt.threads : autoThreads (n);
-  constexpr std::size_t kBlock = 65536;
-  const std::size_t blocks = (n + kBlock - 1) / kBlock;
-  std::vector<Eigen::Vector3d> block_sum (blocks, Eigen::Vector3d::Zero ());
+  const std::size_t blocks = (n + kStatsBlock - 1) / kStatsBlock;
   double max_rho2 = 0, min_rho2 = std::numeric_limits<double>::infinity ();
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) reduction(max : max_rho2) reduction(min : min_rho2)
-  for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
-  {
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero ();
-    for (std::size_t i = std::size_t (b) * kBlock, e = std::min (n, i + kBlock); i < e; ++i)
-    {
-      const Eigen::Vector3d& p = points[i];
-      const double r2 = p.squaredNorm ();
-      max_rho2 = std::max (max_rho2, r2);
-      min_rho2 = std::min (min_rho2, r2);
-      sum += p;
-    }
-    block_sum[b] = sum;
-  }
   Eigen::Vector3d point_sum = Eigen::Vector3d::Zero ();
-  for (const auto& b : block_sum)
-    point_sum += b;
+  if (opt.stats && opt.stats->block_sum.size () == blocks)
+  {
+    max_rho2 = opt.stats->max_rho2;
+    min_rho2 = opt.stats->min_rho2;
+    for (const auto& b : opt.stats->block_sum)
+      point_sum += b;
+  }
+  else
+  {
+    std::vector<Eigen::Vector3d> block_sum (blocks, Eigen::Vector3d::Zero ());
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) reduction(max : max_rho2) reduction(min : min_rho2)
+    for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
+    {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero ();
+      for (std::size_t i = std::size_t (b) * kStatsBlock, e = std::min (n, i + kStatsBlock); i < e; ++i)
+      {
+        const Eigen::Vector3d& p = points[i];
+        const double r2 = p.squaredNorm ();
+        max_rho2 = std::max (max_rho2, r2);
+        min_rho2 = std::min (min_rho2, r2);
+        sum += p;
+      }
+      block_sum[b] = sum;
+    }
+    for (const auto& b : block_sum)
+      point_sum += b;
+  }
   const double max_rho = std::sqrt (max_rho2);
   HPR_LAP ("min_max_rho");
 

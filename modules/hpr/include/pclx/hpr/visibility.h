@@ -17,6 +17,17 @@ constexpr std::size_t kMaxSectors = std::size_t (1) << 24;
 
 enum class VisibilityMethod { EXACT, ANGULAR_GRID, CANDIDATE_HULL, BENTLEY_FAUST_PREPARATA, KAVAN, HYBRID };
 
+// What computeVisibility's first pass gathers: min and max |p|², and the sum of the points
+// per block of kStatsBlock (the centroid adds them in block order, so it does not depend on
+// the thread count). A caller that reads every point anyway (HPRFilter, copying them) can
+// hand them over and the pass is skipped.
+constexpr std::size_t kStatsBlock = 65536;
+struct PointStats
+{
+  double min_rho2 = 0, max_rho2 = 0;
+  std::vector<Eigen::Vector3d> block_sum;  // one per kStatsBlock points, in order
+};
+
 struct VisibilityOptions
 {
   VisibilityMethod method = VisibilityMethod::ANGULAR_GRID;
@@ -39,6 +50,7 @@ struct VisibilityOptions
   // flat-input test is a few float ulps of it. <= 0: max |p − C|.
   double coordinate_scale = 0;
   int threads = 0;  // OpenMP threads; 0: autoThreads()
+  const PointStats* stats = nullptr;  // of exactly these points, or nullptr
 };
 
 struct VisibilityResult

@@ -6,6 +6,7 @@
 #include <pcl/conversions.h>
 
 #include <cmath>
+#include <limits>
 
 template <typename PointT> void
 pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
@@ -46,53 +47,74 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   // Finite points among the requested indices, relative to the viewpoint, in double: in
   // float, p − C loses the depth differences when C is far (at 1000× the diameter one float
   // ulp of |p − C| is ~6 % of the spacing of 1M samples).
-  // In parallel over fixed blocks of the indices (count, then write at the block's offset:
-  // the serial order for any thread count); serial, this copy and the output below were
-  // 14 % of a 1M-point call on two threads.
+  // In parallel over fixed blocks of the indices. The first pass writes every point where it
+  // would be if all were finite (the usual case: then it is the only pass); otherwise a second
+  // pass writes the finite ones again from the input at their blocks' offsets. The serial
+  // order for any thread count. Serial, this copy and the output below were 14 % of a
+  // 1M-point call on two threads.
   const int threads = threads_ > 0 ? int (threads_) : hpr::autoThreads (indices_->size ());
   const std::size_t m = indices_->size ();
-  constexpr std::size_t kBlock = 65536;
+  // computeVisibility's blocks: when every point is finite, the sums here are its own.
+  constexpr std::size_t kBlock = hpr::kStatsBlock;
   const std::size_t blocks = (m + kBlock - 1) / kBlock;
   // Per requested index: 0 = not finite, 1 = finite (hidden once the visibility is known),
   // 2 = visible. Per block: finite points before it.
   std::vector<std::uint8_t>& state = workspace_.state;
+  std::vector<int>& finite = workspace_.finite;
+  std::vector<Eigen::Vector3d>& rel = workspace_.points;
   state.resize (m);
+  finite.resize (m);
+  rel.resize (m);
   std::vector<std::size_t> block_start (blocks + 1, 0);
   const Eigen::Vector3d eye = viewpoint_.cast<double> ();
-  double max_rho2 = 0, max_coord2 = 0;
-#pragma omp parallel for num_threads(threads) schedule(static) reduction(max : max_rho2, max_coord2)
+  double max_rho2 = 0, min_rho2 = std::numeric_limits<double>::infinity (), max_coord2 = 0;
+  hpr::PointStats stats;
+  stats.block_sum.assign (blocks, Eigen::Vector3d::Zero ());
+#pragma omp parallel for num_threads(threads) schedule(static) reduction(max : max_rho2, max_coord2) \
+    reduction(min : min_rho2)
   for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
   {
     std::size_t count = 0;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero ();
     for (std::size_t pos = std::size_t (b) * kBlock, end = std::min (m, pos + kBlock); pos < end; ++pos)
     {
-      const PointT& p = (*input_)[(*indices_)[pos]];
+      const auto i = (*indices_)[pos];
+      const PointT& p = (*input_)[i];
       state[pos] = std::isfinite (p.x) && std::isfinite (p.y) && std::isfinite (p.z);
       if (!state[pos])
         continue;
       ++count;
-      max_rho2 = std::max (max_rho2, (p.getVector3fMap ().template cast<double> () - eye).squaredNorm ());
+      finite[pos] = static_cast<int> (i);
+      rel[pos] = p.getVector3fMap ().template cast<double> () - eye;
+      const double r2 = rel[pos].squaredNorm ();
+      max_rho2 = std::max (max_rho2, r2);
+      min_rho2 = std::min (min_rho2, r2);
+      sum += rel[pos];
       max_coord2 = std::max<double> (max_coord2, p.getVector3fMap ().squaredNorm ());
     }
     block_start[b + 1] = count;
+    stats.block_sum[b] = sum;
   }
+  stats.max_rho2 = max_rho2;
+  stats.min_rho2 = min_rho2;
   for (std::size_t b = 0; b < blocks; ++b)
     block_start[b + 1] += block_start[b];
-  std::vector<int>& finite = workspace_.finite;
-  std::vector<Eigen::Vector3d>& rel = workspace_.points;
-  finite.resize (block_start[blocks]);
-  rel.resize (block_start[blocks]);
-#pragma omp parallel for num_threads(threads) schedule(static)
-  for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
+  if (block_start[blocks] < m)
   {
-    std::size_t j = block_start[b];
-    for (std::size_t pos = std::size_t (b) * kBlock, end = std::min (m, pos + kBlock); pos < end; ++pos)
-      if (state[pos])
-      {
-        const auto i = (*indices_)[pos];
-        finite[j] = static_cast<int> (i);
-        rel[j++] = (*input_)[i].getVector3fMap ().template cast<double> () - eye;
-      }
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
+    {
+      std::size_t j = block_start[b];
+      for (std::size_t pos = std::size_t (b) * kBlock, end = std::min (m, pos + kBlock); pos < end; ++pos)
+        if (state[pos])
+        {
+          const auto i = (*indices_)[pos];
+          finite[j] = static_cast<int> (i);
+          rel[j++] = (*input_)[i].getVector3fMap ().template cast<double> () - eye;
+        }
+    }
+    finite.resize (block_start[blocks]);
+    rel.resize (block_start[blocks]);
   }
   const double max_rho = std::sqrt (max_rho2), max_coord = std::sqrt (max_coord2);
 
@@ -132,6 +154,7 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   opt.normals = compute_normals_;
   opt.coordinate_scale = max_coord + double (viewpoint_.norm ());
   opt.threads = threads;
+  opt.stats = finite.size () == m ? &stats : nullptr;
 
   const hpr::VisibilityResult res = hpr::computeVisibility (rel, opt, &workspace_);
   if (!res.error.empty ())
