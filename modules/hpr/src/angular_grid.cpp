@@ -40,6 +40,53 @@ atomicMin (std::uint64_t& target, std::uint64_t value)
   {
   }
 }
+// The smallest packed key per slot, over points scored in parallel. Each thread keeps its
+// own row of slots while the rows take at most 64 MB (merged by best ()): with one shared
+// array, two threads' loads and compare-exchanges on the same lines made the grid's
+// assignment only 1.13× faster than one thread at 1M points. Above that, one shared row with
+// atomic minima.
+class BestKeys
+{
+public:
+  BestKeys (std::vector<std::uint64_t>& storage, std::size_t slots, int threads)
+    : keys_ (storage), slots_ (slots),
+      rows_ (threads > 1 && slots * std::size_t (threads) * sizeof (std::uint64_t) <= (std::size_t (64) << 20)
+                 ? std::size_t (threads)
+                 : 1),
+      shared_ (threads > 1 && rows_ == 1)
+  {
+    keys_.assign (slots_ * rows_, kNone);
+  }
+  // The calling thread's row (inside the parallel region).
+  std::uint64_t* row () const
+  {
+#ifdef _OPENMP
+    return keys_.data () + (rows_ > 1 ? slots_ * std::size_t (omp_get_thread_num ()) : 0);
+#else
+    return keys_.data ();
+#endif
+  }
+  void offer (std::uint64_t* row, std::size_t slot, std::uint64_t key) const
+  {
+    if (shared_)
+      atomicMin (row[slot], key);
+    else
+      row[slot] = std::min (row[slot], key);
+  }
+  std::uint64_t best (std::size_t slot) const
+  {
+    std::uint64_t key = keys_[slot];
+    for (std::size_t r = 1; r < rows_; ++r)
+      key = std::min (key, keys_[r * slots_ + slot]);
+    return key;
+  }
+  static constexpr std::uint64_t kNone = std::numeric_limits<std::uint64_t>::max ();
+
+private:
+  std::vector<std::uint64_t>& keys_;
+  std::size_t slots_, rows_;
+  bool shared_;
+};
 }  // namespace
 
 void
@@ -205,25 +252,14 @@ AngularGrid::buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen:
 
   HPR_LAP ("build.layout");
   // §4.2: sector of every point and the extreme (best scored) point per sector.
-  // Each thread keeps its own best key per sector (merged below) while that costs at most
-  // 64 MB: with one shared array, two threads' loads and compare-exchanges on the same lines
-  // made the pass only 1.13× faster than one thread at 1M points.
   const int threads = nt ();
-  const std::size_t copies =
-      threads > 1 && k * std::size_t (threads) * sizeof (std::uint64_t) <= (std::size_t (64) << 20) ? threads : 1;
-  std::vector<std::uint64_t>& keys = scratch_.keys;
-  keys.assign (k * copies, std::numeric_limits<std::uint64_t>::max ());
+  const BestKeys keys (scratch_.keys, k, threads);
   const float inv_a = float (1.0 / cell_phi_), inv_b = float (1.0 / cell_theta_);
   const float a0 = float (phi0_), b0 = float (theta0_);
   const double inv_2r = 1.0 / (2.0 * radius_);
-  const bool shared = threads > 1 && copies == 1;
 #pragma omp parallel num_threads(threads)
   {
-#ifdef _OPENMP
-    std::uint64_t* best_key = keys.data () + (copies > 1 ? k * std::size_t (omp_get_thread_num ()) : 0);
-#else
-    std::uint64_t* best_key = keys.data ();
-#endif
+    std::uint64_t* best_key = keys.row ();
 #pragma omp for schedule(dynamic, 8192)
     for (std::ptrdiff_t i = 0; i < n; ++i)
     {
@@ -244,11 +280,7 @@ AngularGrid::buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen:
       const float one_minus_cos = 0.5f * (unit_[i] - d).squaredNorm ();
       // See score(): the depth enters as (ρ − ρ_min)/2R, exact in float at any distance.
       const float g = one_minus_cos * float (1.0 - rho_[i] * inv_2r) + float ((rho_[i] - rho0_) * inv_2r);
-      const std::uint64_t key = packKey (g, std::uint32_t (i));
-      if (shared)
-        atomicMin (best_key[s], key);
-      else
-        best_key[s] = std::min (best_key[s], key);
+      keys.offer (best_key, s, packKey (g, std::uint32_t (i)));
     }
   }
   HPR_LAP ("build.assign_score");
@@ -257,10 +289,8 @@ AngularGrid::buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen:
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 8192)
   for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
   {
-    std::uint64_t key = keys[s];
-    for (std::size_t c = 1; c < copies; ++c)
-      key = std::min (key, keys[c * k + std::size_t (s)]);
-    if (key != std::numeric_limits<std::uint64_t>::max ())
+    const std::uint64_t key = keys.best (std::size_t (s));
+    if (key != BestKeys::kNone)
     {
       cand_[s] = int (key & 0xffffffffu);
       best_[s] = score (cand_[s], std::size_t (s));
@@ -335,22 +365,15 @@ AngularGrid::fillEmptySectors ()
     }
   if (hollow.empty ())
     return;
-  // The score of build()'s assignment pass (float, depth term relative to ρ_min); one best
-  // key per hollow sector and thread, as in build().
+  // The score of build()'s assignment pass (float, depth term relative to ρ_min).
   const std::size_t m = hollow.size ();
   const int threads = nt ();
-  const std::size_t copies =
-      threads > 1 && m * std::size_t (threads) * sizeof (std::uint64_t) <= (std::size_t (64) << 20) ? threads : 1;
-  std::vector<std::uint64_t> keys (m * copies, std::numeric_limits<std::uint64_t>::max ());
+  std::vector<std::uint64_t> storage;
+  const BestKeys keys (storage, m, threads);
   const double inv_2r = 1.0 / (2.0 * radius_);
-  const bool shared = threads > 1 && copies == 1;
 #pragma omp parallel num_threads(threads)
   {
-#ifdef _OPENMP
-    std::uint64_t* best_key = keys.data () + (copies > 1 ? m * std::size_t (omp_get_thread_num ()) : 0);
-#else
-    std::uint64_t* best_key = keys.data ();
-#endif
+    std::uint64_t* best_key = keys.row ();
 #pragma omp for schedule(dynamic, 8192)
     for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (n); ++i)
     {
@@ -367,23 +390,19 @@ AngularGrid::fillEmptySectors ()
           if (h < 0)
             continue;
           const float g = 0.5f * (unit_[i] - hollow_dir[std::size_t (h)]).squaredNorm () * near + depth;
-          const std::uint64_t key = packKey (g, std::uint32_t (i));
-          if (shared)
-            atomicMin (best_key[std::size_t (h)], key);
-          else
-            best_key[std::size_t (h)] = std::min (best_key[std::size_t (h)], key);
+          keys.offer (best_key, std::size_t (h), packKey (g, std::uint32_t (i)));
         }
     }
   }
   for (std::size_t h = 0; h < m; ++h)
-    for (std::size_t c = 1; c < copies; ++c)
-      keys[h] = std::min (keys[h], keys[c * m + h]);
-  for (std::size_t h = 0; h < hollow.size (); ++h)
-    if (keys[h] != std::numeric_limits<std::uint64_t>::max ())
+  {
+    const std::uint64_t key = keys.best (h);
+    if (key != BestKeys::kNone)
     {
-      cand_[hollow[h]] = int (keys[h] & 0xffffffffu);
+      cand_[hollow[h]] = int (key & 0xffffffffu);
       best_[hollow[h]] = score (cand_[hollow[h]], hollow[h]);
     }
+  }
 }
 
 int
