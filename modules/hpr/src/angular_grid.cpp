@@ -796,7 +796,8 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   std::vector<std::uint8_t>& cand_sorted = scratch_.cand_sorted;
   std::vector<std::uint32_t>& col_sorted = scratch_.col;
   sorted.resize (n);
-  inside_sorted.assign (n, 0);
+  if (!survivors)  // the per-point mask; with survivors the tests list them per row instead
+    inside_sorted.assign (n, 0);
   cand_sorted.resize (n);
   col_sorted.resize (n);
   // Counting sort in parallel: each thread counts its own contiguous slice per row, the
@@ -957,6 +958,21 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     }
   };
 
+  // Survivors of each row, recorded by the tests (row r's from kept[start[row]] to
+  // kept_end[row], in row order), so that the band and the output read ~n/10 entries instead
+  // of scanning all n twice. With a band asked for, culls within band_depth_ mark its seed
+  // sectors here too (a row's sectors are its own: rows in parallel write disjoint seeds).
+  const bool want_band = survivors && (survivor_in_band || outside_band);
+  std::vector<std::uint32_t>& kept = scratch_.kept;
+  std::vector<std::uint32_t>& kept_end = scratch_.kept_end;
+  if (survivors)
+  {
+    kept.resize (n);
+    kept_end.assign (start.begin (), start.begin () + n_phi_);  // rows without points keep none
+  }
+  std::vector<std::uint8_t>& seed = scratch_.seed;
+  if (want_band)
+    seed.assign (k, 0);
   const double inv_cell_phi = 1.0 / cell_phi_, inv_cell_theta = 1.0 / cell_theta_;
 #pragma omp parallel num_threads(nt ())
   {
@@ -991,15 +1007,24 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       buildRow (a - 1, upper);
     buildRow (a, lower);
     lower_row = a;
+    std::uint32_t* keep = survivors ? kept.data () + start[row] : nullptr;
     for (std::uint32_t r = start[row]; r < start[row + 1]; ++r)
     {
       if (cand_sorted[r])
+      {
+        if (keep)
+          *keep++ = r;
         continue;
+      }
       const int b = int (col_sorted[r]);
       const QuadSet* quad[4] = {&upper[std::size_t (b)], &upper[std::size_t (b) + 1], &lower[std::size_t (b)],
                                 &lower[std::size_t (b) + 1]};
       if (quad[0]->count + quad[1]->count + quad[2]->count + quad[3]->count == 0)
+      {
+        if (keep)
+          *keep++ = r;
         continue;
+      }
       // A point inside (C, a, b, c) is deeper than the nearest of a, b, c (|q| = 2R − ρ is
       // below the plane's largest |x| over the triangle, 2R − min ρ): points no deeper than
       // every candidate of the 3×3 neighbourhood skip the tests.
@@ -1007,7 +1032,11 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       const Eigen::Vector3d& p = sorted[r];
       const double rho = p.norm ();
       if (rho <= min_rho)
+      {
+        if (keep)
+          *keep++ = r;
         continue;
+      }
       // The cone tests take p itself, their margin scaled by ρ (no division per point;
       // the margin, 1e-9 of the cone's size, dwarfs the rounding either way).
       const Eigen::Vector3d q = p * (R2 / rho - 1.0);  // same flip as flipped()
@@ -1052,9 +1081,19 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
           }
         }
       }
-      // 2: culled within band_depth_ of the nearest candidate around it (seeds the band).
-      inside_sorted[r] = inside ? (band_depth_ > 0 && rho - min_rho > band_depth_ ? 1 : 2) : 0;
+      // A cull within band_depth_ of the nearest candidate around it seeds the band.
+      if (!inside)
+      {
+        if (keep)
+          *keep++ = r;
+      }
+      else if (!survivors)
+        inside_sorted[r] = 1;
+      else if (want_band && !(band_depth_ > 0 && rho - min_rho > band_depth_))
+        seed[std::size_t (a) * cols + std::size_t (b)] = 1;
     }
+    if (keep)
+      kept_end[row] = std::uint32_t (keep - kept.data ());
   }
   }
   HPR_LAP ("interior.tests");
@@ -1065,16 +1104,8 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   band.clear ();
   // Sector of the r-th point in row order, without a random read of sector_.
   auto sectorSorted = [&] (int row, std::uint32_t r) { return std::size_t (row) * cols + col_sorted[r]; };
-  if (survivors && (survivor_in_band || outside_band))
+  if (want_band)
   {
-    std::vector<std::uint8_t>& seed = scratch_.seed;
-    seed.assign (k, 0);
-    // A row's sectors are its own: rows in parallel write disjoint seeds.
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 4)
-    for (std::ptrdiff_t row = 0; row < std::ptrdiff_t (n_phi_); ++row)
-      for (std::uint32_t r = start[row]; r < start[row + 1]; ++r)
-        if (inside_sorted[r] == 2)
-          seed[sectorSorted (int (row), r)] = 1;
     for (std::size_t s = 0; s < k; ++s)
       if (cand_[s] < 0)
         seed[s] = 1;
@@ -1108,53 +1139,50 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     // `survivors`: the caller marks the first visible and refines the second, without a
     // second pass that splits them. Rows are counted, then written, in parallel (each row at
     // its prefix offset: the serial order); serial, this was a tenth of the call.
-    std::vector<std::uint32_t> kept (std::size_t (n_phi_) + 1, 0), kept_band (std::size_t (n_phi_) + 1, 0);
+    std::vector<std::uint32_t> n_kept (std::size_t (n_phi_) + 1, 0), kept_band (std::size_t (n_phi_) + 1, 0);
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 4)
     for (std::ptrdiff_t row = 0; row < std::ptrdiff_t (n_phi_); ++row)
     {
-      std::uint32_t all = 0, in_band = 0;
-      for (std::uint32_t r = start[row]; r < start[row + 1]; ++r)
-        if (!inside_sorted[r])
-        {
-          ++all;
-          in_band += outside_band && band[sectorSorted (int (row), r)];
-        }
-      kept[row + 1] = all;
+      std::uint32_t in_band = 0;
+      if (outside_band)
+        for (std::uint32_t j = start[row]; j < kept_end[row]; ++j)
+          in_band += band[sectorSorted (int (row), kept[j])];
+      n_kept[row + 1] = kept_end[row] - start[row];
       kept_band[row + 1] = in_band;
     }
     for (int row = 0; row < n_phi_; ++row)
     {
-      kept[row + 1] += kept[row];
+      n_kept[row + 1] += n_kept[row];
       kept_band[row + 1] += kept_band[row];
     }
-    const std::size_t to_survivors = outside_band ? kept_band[n_phi_] : kept[n_phi_];
+    const std::size_t to_survivors = outside_band ? kept_band[n_phi_] : n_kept[n_phi_];
     survivors->resize (to_survivors);
     if (survivor_points)
       survivor_points->resize (to_survivors);
     if (survivor_in_band)
       survivor_in_band->resize (to_survivors);
     if (outside_band)
-      outside_band->resize (kept[n_phi_] - kept_band[n_phi_]);
+      outside_band->resize (n_kept[n_phi_] - kept_band[n_phi_]);
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 4)
     for (std::ptrdiff_t row = 0; row < std::ptrdiff_t (n_phi_); ++row)
     {
-      std::size_t j = outside_band ? kept_band[row] : kept[row], o = kept[row] - kept_band[row];
-      for (std::uint32_t r = start[row]; r < start[row + 1]; ++r)
-        if (!inside_sorted[r])
+      std::size_t j = outside_band ? kept_band[row] : n_kept[row], o = n_kept[row] - kept_band[row];
+      for (std::uint32_t i = start[row]; i < kept_end[row]; ++i)
+      {
+        const std::uint32_t r = kept[i];
+        const bool in_band = !band.empty () && band[sectorSorted (int (row), r)];
+        if (outside_band && !in_band)
         {
-          const bool in_band = !band.empty () && band[sectorSorted (int (row), r)];
-          if (outside_band && !in_band)
-          {
-            (*outside_band)[o++] = int (order[r]);
-            continue;
-          }
-          (*survivors)[j] = int (order[r]);
-          if (survivor_points)
-            (*survivor_points)[j] = sorted[r];
-          if (survivor_in_band)
-            (*survivor_in_band)[j] = in_band;
-          ++j;
+          (*outside_band)[o++] = int (order[r]);
+          continue;
         }
+        (*survivors)[j] = int (order[r]);
+        if (survivor_points)
+          (*survivor_points)[j] = sorted[r];
+        if (survivor_in_band)
+          (*survivor_in_band)[j] = in_band;
+        ++j;
+      }
     }
   }
   else
