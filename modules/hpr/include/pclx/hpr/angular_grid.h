@@ -160,7 +160,7 @@ private:
     std::vector<std::uint64_t> keys;
     std::vector<std::uint8_t> is_cand, inside, cand_sorted, seed, band;
     std::vector<std::uint32_t> start, order, col, slot, kept, kept_end;
-    std::vector<Eigen::Vector3d> sorted, cand_dir, cand_flip;
+    std::vector<Eigen::Vector3d> sorted, cand_dir, cand_flip, split;
     std::vector<double> cand_rho, prop_best;
     std::vector<int> prop_cand;
     std::vector<std::uint32_t> stamp;
