@@ -337,10 +337,13 @@ AngularGrid::fillEmptySectors ()
   };
   // Point-less sectors next to one with points ("hollow", numbered), their directions, and
   // the sectors next to them (whose points are scored towards them).
-  std::vector<std::uint8_t> borders (k, 0);
+  // border[s]: 1 + where s's point-less neighbours start in border_hollow (a list ended by
+  // −1), or 0: the points' pass below then reads one list instead of testing 9 neighbours.
+  std::vector<std::uint32_t> border (k, 0);
   std::vector<std::int32_t> hollow_of (k, -1);
   std::vector<std::size_t> hollow;
   std::vector<Eigen::Vector3f> hollow_dir;
+  std::vector<std::int32_t> border_hollow;
   // From the occupied sectors (on the finer grids most sectors are empty).
   for (int a = 0; a < rows; ++a)
     for (int b = 0; b < cols; ++b)
@@ -348,20 +351,26 @@ AngularGrid::fillEmptySectors ()
       const std::size_t s = std::size_t (a) * cols + b;
       if (cand_[s] < 0)
         continue;
+      const std::size_t first = border_hollow.size ();
       for (int da = -1; da <= 1; ++da)
         for (int db = -1; db <= 1; ++db)
         {
           const std::ptrdiff_t t = neighbourOf (a, b, da, db);
           if (t < 0 || cand_[std::size_t (t)] >= 0)
             continue;
-          borders[s] = 1;
           if (hollow_of[std::size_t (t)] < 0)
           {
             hollow_of[std::size_t (t)] = std::int32_t (hollow.size ());
             hollow.push_back (std::size_t (t));
             hollow_dir.push_back (direction (std::size_t (t)).cast<float> ());
           }
+          border_hollow.push_back (hollow_of[std::size_t (t)]);
         }
+      if (border_hollow.size () > first)
+      {
+        border[s] = std::uint32_t (first + 1);
+        border_hollow.push_back (-1);
+      }
     }
   if (hollow.empty ())
     return;
@@ -377,21 +386,15 @@ AngularGrid::fillEmptySectors ()
 #pragma omp for schedule(dynamic, 8192)
     for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (n); ++i)
     {
-      const std::uint32_t s = sector_[i];
-      if (!borders[s])
+      const std::uint32_t first = border[sector_[i]];
+      if (!first)
         continue;
-      const int a = int (s / cols), b = int (s % cols);
       const float depth = float ((rho_[i] - rho0_) * inv_2r), near = float (1.0 - rho_[i] * inv_2r);
-      for (int da = -1; da <= 1; ++da)
-        for (int db = -1; db <= 1; ++db)
-        {
-          const std::ptrdiff_t t = neighbourOf (a, b, da, db);
-          const std::int32_t h = t < 0 ? -1 : hollow_of[std::size_t (t)];
-          if (h < 0)
-            continue;
-          const float g = 0.5f * (unit_[i] - hollow_dir[std::size_t (h)]).squaredNorm () * near + depth;
-          keys.offer (best_key, std::size_t (h), packKey (g, std::uint32_t (i)));
-        }
+      for (const std::int32_t* h = border_hollow.data () + (first - 1); *h >= 0; ++h)
+      {
+        const float g = 0.5f * (unit_[i] - hollow_dir[std::size_t (*h)]).squaredNorm () * near + depth;
+        keys.offer (best_key, std::size_t (*h), packKey (g, std::uint32_t (i)));
+      }
     }
   }
   for (std::size_t h = 0; h < m; ++h)
