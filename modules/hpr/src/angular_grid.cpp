@@ -1039,12 +1039,15 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     buildRow (a, lower);
     lower_row = a;
     std::uint32_t* keep = survivors ? kept.data () + start[row] : nullptr;
+    auto survive = [&keep] (std::uint32_t r) {
+      if (keep)
+        *keep++ = r;
+    };
     for (std::uint32_t r = start[row]; r < start[row + 1]; ++r)
     {
       if (cand_sorted[r])
       {
-        if (keep)
-          *keep++ = r;
+        survive (r);
         continue;
       }
       const int b = int (col_sorted[r]);
@@ -1052,8 +1055,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
                                 &lower[std::size_t (b) + 1]};
       if (quad[0]->count + quad[1]->count + quad[2]->count + quad[3]->count == 0)
       {
-        if (keep)
-          *keep++ = r;
+        survive (r);
         continue;
       }
       // A point inside (C, a, b, c) is deeper than the nearest of a, b, c (|q| = 2R − ρ is
@@ -1064,8 +1066,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       const double rho = p.norm ();
       if (rho <= min_rho)
       {
-        if (keep)
-          *keep++ = r;
+        survive (r);
         continue;
       }
       // The cone tests take p itself, their margin scaled by ρ (no division per point;
@@ -1112,10 +1113,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       }
       // A cull within band_depth_ of the nearest candidate around it seeds the band.
       if (!inside)
-      {
-        if (keep)
-          *keep++ = r;
-      }
+        survive (r);
       else if (!survivors)
         inside_sorted[r] = 1;
       else if (want_band && !(band_depth_ > 0 && rho - min_rho > band_depth_))
