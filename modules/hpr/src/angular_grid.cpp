@@ -779,77 +779,6 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   for (int c : cand_)
     if (c >= 0)
       is_cand[c] = 1;
-  // Points bucketed by sector row (counting sort over the n_phi rows): the tests below set
-  // up the tetrahedra of two rows of quads once, and read the points in order. Bucketing by
-  // sector (k buckets) cost more than the tests at 1M points: k interleaved write streams
-  // miss the cache on every point; n_phi ≈ √k streams stay in it.
-  const int cols = n_theta_;
-  const double inv_cols = 1.0 / cols;
-  // Exact: s + 0.5 keeps the product off the integers for every s < 2^31.
-  auto rowOf = [inv_cols] (std::uint32_t s) { return std::uint32_t ((double (s) + 0.5) * inv_cols); };
-  std::vector<std::uint32_t>& start = scratch_.start;
-  std::vector<std::uint32_t>& order = scratch_.order;
-  start.assign (std::size_t (n_phi_) + 1, 0);
-  order.resize (n);
-  // The points in row order, scattered once while sorting: the tests then read memory in
-  // order (reading points[order[r]] there was memory-bound, 3x slower at 1M points).
-  // Candidates are never interior.
-  std::vector<Eigen::Vector3d>& sorted = scratch_.sorted;
-  std::vector<std::uint8_t>& inside_sorted = scratch_.inside;
-  std::vector<std::uint8_t>& cand_sorted = scratch_.cand_sorted;
-  std::vector<std::uint32_t>& col_sorted = scratch_.col;
-  sorted.resize (n);
-  if (!survivors)  // the per-point mask; with survivors the tests list them per row instead
-    inside_sorted.assign (n, 0);
-  cand_sorted.resize (n);
-  col_sorted.resize (n);
-  // Counting sort in parallel: each thread counts its own contiguous slice per row, the
-  // slices' offsets are laid out row by row in thread order, and each thread scatters its
-  // slice. Thread t's points of a row follow thread t − 1's, so the order is the serial one
-  // for any thread count. Serial, count and scatter were a quarter of the call's wall time
-  // with two threads at 1M points.
-  const int threads = nt ();
-  std::vector<std::uint32_t>& slot = scratch_.slot;
-  slot.assign (std::size_t (threads) * n_phi_, 0);
-#pragma omp parallel num_threads(threads)
-  {
-#ifdef _OPENMP
-    const int t = omp_get_thread_num (), nth = omp_get_num_threads ();
-#else
-    const int t = 0, nth = 1;
-#endif
-    const std::size_t lo = n * std::size_t (t) / nth, hi = n * std::size_t (t + 1) / nth;
-    std::uint32_t* fill = slot.data () + std::size_t (t) * n_phi_;
-    for (std::size_t i = lo; i < hi; ++i)
-      ++fill[rowOf (sector_[i])];
-#pragma omp barrier
-#pragma omp single
-    {
-      std::uint32_t at = 0;
-      for (int row = 0; row < n_phi_; ++row)
-      {
-        start[row] = at;
-        for (int u = 0; u < nth; ++u)
-        {
-          std::uint32_t& c = slot[std::size_t (u) * n_phi_ + row];
-          const std::uint32_t count = c;
-          c = at;
-          at += count;
-        }
-      }
-      start[n_phi_] = at;
-    }
-    for (std::size_t i = lo; i < hi; ++i)
-    {
-      const std::uint32_t s = sector_[i], row = rowOf (s);
-      const std::uint32_t r = fill[row]++;
-      order[r] = std::uint32_t (i);
-      sorted[r] = points[i];
-      cand_sorted[r] = is_cand[i];
-      col_sorted[r] = s - row * std::uint32_t (cols);
-    }
-  }
-  HPR_LAP ("interior.scatter");
   // Exactly the flip the hull sees (double, from the input points): a culled point must
   // be interior to the very hull Qhull computes.
   const double R2 = 2.0 * radius_;
@@ -884,9 +813,11 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   // lies on names the quad most likely to hold it (the sector centre, the earlier guess,
   // needed 1.6 quads per tested point on a lumpy ellipsoid at 1M).
   std::vector<Eigen::Vector3d>& split = scratch_.split;
+  std::vector<Eigen::Vector2d>& cand_g = scratch_.cand_g;  // the candidates' (a, b) (depth cut)
   if (gnomonic_)
   {
     split.resize (2 * k);
+    cand_g.resize (k);
     const Eigen::Vector3d ex = frame_.row (0), ey = frame_.row (1), ez = frame_.row (2);
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 1024)
     for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
@@ -903,6 +834,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
         ga = centre_a_[std::size_t (s) / std::size_t (n_theta_)];
         gb = centre_b_[std::size_t (s) % std::size_t (n_theta_)];
       }
+      cand_g[s] = Eigen::Vector2d (ga, gb);
       split[2 * s] = ey - ga * ex;
       split[2 * s + 1] = ez - gb * ex;
     }
@@ -989,12 +921,182 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       ++count;
     }
   };
-
   // Survivors of each row, recorded by the tests (row r's from kept[start[row]] to
   // kept_end[row], in row order), so that the band and the output read ~n/10 entries instead
   // of scanning all n twice. With a band asked for, culls within band_depth_ mark its seed
-  // sectors here too (a row's sectors are its own: rows in parallel write disjoint seeds).
+  // sectors (the tests: a row's sectors are its own, rows in parallel write disjoint seeds;
+  // the depth cut below: relaxed atomic stores).
   const bool want_band = survivors && (survivor_in_band || outside_band);
+  std::vector<std::uint8_t>& seed = scratch_.seed;
+  if (want_band)
+    seed.assign (k, 0);
+  // Depth cut (gnomonic views): a point of sector s deeper than cut[s] is strictly inside one
+  // of the tetrahedra its tests would try, so it is culled here, before the bucket sort, and
+  // never tested (on a closed object, the far side: about half the points). Why it holds: when
+  // each of the 8 neighbours' candidates lies beyond the side (edge neighbours) or the two sides
+  // (diagonal ones) of s that it faces, the outer edges of the 4 quads around s form a loop
+  // that winds once around s (in gnomonic coordinates cones through C are polygons), so the
+  // fan triangles (s's candidate, two consecutive ring candidates), each a triangle of one quad,
+  // cover every direction of s. A point whose flipped distance from C, 2R − ρ, is below the
+  // distance from C of every one of these tetrahedra's planes (less the margin h) is on C's
+  // side of them all, hence strictly inside the one whose cone holds it.
+  std::vector<double>& cut = scratch_.cut;
+  std::vector<double>& cut_near = scratch_.cut_near;  // min ρ of those candidates (band seeds)
+  // Only where sectors hold many points (the first pass, ~30 per sector): the refinement
+  // passes' grids hold the band, which lies near the surface, and cost more sectors than points.
+  const bool with_cut = gnomonic_ && n_phi_ >= 3 && n_theta_ >= 3 && n >= 8 * k;
+  if (with_cut)
+  {
+    const int qcols = n_theta_ - 1;
+    const std::ptrdiff_t quads = std::ptrdiff_t (n_phi_ - 1) * qcols;
+    std::vector<double>& quad_d = scratch_.quad_d;
+    std::vector<double>& quad_near = scratch_.quad_near;
+    quad_d.resize (std::size_t (quads));
+    quad_near.resize (std::size_t (quads));
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 1024)
+    for (std::ptrdiff_t q = 0; q < quads; ++q)
+    {
+      const int qa = int (q / qcols), qb = int (q % qcols);
+      const std::size_t s0 = std::size_t (qa) * n_theta_ + std::size_t (qb);
+      const int id[4] = {cand_[s0], cand_[s0 + 1], cand_[s0 + n_theta_ + 1], cand_[s0 + n_theta_]};
+      quad_d[q] = -std::numeric_limits<double>::infinity ();  // no cut next to this quad
+      if (id[0] < 0 || id[1] < 0 || id[2] < 0 || id[3] < 0 || id[0] == id[1] || id[0] == id[2] ||
+          id[0] == id[3] || id[1] == id[2] || id[1] == id[3] || id[2] == id[3])
+        continue;
+      Tetra t[4];
+      int count;
+      quadTetras (qa, qb, t, count, quad_near[q]);
+      if (count < 4)
+        continue;
+      double d = std::numeric_limits<double>::infinity ();
+      for (const Tetra& T : t)
+        d = std::min (d, (-T.w.dot (T.f) - T.h) / T.w.norm ());
+      quad_d[q] = d;
+    }
+    cut.assign (k, std::numeric_limits<double>::infinity ());
+    cut_near.resize (k);
+    // 1 % of a cell: the points' sectors come from float coordinates.
+    const double eps_a = 0.01 * cell_phi_ + 1e-6, eps_b = 0.01 * cell_theta_ + 1e-6;
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 16)
+    for (int a = 1; a < n_phi_ - 1; ++a)
+    {
+      const double lo_a = phi0_ + a * cell_phi_ - eps_a, hi_a = phi0_ + (a + 1) * cell_phi_ + eps_a;
+      for (int b = 1; b < n_theta_ - 1; ++b)
+      {
+        const std::size_t q0 = std::size_t (a - 1) * qcols + std::size_t (b - 1), q1 = q0 + std::size_t (qcols);
+        const double d = std::min ({quad_d[q0], quad_d[q0 + 1], quad_d[q1], quad_d[q1 + 1]});
+        if (!(d > 0))
+          continue;
+        const double lo_b = theta0_ + b * cell_theta_ - eps_b, hi_b = theta0_ + (b + 1) * cell_theta_ + eps_b;
+        const std::size_t s = std::size_t (a) * n_theta_ + std::size_t (b);
+        bool around = true;
+        for (int da = -1; da <= 1 && around; ++da)
+          for (int db = -1; db <= 1 && around; ++db)
+          {
+            const Eigen::Vector2d& g = cand_g[std::size_t (std::ptrdiff_t (s) + da * n_theta_ + db)];
+            around = (da == 0 || (da < 0 ? g.x () < lo_a : g.x () > hi_a)) &&
+                     (db == 0 || (db < 0 ? g.y () < lo_b : g.y () > hi_b));
+          }
+        if (!around)
+          continue;
+        cut[s] = R2 - d + 1e-13 * R2;
+        cut_near[s] = std::min ({quad_near[q0], quad_near[q0 + 1], quad_near[q1], quad_near[q1 + 1]});
+      }
+    }
+  }
+  HPR_LAP ("interior.cut");
+
+  // Points bucketed by sector row (counting sort over the n_phi rows): the tests below set
+  // up the tetrahedra of two rows of quads once, and read the points in order. Bucketing by
+  // sector (k buckets) cost more than the tests at 1M points: k interleaved write streams
+  // miss the cache on every point; n_phi ≈ √k streams stay in it.
+  const int cols = n_theta_;
+  const double inv_cols = 1.0 / cols;
+  // Exact: s + 0.5 keeps the product off the integers for every s < 2^31.
+  auto rowOf = [inv_cols] (std::uint32_t s) { return std::uint32_t ((double (s) + 0.5) * inv_cols); };
+  std::vector<std::uint32_t>& start = scratch_.start;
+  std::vector<std::uint32_t>& order = scratch_.order;
+  start.assign (std::size_t (n_phi_) + 1, 0);
+  order.resize (n);
+  // The points in row order, scattered once while sorting: the tests then read memory in
+  // order (reading points[order[r]] there was memory-bound, 3x slower at 1M points).
+  // Candidates are never interior.
+  std::vector<Eigen::Vector3d>& sorted = scratch_.sorted;
+  std::vector<std::uint8_t>& inside_sorted = scratch_.inside;
+  std::vector<std::uint8_t>& cand_sorted = scratch_.cand_sorted;
+  std::vector<std::uint32_t>& col_sorted = scratch_.col;
+  sorted.resize (n);
+  if (!survivors)  // the per-point mask; with survivors the tests list them per row instead
+    inside_sorted.assign (n, 0);
+  cand_sorted.resize (n);
+  col_sorted.resize (n);
+  // Counting sort in parallel: each thread counts its own contiguous slice per row, the
+  // slices' offsets are laid out row by row in thread order, and each thread scatters its
+  // slice. Thread t's points of a row follow thread t − 1's, so the order is the serial one
+  // for any thread count. Serial, count and scatter were a quarter of the call's wall time
+  // with two threads at 1M points.
+  const int threads = nt ();
+  std::vector<std::uint32_t>& slot = scratch_.slot;
+  slot.assign (std::size_t (threads) * n_phi_, 0);
+  // Points beyond the depth cut are marked 2 in is_cand by the counting loop (candidates are
+  // kept whatever their depth, as the tests do) and skipped by the scatter.
+  constexpr std::uint8_t kDeep = 2;
+#pragma omp parallel num_threads(threads)
+  {
+#ifdef _OPENMP
+    const int t = omp_get_thread_num (), nth = omp_get_num_threads ();
+#else
+    const int t = 0, nth = 1;
+#endif
+    const std::size_t lo = n * std::size_t (t) / nth, hi = n * std::size_t (t + 1) / nth;
+    std::uint32_t* fill = slot.data () + std::size_t (t) * n_phi_;
+    for (std::size_t i = lo; i < hi; ++i)
+    {
+      const std::uint32_t s = sector_[i];
+      if (with_cut && rho_[i] > cut[s] && !is_cand[i])
+        is_cand[i] = kDeep;
+      else
+        ++fill[rowOf (s)];
+    }
+#pragma omp barrier
+#pragma omp single
+    {
+      std::uint32_t at = 0;
+      for (int row = 0; row < n_phi_; ++row)
+      {
+        start[row] = at;
+        for (int u = 0; u < nth; ++u)
+        {
+          std::uint32_t& c = slot[std::size_t (u) * n_phi_ + row];
+          const std::uint32_t count = c;
+          c = at;
+          at += count;
+        }
+      }
+      start[n_phi_] = at;
+      depth_culled_ = n - at;
+    }
+    for (std::size_t i = lo; i < hi; ++i)
+    {
+      const std::uint32_t s = sector_[i];
+      if (is_cand[i] == kDeep)
+      {
+        if (!survivors)
+          interior[i] = 1;
+        else if (want_band && !(band_depth_ > 0 && rho_[i] - cut_near[s] > band_depth_))
+          __atomic_store_n (&seed[s], std::uint8_t (1), __ATOMIC_RELAXED);
+        continue;
+      }
+      const std::uint32_t row = rowOf (s);
+      const std::uint32_t r = fill[row]++;
+      order[r] = std::uint32_t (i);
+      sorted[r] = points[i];
+      cand_sorted[r] = is_cand[i];
+      col_sorted[r] = s - row * std::uint32_t (cols);
+    }
+  }
+  HPR_LAP ("interior.scatter");
+
   std::vector<std::uint32_t>& kept = scratch_.kept;
   std::vector<std::uint32_t>& kept_end = scratch_.kept_end;
   if (survivors)
@@ -1002,9 +1104,6 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     kept.resize (n);
     kept_end.assign (start.begin (), start.begin () + n_phi_);  // rows without points keep none
   }
-  std::vector<std::uint8_t>& seed = scratch_.seed;
-  if (want_band)
-    seed.assign (k, 0);
 #pragma omp parallel num_threads(nt ())
   {
     // The quads of the rows above (qa = a − 1) and below (qa = a) the sector row a, indexed by

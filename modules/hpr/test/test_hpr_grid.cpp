@@ -4,6 +4,7 @@
 
 #include <pclx/hpr/angular_grid.h>
 #include <pclx/hpr/hpr_filter.h>
+#include <pclx/hpr/visibility.h>
 #include <pclx/testing/ray_caster.h>
 #include <pclx/testing/shapes.h>
 
@@ -11,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 using namespace pclx::testing;
 using hprtest::xyz;
@@ -477,4 +479,89 @@ TEST (AngularGrid, FixedCellSizeIsKeptOverASubsetAndCappedByK)
   capped.setCellSize (cell / 100);
   capped.build (part, Eigen::Vector3d (5.0, 0, 0), 1e4, 100);
   EXPECT_LE (capped.sectorCount (), 120u);
+}
+
+// The depth cut of interiorPoints: where sectors hold many points (a gnomonic grid, ~14 points
+// per sector here), a point deeper than every plane of the tetrahedra around its sector is
+// culled before the tests. On a closed surface that is most of the far side. It must keep every
+// vertex of the exact hull at the same R, give the same answer on one or two threads and
+// through both outputs (mask, survivors), and stay off on a wide grid (C inside the cloud).
+TEST (AngularGrid, DepthCutCullsTheFarSideAndStaysConservative)
+{
+  const Scene s = torusScene (60000);
+  Filter f;
+  f.setInputCloud (s.cloud);
+  f.setViewPoint (s.C);
+  f.setMethod (Filter::Method::CANDIDATE_HULL);
+  pcl::Indices v;
+  f.filter (v);
+  const double R = f.getRadiusUsed ();
+  auto relative = [&] (const Eigen::Vector3f& C) {
+    std::vector<Eigen::Vector3d> pts;
+    for (const auto& p : *s.cloud)
+      pts.push_back ((p.getVector3fMap () - C).cast<double> ());
+    return pts;
+  };
+  auto centroid = [] (const std::vector<Eigen::Vector3d>& pts) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero ();
+    for (const auto& p : pts)
+      c += p;
+    return Eigen::Vector3d (c / double (pts.size ()));
+  };
+  const std::vector<Eigen::Vector3d> pts = relative (s.C);
+  const std::size_t k = std::size_t (2.0 * std::pow (double (pts.size ()), 0.7));
+  auto cull = [&] (const std::vector<Eigen::Vector3d>& p, int threads, std::size_t* cut,
+                   std::vector<int>* survivors = nullptr) {
+    pcl::hpr::AngularGrid g;
+    g.setThreads (threads);
+    g.setOutlineCandidates (true);
+    g.build (p, centroid (p), R, k);
+    g.propagateAdaptive (4);
+    std::vector<Eigen::Vector3d> survivor_points;
+    std::vector<std::uint8_t> mask = g.interiorPoints (p, survivors, survivors ? &survivor_points : nullptr);
+    *cut = g.depthCulled ();
+    EXPECT_EQ (g.gnomonic (), &p == &pts);
+    return mask;
+  };
+  std::size_t cut1 = 0, cut2 = 0, cut_s = 0;
+  const std::vector<std::uint8_t> mask = cull (pts, 1, &cut1);
+  EXPECT_EQ (cull (pts, 2, &cut2), mask);
+  EXPECT_EQ (cut2, cut1);
+  const std::size_t hidden = std::count (s.truth.begin (), s.truth.end (), false);
+  const std::size_t culled = std::size_t (std::count (mask.begin (), mask.end (), 1));
+  std::printf ("depth cut %zu, culled in all %zu, hidden %zu of %zu\n", cut1, culled, hidden, pts.size ());
+  EXPECT_GT (cut1, hidden / 2);
+  EXPECT_LE (cut1, culled);
+  // The survivors' output lists exactly the points the mask keeps.
+  std::vector<int> survivors;
+  cull (pts, 2, &cut_s, &survivors);
+  EXPECT_EQ (cut_s, cut1);
+  std::sort (survivors.begin (), survivors.end ());
+  std::vector<int> kept;
+  for (std::size_t i = 0; i < mask.size (); ++i)
+    if (!mask[i])
+      kept.push_back (int (i));
+  EXPECT_EQ (survivors, kept);
+  // Conservative: no vertex of the exact hull at the same R is culled.
+  pcl::hpr::VisibilityOptions opt;
+  opt.method = pcl::hpr::VisibilityMethod::EXACT;
+  opt.radius = R;
+  opt.exact_prefilter = false;
+  opt.threads = 1;
+  const pcl::hpr::VisibilityResult exact = pcl::hpr::computeVisibility (pts, opt);
+  ASSERT_TRUE (exact.error.empty ()) << exact.error;
+  std::size_t lost = 0, exact_visible = 0;
+  for (std::size_t i = 0; i < pts.size (); ++i)
+    if (exact.visible[i])
+    {
+      ++exact_visible;
+      lost += mask[i];
+    }
+  EXPECT_GT (exact_visible, pts.size () / 5);
+  EXPECT_EQ (lost, 0u) << "of " << exact_visible << " exact-visible points";
+  // A wide grid (the viewer in the torus's hole): no cut.
+  std::size_t cut_wide = 1;
+  const std::vector<Eigen::Vector3d> inside = relative (Eigen::Vector3f (0.f, 0.f, 0.05f));
+  cull (inside, 2, &cut_wide);
+  EXPECT_EQ (cut_wide, 0u);
 }

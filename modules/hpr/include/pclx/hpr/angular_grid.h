@@ -109,6 +109,8 @@ public:
   double cellAngle () const { return cell_; }  // angular size of one sector (rad)
   int emptyFactor () const { return empty_factor_; }
   std::size_t occupiedSectors () const;
+  // Points the last interiorPoints () culled by its depth cut, before the tetrahedron tests.
+  std::size_t depthCulled () const { return depth_culled_; }
   bool wrapsPhi () const { return wrap_phi_; }
   bool gnomonic () const { return gnomonic_; }
   double cellSolidAngle (std::size_t sector) const;
@@ -145,6 +147,7 @@ private:
   double fixed_cell_ = 0;
   bool outline_ = false;
   double band_depth_ = 0;
+  mutable std::size_t depth_culled_ = 0;
   std::vector<int> own_;       // with outline_: per sector its own best point, before propagation
   int nt () const;
   int empty_factor_ = 1;       // EMPTY is kept on a grid coarser by this factor per axis
@@ -161,6 +164,8 @@ private:
     std::vector<std::uint8_t> is_cand, inside, cand_sorted, seed, band;
     std::vector<std::uint32_t> start, order, col, slot, kept, kept_end;
     std::vector<Eigen::Vector3d> sorted, cand_dir, cand_flip, split;
+    std::vector<Eigen::Vector2d> cand_g;
+    std::vector<double> cut, cut_near, quad_d, quad_near;
     std::vector<double> cand_rho, prop_best;
     std::vector<int> prop_cand;
     std::vector<std::uint32_t> stamp;
