@@ -515,25 +515,44 @@ AngularGrid::propagateAdaptive (int max_steps)
     if (changed.size () > k / 8)
     {
       // Many sectors changed (the first steps): a parallel gather over all sectors.
-#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 256) private(nb)
+      // The 3×3 neighbourhood inline (neighbours () fills a vector), and the sector's direction
+      // only once a neighbour has a candidate to score: the refinement grids are mostly empty.
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 256)
       for (std::ptrdiff_t t = 0; t < std::ptrdiff_t (k); ++t)
       {
         if (isEmpty (std::size_t (t)))
           continue;
-        neighbours (std::size_t (t), 1, nb);
-        const Eigen::Vector3d d = direction (std::size_t (t));
+        const int a = int (t / n_theta_), b = int (t % n_theta_);
+        Eigen::Vector3d d;
+        bool have_d = false;
         double best = best_[t];
         int who = -1;
-        for (std::size_t s : nb)
+        for (int da = -1; da <= 1; ++da)
         {
-          const int c = cand_[s];
-          if (c < 0 || c == cand_[t])
+          int aa = a + da;
+          if (wrap_phi_)
+            aa = (aa % n_phi_ + n_phi_) % n_phi_;
+          else if (aa < 0 || aa >= n_phi_)
             continue;
-          const double g = scoreDir (c, d);
-          if (g < best || (g == best && who >= 0 && c < who))
+          for (int db = -1; db <= 1; ++db)
           {
-            best = g;
-            who = c;
+            const int bb = b + db;
+            if ((da == 0 && db == 0) || bb < 0 || bb >= n_theta_)
+              continue;
+            const int c = cand_[std::size_t (aa) * n_theta_ + bb];
+            if (c < 0 || c == cand_[t])
+              continue;
+            if (!have_d)
+            {
+              d = direction (std::size_t (t));
+              have_d = true;
+            }
+            const double g = scoreDir (c, d);
+            if (g < best || (g == best && who >= 0 && c < who))
+            {
+              best = g;
+              who = c;
+            }
           }
         }
         if (who >= 0)
@@ -792,16 +811,19 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   std::vector<double>& cand_rho = scratch_.cand_rho;
   cand_dir.resize (2 * k);
   cand_flip.resize (2 * k);
-  cand_rho.assign (2 * k, std::numeric_limits<double>::infinity ());
+  cand_rho.resize (2 * k);
   const bool with_own = own_.size () == k;
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 1024)
   for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
     for (int slot = 0; slot < 2; ++slot)
     {
       const int c = slot == 0 ? cand_[s] : with_own && own_[s] != cand_[s] ? own_[s] : -1;
-      if (c < 0)
-        continue;
       const std::size_t v = std::size_t (s) + (slot ? k : 0);
+      if (c < 0)
+      {
+        cand_rho[v] = std::numeric_limits<double>::infinity ();
+        continue;
+      }
       const Eigen::Vector3d& p = points[c];
       cand_rho[v] = p.norm ();
       cand_dir[v] = p / cand_rho[v];
@@ -822,18 +844,11 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 1024)
     for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
     {
-      double ga, gb;
-      if (cand_[s] >= 0)
-      {
-        const Eigen::Vector3d u = frame_ * cand_dir[s];
-        ga = u.y () / u.x ();
-        gb = u.z () / u.x ();
-      }
-      else  // no candidate: the sector centre
-      {
-        ga = centre_a_[std::size_t (s) / std::size_t (n_theta_)];
-        gb = centre_b_[std::size_t (s) % std::size_t (n_theta_)];
-      }
+      // A sector without candidate has no point either, and no quad of the depth cut uses it.
+      if (cand_[s] < 0)
+        continue;
+      const Eigen::Vector3d u = frame_ * cand_dir[s];
+      const double ga = u.y () / u.x (), gb = u.z () / u.x ();
       cand_g[s] = Eigen::Vector2d (ga, gb);
       split[2 * s] = ey - ga * ex;
       split[2 * s + 1] = ez - gb * ex;
@@ -1108,22 +1123,26 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   {
     // The quads of the rows above (qa = a − 1) and below (qa = a) the sector row a, indexed by
     // qb + 1 (qb = −1 … cols − 1): a point of sector (a, b) tests the quads (a − 1, b − 1),
-    // (a − 1, b), (a, b − 1), (a, b), numbered q = 2·(da + 1) + (db + 1). A thread that takes
-    // row a + 1 next reuses row a's quads as its upper row.
+    // (a − 1, b), (a, b − 1), (a, b), numbered q = 2·(da + 1) + (db + 1). Each is set up when a
+    // point first needs it (stamped with its qa): the refinement grids have more sectors than
+    // points. A thread that takes row a + 1 next reuses row a's quads as its upper row.
     struct QuadSet
     {
       Tetra t[4];
       int count;
       double min_rho;
+      int qa = std::numeric_limits<int>::min ();
     };
     std::vector<QuadSet> upper (std::size_t (cols) + 1), lower (std::size_t (cols) + 1);
     int lower_row = -2;
-    auto buildRow = [&] (int qa, std::vector<QuadSet>& quads) {
-      for (int qb = -1; qb < cols; ++qb)
+    auto quadAt = [&] (std::vector<QuadSet>& quads, int qa, int qb) -> const QuadSet* {
+      QuadSet& Q = quads[std::size_t (qb + 1)];
+      if (Q.qa != qa)
       {
-        QuadSet& Q = quads[std::size_t (qb + 1)];
         quadTetras (qa, qb, Q.t, Q.count, Q.min_rho);
+        Q.qa = qa;
       }
+      return &Q;
     };
 #pragma omp for schedule(dynamic, 2)
   for (std::ptrdiff_t row = 0; row < std::ptrdiff_t (n_phi_); ++row)
@@ -1133,9 +1152,6 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     const int a = int (row);
     if (lower_row == a - 1)
       upper.swap (lower);
-    else
-      buildRow (a - 1, upper);
-    buildRow (a, lower);
     lower_row = a;
     std::uint32_t* keep = survivors ? kept.data () + start[row] : nullptr;
     auto survive = [&keep] (std::uint32_t r) {
@@ -1150,8 +1166,8 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
         continue;
       }
       const int b = int (col_sorted[r]);
-      const QuadSet* quad[4] = {&upper[std::size_t (b)], &upper[std::size_t (b) + 1], &lower[std::size_t (b)],
-                                &lower[std::size_t (b) + 1]};
+      const QuadSet* quad[4] = {quadAt (upper, a - 1, b - 1), quadAt (upper, a - 1, b), quadAt (lower, a, b - 1),
+                                quadAt (lower, a, b)};
       if (quad[0]->count + quad[1]->count + quad[2]->count + quad[3]->count == 0)
       {
         survive (r);
