@@ -496,26 +496,18 @@ TEST (AngularGrid, DepthCutCullsTheFarSideAndStaysConservative)
   pcl::Indices v;
   f.filter (v);
   const double R = f.getRadiusUsed ();
-  auto relative = [&] (const Eigen::Vector3f& C) {
-    std::vector<Eigen::Vector3d> pts;
-    for (const auto& p : *s.cloud)
-      pts.push_back ((p.getVector3fMap () - C).cast<double> ());
-    return pts;
-  };
-  auto centroid = [] (const std::vector<Eigen::Vector3d>& pts) {
-    Eigen::Vector3d c = Eigen::Vector3d::Zero ();
-    for (const auto& p : pts)
-      c += p;
-    return Eigen::Vector3d (c / double (pts.size ()));
-  };
-  const std::vector<Eigen::Vector3d> pts = relative (s.C);
+  Eigen::Vector3d centre, centre_inside;
+  const std::vector<Eigen::Vector3d> pts = hprtest::relativeTo (*s.cloud, s.C, &centre);
+  // A wide grid (the viewer in the torus's hole).
+  const std::vector<Eigen::Vector3d> inside =
+      hprtest::relativeTo (*s.cloud, Eigen::Vector3f (0.f, 0.f, 0.05f), &centre_inside);
   const std::size_t k = std::size_t (2.0 * std::pow (double (pts.size ()), 0.7));
   auto cull = [&] (const std::vector<Eigen::Vector3d>& p, int threads, std::size_t* cut,
                    std::vector<int>* survivors = nullptr) {
     pcl::hpr::AngularGrid g;
     g.setThreads (threads);
     g.setOutlineCandidates (true);
-    g.build (p, centroid (p), R, k);
+    g.build (p, &p == &pts ? centre : centre_inside, R, k);
     g.propagateAdaptive (4);
     std::vector<Eigen::Vector3d> survivor_points;
     std::vector<std::uint8_t> mask = g.interiorPoints (p, survivors, survivors ? &survivor_points : nullptr);
@@ -559,9 +551,8 @@ TEST (AngularGrid, DepthCutCullsTheFarSideAndStaysConservative)
     }
   EXPECT_GT (exact_visible, pts.size () / 5);
   EXPECT_EQ (lost, 0u) << "of " << exact_visible << " exact-visible points";
-  // A wide grid (the viewer in the torus's hole): no cut.
+  // The wide grid: no cut.
   std::size_t cut_wide = 1;
-  const std::vector<Eigen::Vector3d> inside = relative (Eigen::Vector3f (0.f, 0.f, 0.05f));
   cull (inside, 2, &cut_wide);
   EXPECT_EQ (cut_wide, 0u);
 }
