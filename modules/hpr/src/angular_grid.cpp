@@ -326,15 +326,7 @@ AngularGrid::fillEmptySectors ()
 {
   const std::size_t k = cand_.size (), n = sector_.size ();
   const int rows = n_phi_, cols = n_theta_;
-  auto neighbourOf = [&] (int a, int b, int da, int db) -> std::ptrdiff_t {
-    int aa = a + da;
-    const int bb = b + db;
-    if (wrap_phi_)
-      aa = (aa + rows) % rows;
-    if (aa < 0 || aa >= rows || bb < 0 || bb >= cols)
-      return -1;
-    return std::ptrdiff_t (aa) * cols + bb;
-  };
+  const Shape grid = shape ();
   // Point-less sectors next to one with points ("hollow", numbered), their directions, and
   // the sectors next to them (whose points are scored towards them).
   // border[s]: 1 + where s's point-less neighbours start in border_hollow (a list ended by
@@ -355,7 +347,7 @@ AngularGrid::fillEmptySectors ()
       for (int da = -1; da <= 1; ++da)
         for (int db = -1; db <= 1; ++db)
         {
-          const std::ptrdiff_t t = neighbourOf (a, b, da, db);
+          const std::ptrdiff_t t = grid.neighbour (a, b, da, db);
           if (t < 0 || cand_[std::size_t (t)] >= 0)
             continue;
           if (hollow_of[std::size_t (t)] < 0)
@@ -472,22 +464,15 @@ void
 AngularGrid::neighbours (std::size_t s, int radius, std::vector<std::size_t>& out) const
 {
   out.clear ();
+  const Shape grid = shape ();
   const int a = int (s / n_theta_), b = int (s % n_theta_);
   for (int da = -radius; da <= radius; ++da)
-  {
-    int aa = a + da;
-    if (wrap_phi_)
-      aa = (aa % n_phi_ + n_phi_) % n_phi_;
-    else if (aa < 0 || aa >= n_phi_)
-      continue;
     for (int db = -radius; db <= radius; ++db)
     {
-      const int bb = b + db;
-      if ((da == 0 && db == 0) || bb < 0 || bb >= n_theta_)
-        continue;
-      out.push_back (std::size_t (aa) * n_theta_ + bb);
+      const std::ptrdiff_t t = da == 0 && db == 0 ? -1 : grid.neighbour (a, b, da, db);
+      if (t >= 0)
+        out.push_back (std::size_t (t));
     }
-  }
 }
 
 int
@@ -517,29 +502,23 @@ AngularGrid::propagateAdaptive (int max_steps)
       // Many sectors changed (the first steps): a parallel gather over all sectors.
       // The 3×3 neighbourhood inline (neighbours () fills a vector), and the sector's direction
       // only once a neighbour has a candidate to score: the refinement grids are mostly empty.
-#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 256)
+      const Shape grid = shape ();
+#pragma omp parallel for num_threads(nt ()) schedule(dynamic, 256) firstprivate(grid)
       for (std::ptrdiff_t t = 0; t < std::ptrdiff_t (k); ++t)
       {
         if (isEmpty (std::size_t (t)))
           continue;
-        const int a = int (t / n_theta_), b = int (t % n_theta_);
+        const int a = int (t / grid.cols), b = int (t % grid.cols);
         Eigen::Vector3d d;
         bool have_d = false;
         double best = best_[t];
         int who = -1;
         for (int da = -1; da <= 1; ++da)
-        {
-          int aa = a + da;
-          if (wrap_phi_)
-            aa = (aa % n_phi_ + n_phi_) % n_phi_;
-          else if (aa < 0 || aa >= n_phi_)
-            continue;
           for (int db = -1; db <= 1; ++db)
           {
-            const int bb = b + db;
-            if ((da == 0 && db == 0) || bb < 0 || bb >= n_theta_)
-              continue;
-            const int c = cand_[std::size_t (aa) * n_theta_ + bb];
+            // The sector itself is skipped by c == cand_[t].
+            const std::ptrdiff_t u = grid.neighbour (a, b, da, db);
+            const int c = u < 0 ? -1 : cand_[std::size_t (u)];
             if (c < 0 || c == cand_[t])
               continue;
             if (!have_d)
@@ -554,7 +533,6 @@ AngularGrid::propagateAdaptive (int max_steps)
               who = c;
             }
           }
-        }
         if (who >= 0)
         {
           prop_cand[t] = who;
@@ -733,6 +711,7 @@ AngularGrid::normalsAndSplats (const std::vector<Eigen::Vector3d>& points, std::
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 256)
   for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
   {
+    const Shape grid = shape ();
     const int c0 = cand_[s];
     if (c0 < 0)
       continue;
@@ -740,13 +719,10 @@ AngularGrid::normalsAndSplats (const std::vector<Eigen::Vector3d>& points, std::
     int fan[8], m = 0;
     for (const auto& o : ring)
     {
-      int aa = a + o[0];
-      const int bb = b + o[1];
-      if (wrap_phi_)
-        aa = (aa + n_phi_) % n_phi_;
-      if (aa < 0 || aa >= n_phi_ || bb < 0 || bb >= n_theta_)
+      const std::ptrdiff_t t = grid.neighbour (a, b, o[0], o[1]);
+      if (t < 0)
         continue;
-      const int c = cand_[std::size_t (aa) * n_theta_ + bb];
+      const int c = cand_[std::size_t (t)];
       if (c >= 0 && c != c0 && (m == 0 || fan[m - 1] != c))
         fan[m++] = c;
     }
@@ -942,6 +918,8 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   // sectors (the tests: a row's sectors are its own, rows in parallel write disjoint seeds;
   // the depth cut below: relaxed atomic stores).
   const bool want_band = survivors && (survivor_in_band || outside_band);
+  // A cull at ρ seeds the band unless deeper than band_depth_ behind the nearest candidate around it.
+  auto seedsBand = [this] (double rho, double near) { return !(band_depth_ > 0 && rho - near > band_depth_); };
   std::vector<std::uint8_t>& seed = scratch_.seed;
   if (want_band)
     seed.assign (k, 0);
@@ -1098,7 +1076,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       {
         if (!survivors)
           interior[i] = 1;
-        else if (want_band && !(band_depth_ > 0 && rho_[i] - cut_near[s] > band_depth_))
+        else if (want_band && seedsBand (rho_[i], cut_near[s]))
           __atomic_store_n (&seed[s], std::uint8_t (1), __ATOMIC_RELAXED);
         continue;
       }
@@ -1231,7 +1209,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
         survive (r);
       else if (!survivors)
         inside_sorted[r] = 1;
-      else if (want_band && !(band_depth_ > 0 && rho - min_rho > band_depth_))
+      else if (want_band && seedsBand (rho, min_rho))
         seed[std::size_t (a) * cols + std::size_t (b)] = 1;
     }
     if (keep)
@@ -1252,22 +1230,18 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       if (cand_[s] < 0)
         seed[s] = 1;
     band.assign (k, 0);
-    for (int a = 0; a < n_phi_; ++a)
-      for (int b = 0; b < n_theta_; ++b)
+    const Shape grid = shape ();
+    for (int a = 0; a < grid.rows; ++a)
+      for (int b = 0; b < grid.cols; ++b)
       {
         std::uint8_t any = 0;
         for (int da = -1; da <= 1 && !any; ++da)
-        {
-          int aa = a + da;
-          if (wrap_phi_)
-            aa = (aa + n_phi_) % n_phi_;
           for (int db = -1; db <= 1 && !any; ++db)
           {
-            const int bb = b + db;
             // Outside the grid counts as empty: the cloud's outline.
-            any = aa < 0 || aa >= n_phi_ || bb < 0 || bb >= n_theta_ ? 1 : seed[std::size_t (aa) * n_theta_ + bb];
+            const std::ptrdiff_t t = grid.neighbour (a, b, da, db);
+            any = t < 0 ? 1 : seed[std::size_t (t)];
           }
-        }
         band[std::size_t (a) * n_theta_ + b] = any;
       }
   }

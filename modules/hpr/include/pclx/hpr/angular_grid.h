@@ -128,6 +128,25 @@ private:
   bool isEmpty (std::size_t sector) const;  // EMPTY map: outside the object's projection
   void fillEmptySectors ();                  // see setOutlineCandidates ()
   void neighbours (std::size_t s, int radius, std::vector<std::size_t>& out) const;
+  // Rows (φ) × columns (θ) of sectors; φ wraps around the viewer on wide grids. Loops take a
+  // local copy: the members would be reloaded after every store to a vector.
+  struct Shape
+  {
+    int rows, cols;
+    bool wrap;
+    // Sector (a + da, b + db), or −1 off the grid.
+    std::ptrdiff_t neighbour (int a, int b, int da, int db) const
+    {
+      int aa = a + da;
+      const int bb = b + db;
+      if (wrap)
+        aa = (aa % rows + rows) % rows;
+      if (aa < 0 || aa >= rows || bb < 0 || bb >= cols)
+        return -1;
+      return std::ptrdiff_t (aa) * cols + bb;
+    }
+  };
+  Shape shape () const { return {n_phi_, n_theta_, wrap_phi_}; }
 
   std::vector<Eigen::Vector3f> unit_;  // per point: direction from C, in frame coordinates
   std::vector<double> rho_;            // per point: distance from C
