@@ -78,72 +78,96 @@ edgeKey (int axis, int x, int y, int z)
   return (rk << 14) | (static_cast<std::uint64_t> (localIndex (x, y, z)) << 2) | static_cast<std::uint64_t> (axis);
 }
 
-// Leaf: QEF of the planes of its intersected edges in leaf-local lattice units, fixed point.
+// Per lattice edge: running weighted sums of the crossings every frame reported on it (position
+// along the edge and unit normal), in fixed point so that the means do not depend on the order
+// of the frames. The mean crossing and mean normal form the edge's Hermite sample.
+struct EdgeData
+{
+  std::int64_t w = 0;                 // Σ weight
+  std::int64_t wf = 0;                // Σ weight · position along the edge, [0, 1)
+  std::int64_t wn[3] = {0, 0, 0};     // Σ weight · unit normal
+  std::int32_t count = 0;             // observations
+
+  bool
+  hermite (double& frac, Eigen::Vector3d& n) const
+  {
+    if (w <= 0)
+      return false;
+    frac = static_cast<double> (wf) / static_cast<double> (w);
+    n = Eigen::Vector3d (static_cast<double> (wn[0]), static_cast<double> (wn[1]), static_cast<double> (wn[2]));
+    const double len = n.norm ();
+    if (!(len > 0))
+      return false;
+    n /= len;
+    return true;
+  }
+};
+
+// A leaf: a lattice cell one of whose edges carries a crossing (stop criterion 1).
 struct Leaf
 {
-  std::int64_t ata[6] = {0, 0, 0, 0, 0, 0};  // xx xy xz yy yz zz
-  std::int64_t atb[3] = {0, 0, 0};
-  std::int64_t btb = 0;
-  std::int64_t mass[3] = {0, 0, 0};
-  std::int32_t count = 0;
-  std::uint16_t crossed = 0;  // 12 bits: edges with at least one intersection
+  std::uint16_t crossed = 0;  // 12 bits: edges with at least one crossing
   std::uint16_t cell = 0;     // local index in the root
 };
 
-// QEF in double, in a node-local frame (lattice units, origin at the node's min corner).
+// Quadric error function of planes n·x = n·p in a node-local frame (leaf units), with the mass
+// point of the node's edge crossings.
 struct Qef
 {
   Eigen::Matrix3d ata = Eigen::Matrix3d::Zero ();
   Eigen::Vector3d atb = Eigen::Vector3d::Zero ();
   double btb = 0;
+  int planes = 0;
   Eigen::Vector3d mass = Eigen::Vector3d::Zero ();
-  double count = 0;
+  int points = 0;
 
-  static Qef
-  fromLeaf (const Leaf& l)
+  void
+  addPlane (const Eigen::Vector3d& p, const Eigen::Vector3d& n)
   {
-    Qef q;
-    q.ata << l.ata[0], l.ata[1], l.ata[2], l.ata[1], l.ata[3], l.ata[4], l.ata[2], l.ata[4], l.ata[5];
-    q.ata /= kFix;
-    q.atb = Eigen::Vector3d (l.atb[0], l.atb[1], l.atb[2]) / kFix;
-    q.btb = l.btb / kFix;
-    q.mass = Eigen::Vector3d (l.mass[0], l.mass[1], l.mass[2]) / kFix;
-    q.count = l.count;
-    return q;
+    const double d = n.dot (p);
+    ata += n * n.transpose ();
+    atb += n * d;
+    btb += d * d;
+    ++planes;
   }
-  // Add a QEF whose frame origin is at `o` in this QEF's frame: n·(p − o) = d ⇒ n·p = d + n·o.
+  void
+  addPoint (const Eigen::Vector3d& p)
+  {
+    mass += p;
+    ++points;
+  }
+  // Adds a QEF whose frame origin lies at `o` in this QEF's frame: n·(p − o) = d ⇒ n·p = d + n·o.
   void
   addShifted (const Qef& c, const Eigen::Vector3d& o)
   {
     ata += c.ata;
     atb += c.atb + c.ata * o;
     btb += c.btb + 2 * o.dot (c.atb) + o.dot (c.ata * o);
-    mass += c.mass + c.count * o;
-    count += c.count;
+    planes += c.planes;
+    mass += c.mass + c.points * o;
+    points += c.points;
   }
   double
   error (const Eigen::Vector3d& x) const
   {
     return std::max (0.0, x.dot (ata * x) - 2 * x.dot (atb) + btb);
   }
-  // Minimiser in the box [0, side]³: truncated eigen-decomposition of AᵀA (singular values below
-  // 0.1 σ_max dropped, Ju et al. 2002), solved relative to the mass point so the dropped
-  // directions stay at the mass point. Returns true when it had to be clamped.
+  // Minimiser by truncated eigen-decomposition of AᵀA (singular values below 0.1 σ_max dropped),
+  // relative to the mass point so that the dropped directions stay at it (Ju et al. 2002). A
+  // minimiser outside [lo, hi]³ is replaced by the mass point, which lies inside the node.
+  // Returns true when that happened.
   bool
-  solve (double side, Eigen::Vector3d& x) const
+  solve (double lo, double hi, Eigen::Vector3d& x) const
   {
-    if (count <= 0)
-    {
-      x = Eigen::Vector3d::Constant (0.5 * side);
+    const Eigen::Vector3d m = points > 0 ? Eigen::Vector3d (mass / points) : Eigen::Vector3d::Constant (0.5 * (lo + hi));
+    x = m;
+    if (planes == 0)
       return false;
-    }
-    const Eigen::Vector3d m = mass / count;
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
     es.computeDirect (ata);
     const Eigen::Vector3d lambda = es.eigenvalues ();
     const double lmax = lambda.cwiseAbs ().maxCoeff ();
     const Eigen::Vector3d r = atb - ata * m;
-    x = m;
     if (lmax > 0)
       for (int i = 0; i < 3; ++i)
         if (lambda[i] > 0.01 * lmax)  // σ_i / σ_max > 0.1
@@ -151,10 +175,12 @@ struct Qef
           const Eigen::Vector3d v = es.eigenvectors ().col (i);
           x += v * (v.dot (r) / lambda[i]);
         }
-    const double tol = 1e-9 * side;
-    const bool escaped = (x.array () < -tol).any () || (x.array () > side + tol).any ();
-    x = x.cwiseMax (0.0).cwiseMin (side);
-    return escaped;
+    if ((x.array () < lo).any () || (x.array () > hi).any ())
+    {
+      x = m.cwiseMax (lo).cwiseMin (hi);
+      return true;
+    }
+    return false;
   }
 };
 
@@ -168,8 +194,124 @@ struct Crossing
 struct Vertex
 {
   Eigen::Vector3f p;
-  std::uint32_t node;  // level << 12 | local node index (diagnostics)
+  std::uint32_t node;  // level << 12 | local node index (level > 0: a collapsed node)
 };
+
+// The topology of one cell: corner i at (i & 1, i >> 1 & 1, i >> 2 & 1); edge e = axis · 4 +
+// du + 2 dw runs along `axis` at offsets (du, dw) on the axes (axis + 1) % 3, (axis + 2) % 3.
+struct CellTables
+{
+  std::array<std::array<int, 2>, 12> edge_corners;
+  // Face f = 2 · axis + side: its corners in cyclic order and edge k between corners k, k + 1.
+  std::array<std::array<int, 4>, 6> face_corners, face_edges;
+
+  CellTables ()
+  {
+    for (int e = 0; e < 12; ++e)
+    {
+      const int axis = e / 4, u = (axis + 1) % 3, w = (axis + 2) % 3;
+      const int base = ((e & 1) << u) | (((e >> 1) & 1) << w);
+      edge_corners[e] = {base, base | (1 << axis)};
+    }
+    for (int f = 0; f < 6; ++f)
+    {
+      const int axis = f / 2, side = f % 2, u = (axis + 1) % 3, w = (axis + 2) % 3;
+      const int uw[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+      for (int k = 0; k < 4; ++k)
+        face_corners[f][k] = (side << axis) | (uw[k][0] << u) | (uw[k][1] << w);
+      for (int k = 0; k < 4; ++k)
+        face_edges[f][k] = edgeBetween (face_corners[f][k], face_corners[f][(k + 1) % 4]);
+    }
+  }
+  int
+  edgeBetween (int a, int b) const
+  {
+    const int d = a ^ b;
+    const int axis = d == 1 ? 0 : (d == 2 ? 1 : 2);
+    const int lo = std::min (a, b), u = (axis + 1) % 3, w = (axis + 2) % 3;
+    return axis * 4 + ((lo >> u) & 1) + 2 * ((lo >> w) & 1);
+  }
+};
+
+const CellTables&
+cellTables ()
+{
+  static const CellTables t;
+  return t;
+}
+
+// Surface components inside one cell from its corners' inside bits, as the cycles of marching
+// cubes' face segments: on a face with four crossed edges, bit f of `join` joins the interior
+// corners, else each interior corner is cut off on its own. comp[e] is the component of edge
+// e, or −1 when e is not crossed. Returns the number of components (≤ 4).
+int
+cellComponents (unsigned inside, unsigned join, std::array<int, 12>& comp)
+{
+  const CellTables& t = cellTables ();
+  std::array<int, 12> parent;
+  for (int e = 0; e < 12; ++e)
+    parent[e] = e;
+  auto find = [&] (int e) {
+    while (parent[e] != e)
+      e = parent[e] = parent[parent[e]];
+    return e;
+  };
+  auto unite = [&] (int a, int b) { parent[find (a)] = find (b); };
+  auto crossed = [&] (int e) { return ((inside >> t.edge_corners[e][0]) ^ (inside >> t.edge_corners[e][1])) & 1u; };
+  for (int f = 0; f < 6; ++f)
+  {
+    int on[4], n = 0;
+    for (int k = 0; k < 4; ++k)
+      if (crossed (t.face_edges[f][k]))
+        on[n++] = k;
+    if (n == 2)
+      unite (t.face_edges[f][on[0]], t.face_edges[f][on[1]]);
+    else if (n == 4)
+    {
+      // Corner k lies between face edges k − 1 and k; pair the edges around the corners kept
+      // apart (interior ones unless joined).
+      const bool keep_inside = !((join >> f) & 1u);
+      for (int k = 0; k < 4; ++k)
+        if ((((inside >> t.face_corners[f][k]) & 1u) != 0) == keep_inside)
+          unite (t.face_edges[f][(k + 3) % 4], t.face_edges[f][k]);
+    }
+  }
+  int n = 0;
+  std::array<int, 12> label;
+  label.fill (-1);
+  for (int e = 0; e < 12; ++e)
+  {
+    comp[e] = -1;
+    if (!crossed (e))
+      continue;
+    const int r = find (e);
+    if (label[r] < 0)
+      label[r] = n++;
+    comp[e] = label[r];
+  }
+  return n;
+}
+
+// Does face f hold four crossed edges?
+bool
+ambiguousFace (unsigned inside, int f)
+{
+  const CellTables& t = cellTables ();
+  const int* c = t.face_corners[f].data ();
+  const unsigned a = (inside >> c[0]) & 1u, b = (inside >> c[1]) & 1u, cc = (inside >> c[2]) & 1u, d = (inside >> c[3]) & 1u;
+  return a == cc && b == d && a != b;
+}
+
+// With every ambiguous face cutting interior corners off, do the two segments of face f fall
+// into one component? Then the dual edge across f would carry four quads.
+bool
+faceSegmentsJoined (unsigned inside, int f)
+{
+  std::array<int, 12> comp;
+  cellComponents (inside, 0u, comp);
+  const auto& fe = cellTables ().face_edges[f];
+  return comp[fe[0]] == comp[fe[1]] && comp[fe[1]] == comp[fe[2]];
+}
 
 }  // namespace
 
@@ -182,10 +324,14 @@ struct DualContouringOctree::Impl
     std::uint32_t id = 0;
     std::array<std::uint16_t, kRootCells> leaf_index;
     std::array<std::uint8_t, kRootCells> out_votes, in_votes;  // saturating
-    std::array<std::int32_t, kRootCells> sdf;  // Σ ± distance to the nearest crossing (2^-12 leaf)
+    std::array<std::int32_t, kRootCells> sdf;  // Σ weight · ± distance (2^-12 leaf)
+    std::array<std::uint16_t, 3 * kRootCells> edge_index;  // 3 · vertex + axis → edges
     std::vector<Leaf> leaves;
-    // Polygonisation cache.
-    std::array<std::uint16_t, kRootCells> cell_vertex;  // vertex of every fine cell (collapsed too)
+    std::vector<EdgeData> edges;
+    // Polygonisation cache: per fine cell the first of its vertices and, per edge, 2 bits of
+    // the component whose vertex serves it (all cells of a collapsed node share one vertex).
+    std::array<std::uint16_t, kRootCells> cell_vertex;
+    std::array<std::uint32_t, kRootCells> cell_comp;
     std::vector<Vertex> vertices;
     std::vector<std::array<std::uint64_t, 3>> tris;  // vertex refs (see polygonise)
     // Polygons with a collapsed cell: the same one can come from several lattice edges along
@@ -196,7 +342,7 @@ struct DualContouringOctree::Impl
       int n;
     };
     std::vector<Shared> shared;
-    std::size_t escaped = 0, collapsed = 0;
+    std::size_t escaped = 0, collapsed = 0, missing = 0, rim = 0;
     std::size_t stamp = 0;  // last frame that touched it
     bool dirty = true;
 
@@ -206,13 +352,15 @@ struct DualContouringOctree::Impl
       out_votes.fill (0);
       in_votes.fill (0);
       sdf.fill (0);
+      edge_index.fill (kNone);
       cell_vertex.fill (kNone);
+      cell_comp.fill (0);
     }
   };
 
   std::unordered_map<std::uint64_t, std::uint32_t> root_of;
   std::vector<std::unique_ptr<Root>> roots;
-  std::size_t leaves = 0, voted = 0;
+  std::size_t leaves = 0, voted = 0, edges = 0;
 
   Root*
   find (int bx, int by, int bz) const
@@ -240,15 +388,6 @@ struct DualContouringOctree::Impl
     roots.push_back (std::move (r));
     return roots.back ().get ();
   }
-  const Leaf*
-  leafAt (int x, int y, int z) const
-  {
-    const Root* r = findCell (x, y, z);
-    if (!r)
-      return nullptr;
-    const std::uint16_t i = r->leaf_index[localIndex (x, y, z)];
-    return i == kNone ? nullptr : &r->leaves[i];
-  }
 };
 
 DualContouringOctree::DualContouringOctree () : impl_ (new Impl) {}
@@ -270,6 +409,7 @@ DualContouringOctree::setLeafSize (double h)
   if (!impl_->roots.empty ())
     return fail ("the leaf size cannot change once frames are fused (clear () first)");
   h_ = h;
+  error_.clear ();
   return true;
 }
 
@@ -280,6 +420,7 @@ DualContouringOctree::setSimplificationError (double eps)
     return fail ("simplification error must be finite and >= 0");
   eps_ = eps;
   all_dirty_ = true;
+  error_.clear ();
   return true;
 }
 
@@ -291,6 +432,7 @@ DualContouringOctree::setVolume (const Eigen::Vector3d& min, const Eigen::Vector
   vol_min_ = min;
   vol_max_ = max;
   volume_set_ = true;
+  error_.clear ();
   return true;
 }
 
@@ -308,6 +450,7 @@ DualContouringOctree::clear ()
   impl_.reset (new Impl);
   stats_ = Stats ();
   all_dirty_ = true;
+  error_.clear ();
 }
 
 Eigen::Vector3i
@@ -361,6 +504,22 @@ struct RootCache
       return nullptr;
     const std::uint16_t i = r->leaf_index[localIndex (x, y, z)];
     return i == kNone ? nullptr : &r->leaves[i];
+  }
+  // The Hermite data of the lattice edge from v along axis, or nullptr.
+  const EdgeData*
+  edgeAt (const Eigen::Vector3i& v, int axis) const
+  {
+    const Root* r = findCell (v.x (), v.y (), v.z ());
+    if (!r)
+      return nullptr;
+    const std::uint16_t i = r->edge_index[3 * localIndex (v.x (), v.y (), v.z ()) + axis];
+    return i == kNone ? nullptr : &r->edges[i];
+  }
+  std::int32_t
+  sdfAt (const Eigen::Vector3i& v) const
+  {
+    const Root* r = findCell (v.x (), v.y (), v.z ());
+    return r ? r->sdf[localIndex (v.x (), v.y (), v.z ())] : 0;
   }
 };
 
@@ -432,6 +591,14 @@ struct SignResolver
         *state = 2;
       return 1;  // ambiguous → exterior (§3.6)
     }
+    // The weighted rule's field is defined only where crossings informed it: an uninformed
+    // vertex stays unobserved and no polygon touches it (as a TSDF leaves unseen voxels).
+    if (rule == DualContouringOctree::SignRule::WEIGHTED)
+    {
+      if (state)
+        *state = 4;
+      return 1;
+    }
     // Breadth first through leaf edges without intersection, ≤ 3 edges.
     std::array<Eigen::Vector3i, 64> seen;
     int nseen = 1;
@@ -458,9 +625,8 @@ struct SignResolver
           }
           if (std::find (seen.begin (), seen.begin () + nseen, w) != seen.begin () + nseen)
             continue;
-          // WEIGHTED: the field is defined around the surface, any lattice edge carries it;
-          // the seed's rules propagate inside cells, through leaf edges without intersection.
-          if (rule != DualContouringOctree::SignRule::WEIGHTED && !openEdge (start, axis))
+          // The seed's rules propagate inside cells, through leaf edges without intersection.
+          if (!openEdge (start, axis))
             continue;
           if (nseen < 64)
             seen[nseen++] = w;
@@ -505,114 +671,48 @@ DualContouringOctree::gridVertexState (const Eigen::Vector3i& v) const
   return s;
 }
 
-bool
-DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
+// The triangles of a frame that can be fused, with their unit normals (lattice frame) and
+// confidence weights.
+struct DualContouringOctree::FrameTriangles
 {
-  const auto t0 = Clock::now ();
-  Stats& st = stats_;
-  st.input_triangles = mesh.triangles.size ();
-  st.used_triangles = st.nonfinite_triangles = st.degenerate_triangles = st.outside_triangles =
-      st.bad_index_triangles = 0;
-  st.intersections = st.multi_intersection_edges = st.touched_roots = 0;
-  if (mesh.triangles.empty () || mesh.vertices.empty ())
-    return fail ("empty mesh (no triangles)");
+  std::vector<Eigen::Vector3d> q;  // vertices in lattice units
+  std::vector<std::uint32_t> used;
+  std::vector<Eigen::Vector3d> normals;
+  std::vector<double> weights;
+};
 
-  // Lattice coordinates (units of h) in double: exact enough and the same for every frame order.
-  const std::size_t nv = mesh.vertices.size ();
-  std::vector<Eigen::Vector3d> q (nv);
-  std::vector<char> finite (nv);
-  for (std::size_t i = 0; i < nv; ++i)
-  {
-    finite[i] = mesh.vertices[i].allFinite ();
-    q[i] = mesh.vertices[i].cast<double> () / h_;
-  }
+namespace {
 
-  // Volume of interest from the first frame (§3.4.1).
-  if (!volume_set_)
-  {
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ());
-    Eigen::Vector3d hi = -lo;
-    for (std::size_t i = 0; i < nv; ++i)
-      if (finite[i])
-      {
-        lo = lo.cwiseMin (mesh.vertices[i].cast<double> ());
-        hi = hi.cwiseMax (mesh.vertices[i].cast<double> ());
-      }
-    if (!(lo.array () <= hi.array ()).all ())
-      return fail ("no finite vertex in the mesh");
-    const Eigen::Vector3d c = 0.5 * (lo + hi);
-    const double half = 0.5 * margin_ * (hi - lo).maxCoeff () + h_;
-    vol_min_ = c.array () - half;
-    vol_max_ = c.array () + half;
-    volume_set_ = true;
-  }
+using FrameTriangles = DualContouringOctree::FrameTriangles;
 
-  // Valid triangles: indices in range, finite corners, inside the lattice (and the volume when
-  // it does not grow), non-zero area.
-  std::vector<std::uint32_t> tris;
-  tris.reserve (mesh.triangles.size ());
-  std::vector<Eigen::Vector3d> normals (mesh.triangles.size (), Eigen::Vector3d::Zero ());
-  for (std::size_t t = 0; t < mesh.triangles.size (); ++t)
-  {
-    const Eigen::Vector3i& f = mesh.triangles[t];
-    if ((f.array () < 0).any () || (f.array () >= static_cast<int> (nv)).any ())
-    {
-      ++st.bad_index_triangles;
-      continue;
-    }
-    if (!finite[f[0]] || !finite[f[1]] || !finite[f[2]])
-    {
-      ++st.nonfinite_triangles;
-      continue;
-    }
-    bool outside = false;
-    for (int k = 0; k < 3; ++k)
-    {
-      const Eigen::Vector3d& p = q[f[k]];
-      if ((p.array ().abs () > kLatticeLimit).any ())
-        outside = true;
-      if (!grow_)
-      {
-        const Eigen::Vector3d w = p * h_;
-        if ((w.array () < vol_min_.array ()).any () || (w.array () > vol_max_.array ()).any ())
-          outside = true;
-      }
-    }
-    if (outside)
-    {
-      ++st.outside_triangles;
-      continue;
-    }
-    const Eigen::Vector3d n = (q[f[1]] - q[f[0]]).cross (q[f[2]] - q[f[0]]);
-    const double len = n.norm ();
-    if (!(len > 1e-12))
-    {
-      ++st.degenerate_triangles;
-      continue;
-    }
-    normals[t] = n / len;
-    tris.push_back (static_cast<std::uint32_t> (t));
-  }
-  st.used_triangles = tris.size ();
-  if (tris.empty ())
-    return fail ("no usable triangle (" + std::to_string (st.nonfinite_triangles) + " non-finite, " +
-                 std::to_string (st.degenerate_triangles) + " degenerate, " +
-                 std::to_string (st.outside_triangles) + " outside the volume, " +
-                 std::to_string (st.bad_index_triangles) + " bad indices)");
-  if (st.outside_triangles)
-    PCL_WARN ("[pcl::DualContouringOctree] %zu triangles outside the %s dropped\n", st.outside_triangles,
-              grow_ ? "lattice range" : "volume (growth off)");
+// Confidence of a triangle's crossings: the cosine of its incidence angle times a falloff with
+// range beyond 1 m (depth noise grows with range), 1 when the viewpoint is unknown.
+double
+crossingWeight (const Eigen::Vector3d& centroid_m, const Eigen::Vector3d& normal, const Eigen::Vector3f& viewpoint)
+{
+  if (!viewpoint.allFinite ())
+    return 1.0;
+  const Eigen::Vector3d ray = viewpoint.cast<double> () - centroid_m;
+  const double range = ray.norm ();
+  if (!(range > 0))
+    return 1.0;
+  const double cosine = std::max (0.05, std::abs (normal.dot (ray)) / range);
+  return cosine * std::min (1.0, 1.0 / (range * range));
+}
 
-  // Edge–triangle intersections: for each axis, the lattice lines through the triangle's
-  // projection, with a top-left rule so a line through a shared triangle edge hits once.
+// Crossings of every triangle with the lattice lines along the three axes, sorted by edge; a
+// top-left rule makes a line through a shared triangle edge hit once.
+std::vector<Crossing>
+intersectLattice (const pclx::surface::FrameMesh& mesh, const FrameTriangles& ft)
+{
   std::vector<Crossing> crossings;
 #pragma omp parallel
   {
     std::vector<Crossing> local;
 #pragma omp for schedule(dynamic, 256) nowait
-    for (std::ptrdiff_t ti = 0; ti < static_cast<std::ptrdiff_t> (tris.size ()); ++ti)
+    for (std::ptrdiff_t ti = 0; ti < static_cast<std::ptrdiff_t> (ft.used.size ()); ++ti)
     {
-      const std::uint32_t t = tris[ti];
+      const std::uint32_t t = ft.used[ti];
       const Eigen::Vector3i& f = mesh.triangles[t];
       for (int a = 0; a < 3; ++a)
       {
@@ -621,8 +721,8 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
         double D[3];
         for (int k = 0; k < 3; ++k)
         {
-          P[k] = Eigen::Vector2d (q[f[k]][u], q[f[k]][w]);
-          D[k] = q[f[k]][a];
+          P[k] = Eigen::Vector2d (ft.q[f[k]][u], ft.q[f[k]][w]);
+          D[k] = ft.q[f[k]][a];
         }
         double area = (P[1] - P[0]).x () * (P[2] - P[0]).y () - (P[1] - P[0]).y () * (P[2] - P[0]).x ();
         if (area == 0)
@@ -673,72 +773,136 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
 #pragma omp critical
     crossings.insert (crossings.end (), local.begin (), local.end ());
   }
-  std::sort (crossings.begin (), crossings.end (), [&] (const Crossing& x, const Crossing& y) {
+  std::sort (crossings.begin (), crossings.end (), [] (const Crossing& x, const Crossing& y) {
     if (x.key != y.key)
       return x.key < y.key;
     if (x.frac != y.frac)
       return x.frac < y.frac;
     return x.tri < y.tri;
   });
-  st.intersections = crossings.size ();
-  st.t_intersect_ms = msSince (t0);
-  const auto t1 = Clock::now ();
+  return crossings;
+}
 
-  // Merge into the map (§3.4.3 / §3.5): votes on the two grid vertices, the plane into the QEFs
-  // of the four leaves around the edge.
-  Impl& m = *impl_;
-  // Roots around the current crossing's root, resolved (and created) lazily: crossings come
-  // sorted root by root, so the hash map is hardly touched.
-  Eigen::Vector3i centre = Eigen::Vector3i::Constant (1 << 24);
-  std::array<Impl::Root*, 27> near{};
-  auto rootOf = [&] (int x, int y, int z) -> Impl::Root* {
+Eigen::Vector3i
+edgeStart (std::uint64_t key)
+{
+  const int li = static_cast<int> ((key >> 2) & (kRootCells - 1));
+  const std::uint64_t rk = key >> 14;
+  const Eigen::Vector3i b (static_cast<int> ((rk >> 32) & 0xFFFF) - (1 << 15),
+                           static_cast<int> ((rk >> 16) & 0xFFFF) - (1 << 15),
+                           static_cast<int> (rk & 0xFFFF) - (1 << 15));
+  return b * kRootSide + Eigen::Vector3i (li % kRootSide, (li / kRootSide) % kRootSide, li / (kRootSide * kRootSide));
+}
+
+// Fuses one frame's sorted crossings into the map: per edge the weighted Hermite sums, the sign
+// votes of the grid vertices and the leaves around the edge.
+class FrameMerger
+{
+public:
+  using Root = DualContouringOctree::Impl::Root;
+
+  FrameMerger (DualContouringOctree::Impl& m, DualContouringOctree::Stats& st, const FrameTriangles& ft)
+    : m_ (m), st_ (st), ft_ (ft)
+  {}
+
+  void
+  mergeEdge (const Crossing* first, const Crossing* last)
+  {
+    const Crossing& c = *first;  // nearest to A (smallest fraction)
+    const int axis = static_cast<int> (c.key & 3);
+    const Eigen::Vector3i s = edgeStart (c.key);
+    recentre (s);
+    const std::size_t count = static_cast<std::size_t> (last - first);
+    if (count > 1)
+      ++st_.multi_intersection_edges;
+    const Eigen::Vector3d& n = ft_.normals[c.tri];
+    // Eq. 3.1: S = (C − A)·N = frac · N_axis. With N pointing out, S > 0 means A lies behind
+    // the surface, i.e. inside (the seed's text says exterior; its figure and the geometry say
+    // interior). Odd count: B opposite; even: B as A, intersections disregarded (§3.4.3).
+    const bool a_ext = n[axis] < 0;
+    const bool b_ext = (count % 2) ? !a_ext : a_ext;
+    Eigen::Vector3i b = s;
+    b[axis] += 1;
+    const Crossing& back = *(last - 1);
+    const Eigen::Vector3d& nb = ft_.normals[back.tri];
+    vote (s, a_ext, a_ext, c.frac * std::abs (n[axis]), ft_.weights[c.tri]);
+    vote (b, b_ext, nb[axis] > 0, (1.0 - back.frac) * std::abs (nb[axis]), ft_.weights[back.tri]);
+    for (const Crossing* x = first; x != last; ++x)
+      bandVote (s, axis, x->frac, ft_.normals[x->tri][axis], ft_.weights[x->tri]);
+    addHermite (s, axis, first, last);
+    markLeaves (s, axis);
+  }
+
+private:
+  Root*
+  rootOf (int x, int y, int z)
+  {
     const int bx = floorDiv (x), by = floorDiv (y), bz = floorDiv (z);
-    const int dx = bx - centre.x () + 1, dy = by - centre.y () + 1, dz = bz - centre.z () + 1;
-    Impl::Root** slot = nullptr;
+    const int dx = bx - centre_.x () + 1, dy = by - centre_.y () + 1, dz = bz - centre_.z () + 1;
+    Root** slot = nullptr;
     if (static_cast<unsigned> (dx) < 3u && static_cast<unsigned> (dy) < 3u && static_cast<unsigned> (dz) < 3u)
     {
-      slot = &near[dx + 3 * dy + 9 * dz];
+      slot = &near_[dx + 3 * dy + 9 * dz];
       if (*slot)
         return *slot;
     }
-    Impl::Root* r = m.get (bx, by, bz);
+    Root* r = m_.get (bx, by, bz);
     r->dirty = true;
-    if (r->stamp != st.frames + 1)
+    if (r->stamp != st_.frames + 1)
     {
-      r->stamp = st.frames + 1;
-      ++st.touched_roots;
+      r->stamp = st_.frames + 1;
+      ++st_.touched_roots;
     }
     if (slot)
       *slot = r;
     return r;
-  };
-  auto recentre = [&] (const Eigen::Vector3i& s) {
+  }
+  void
+  recentre (const Eigen::Vector3i& s)
+  {
     const Eigen::Vector3i b (floorDiv (s.x ()), floorDiv (s.y ()), floorDiv (s.z ()));
-    if (b != centre)
+    if (b != centre_)
     {
-      centre = b;
-      near.fill (nullptr);
+      centre_ = b;
+      near_.fill (nullptr);
     }
-  };
+  }
+  // The cells around an informed vertex must have roots: their dual vertices are made by the
+  // root that holds the cell.
+  void
+  touchCellsAround (const Eigen::Vector3i& v)
+  {
+    const int lx = v.x () & (kRootSide - 1), ly = v.y () & (kRootSide - 1), lz = v.z () & (kRootSide - 1);
+    if (lx && ly && lz)
+      return;
+    for (int mask = 1; mask < 8; ++mask)
+      if ((!(mask & 1) || !lx) && (!(mask & 2) || !ly) && (!(mask & 4) || !lz))
+        rootOf (v.x () - (mask & 1), v.y () - (mask >> 1 & 1), v.z () - (mask >> 2 & 1));
+  }
   // `weighted_ext`: the vertex's own reading of its nearest crossing (for the WEIGHTED rule),
   // at `dist` leaf units along the edge.
-  auto vote = [&] (const Eigen::Vector3i& v, bool exterior, bool weighted_ext, double dist) {
-    Impl::Root* r = rootOf (v.x (), v.y (), v.z ());
+  void
+  vote (const Eigen::Vector3i& v, bool exterior, bool weighted_ext, double dist, double weight)
+  {
+    Root* r = rootOf (v.x (), v.y (), v.z ());
     const int i = localIndex (v.x (), v.y (), v.z ());
     std::uint8_t& c = exterior ? r->out_votes[i] : r->in_votes[i];
     if (r->out_votes[i] == 0 && r->in_votes[i] == 0)
-      ++m.voted;
+      ++m_.voted;
     if (c < 255)
       ++c;
-    const std::int32_t w = static_cast<std::int32_t> (std::lround (std::min (dist, 1.0) * 4096));
-    addSaturated (r->sdf[i], weighted_ext ? w : -w);
-  };
+    const std::int32_t d = static_cast<std::int32_t> (std::lround (weight * std::min (dist, 1.0) * 4096));
+    addSaturated (r->sdf[i], weighted_ext ? d : -d);
+    touchCellsAround (v);
+  }
   // WEIGHTED rule: a crossing also informs the vertices in front of it along its lattice line,
   // up to kBand leaves away, with their distance to its plane (a truncated signed distance
   // sampled on the lattice lines; frames whose noise exceeds a leaf then average instead of
   // contradicting each other).
-  constexpr int kBand = 2;
-  auto bandVote = [&] (const Eigen::Vector3i& s, int axis, double frac, double n_axis) {
+  void
+  bandVote (const Eigen::Vector3i& s, int axis, double frac, double n_axis, double weight)
+  {
+    constexpr int kBand = 2;
     for (int k = -kBand + 1; k <= kBand; ++k)
     {
       if (k == 0 || k == 1)
@@ -749,46 +913,41 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
         continue;
       Eigen::Vector3i v = s;
       v[axis] += k;
-      Impl::Root* r = rootOf (v.x (), v.y (), v.z ());
+      Root* r = rootOf (v.x (), v.y (), v.z ());
       const double d = std::max (-double (kBand), std::min (double (kBand), (k - frac) * n_axis));
-      addSaturated (r->sdf[localIndex (v.x (), v.y (), v.z ())], static_cast<std::int32_t> (std::lround (d * 4096)));
+      std::int32_t& sdf = r->sdf[localIndex (v.x (), v.y (), v.z ())];
+      if (sdf == 0 && !r->out_votes[localIndex (v.x (), v.y (), v.z ())] && !r->in_votes[localIndex (v.x (), v.y (), v.z ())])
+        touchCellsAround (v);
+      addSaturated (sdf, static_cast<std::int32_t> (std::lround (weight * d * 4096)));
     }
-  };
-  for (std::size_t g = 0; g < crossings.size ();)
+  }
+  // The weighted running sums of the edge's crossings (position and normal).
+  void
+  addHermite (const Eigen::Vector3i& s, int axis, const Crossing* first, const Crossing* last)
   {
-    std::size_t e = g + 1;
-    while (e < crossings.size () && crossings[e].key == crossings[g].key)
-      ++e;
-    const Crossing& c = crossings[g];  // nearest to A (smallest fraction)
-    const int axis = static_cast<int> (c.key & 3);
-    const int li = static_cast<int> ((c.key >> 2) & (kRootCells - 1));
-    const std::uint64_t rk = c.key >> 14;
-    Eigen::Vector3i s (static_cast<int> ((rk >> 32) & 0xFFFF) - (1 << 15),
-                       static_cast<int> ((rk >> 16) & 0xFFFF) - (1 << 15),
-                       static_cast<int> (rk & 0xFFFF) - (1 << 15));
-    s = s * kRootSide + Eigen::Vector3i (li % kRootSide, (li / kRootSide) % kRootSide, li / (kRootSide * kRootSide));
-    recentre (s);
-    const std::size_t count = e - g;
-    if (count > 1)
-      ++st.multi_intersection_edges;
-    const Eigen::Vector3d& n = normals[c.tri];
-    // Eq. 3.1: S = (C − A)·N = frac · N_axis. With N pointing out, S > 0 means A lies behind
-    // the surface, i.e. inside (the seed's text says exterior; its figure and the geometry say
-    // interior). Odd count: B opposite; even: B as A, intersections disregarded (§3.4.3).
-    const bool a_ext = n[axis] < 0;
-    const bool b_ext = (count % 2) ? !a_ext : a_ext;
-    Eigen::Vector3i b = s;
-    b[axis] += 1;
-    // Weighted: each end reads its nearest crossing, weighted by its distance to it (a truncated
-    // signed distance along the edge; robust to noisy frames that disagree near the surface).
-    const Crossing& last = crossings[e - 1];
-    vote (s, a_ext, a_ext, c.frac * std::abs (n[axis]));
-    vote (b, b_ext, normals[last.tri][axis] > 0, (1.0 - last.frac) * std::abs (normals[last.tri][axis]));
-    for (std::size_t j = g; j < e; ++j)
-        bandVote (s, axis, crossings[j].frac, normals[crossings[j].tri][axis]);
-    // Every intersection's plane goes into the QEFs of the four leaves around the edge (the
-    // seed kept only the nearest to A; with all of them a leaf's QEF is a function of the set
-    // of triangles, whichever frames they came in).
+    Root* r = rootOf (s.x (), s.y (), s.z ());
+    std::uint16_t& ei = r->edge_index[3 * localIndex (s.x (), s.y (), s.z ()) + axis];
+    if (ei == kNone)
+    {
+      ei = static_cast<std::uint16_t> (r->edges.size ());
+      r->edges.emplace_back ();
+      ++m_.edges;
+    }
+    EdgeData& e = r->edges[ei];
+    for (const Crossing* x = first; x != last; ++x)
+    {
+      const double w = ft_.weights[x->tri];
+      const Eigen::Vector3d& n = ft_.normals[x->tri];
+      e.w += fix (w);
+      e.wf += fix (w * x->frac);
+      for (int k = 0; k < 3; ++k)
+        e.wn[k] += fix (w * n[k]);
+      ++e.count;
+    }
+  }
+  void
+  markLeaves (const Eigen::Vector3i& s, int axis)
+  {
     const int u = (axis + 1) % 3, w = (axis + 2) % 3;
     for (int k = 0; k < 4; ++k)
     {
@@ -796,49 +955,159 @@ DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
       Eigen::Vector3i cell = s;
       cell[u] -= du;
       cell[w] -= dw;
-      Impl::Root* r = rootOf (cell.x (), cell.y (), cell.z ());
+      Root* r = rootOf (cell.x (), cell.y (), cell.z ());
       const int ci = localIndex (cell.x (), cell.y (), cell.z ());
-      std::uint16_t& li2 = r->leaf_index[ci];
-      if (li2 == kNone)
+      std::uint16_t& li = r->leaf_index[ci];
+      if (li == kNone)
       {
-        li2 = static_cast<std::uint16_t> (r->leaves.size ());
+        li = static_cast<std::uint16_t> (r->leaves.size ());
         r->leaves.emplace_back ();
         r->leaves.back ().cell = static_cast<std::uint16_t> (ci);
-        ++m.leaves;
+        ++m_.leaves;
       }
-      Leaf& leaf = r->leaves[li2];
-      leaf.crossed |= static_cast<std::uint16_t> (1u << (axis * 4 + du + 2 * dw));
-      for (std::size_t j = g; j < e; ++j)
+      r->leaves[li].crossed |= static_cast<std::uint16_t> (1u << (axis * 4 + du + 2 * dw));
+    }
+  }
+
+  DualContouringOctree::Impl& m_;
+  DualContouringOctree::Stats& st_;
+  const FrameTriangles& ft_;
+  Eigen::Vector3i centre_ = Eigen::Vector3i::Constant (1 << 24);
+  std::array<Root*, 27> near_{};
+};
+
+}  // namespace
+
+bool
+DualContouringOctree::checkFrameTriangles (const pclx::surface::FrameMesh& mesh, FrameTriangles& ft)
+{
+  Stats& st = stats_;
+  const std::size_t nv = mesh.vertices.size ();
+  ft.q.resize (nv);
+  std::vector<char> finite (nv);
+  for (std::size_t i = 0; i < nv; ++i)
+  {
+    finite[i] = mesh.vertices[i].allFinite ();
+    ft.q[i] = mesh.vertices[i].cast<double> () / h_;
+  }
+  // Volume of interest from the first frame (§3.4.1).
+  if (!volume_set_)
+  {
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ());
+    Eigen::Vector3d hi = -lo;
+    for (std::size_t i = 0; i < nv; ++i)
+      if (finite[i])
       {
-        const Eigen::Vector3d& nj = normals[crossings[j].tri];
-        Eigen::Vector3d p = Eigen::Vector3d::Zero ();  // intersection in the leaf's frame
-        p[axis] = crossings[j].frac;
-        p[u] = du;
-        p[w] = dw;
-        const double d = nj.dot (p);
-        const double nn[6] = {nj.x () * nj.x (), nj.x () * nj.y (), nj.x () * nj.z (),
-                              nj.y () * nj.y (), nj.y () * nj.z (), nj.z () * nj.z ()};
-        for (int q2 = 0; q2 < 6; ++q2)
-          leaf.ata[q2] += fix (nn[q2]);
-        for (int q2 = 0; q2 < 3; ++q2)
-        {
-          leaf.atb[q2] += fix (nj[q2] * d);
-          leaf.mass[q2] += fix (p[q2]);
-        }
-        leaf.btb += fix (d * d);
-        ++leaf.count;
+        lo = lo.cwiseMin (mesh.vertices[i].cast<double> ());
+        hi = hi.cwiseMax (mesh.vertices[i].cast<double> ());
+      }
+    if (!(lo.array () <= hi.array ()).all ())
+      return fail ("no finite vertex in the mesh");
+    const Eigen::Vector3d c = 0.5 * (lo + hi);
+    const double half = 0.5 * margin_ * (hi - lo).maxCoeff () + h_;
+    vol_min_ = c.array () - half;
+    vol_max_ = c.array () + half;
+    volume_set_ = true;
+  }
+  // Valid triangles: indices in range, finite corners, inside the lattice (and the volume when
+  // it does not grow), non-zero area.
+  ft.used.clear ();
+  ft.used.reserve (mesh.triangles.size ());
+  ft.normals.assign (mesh.triangles.size (), Eigen::Vector3d::Zero ());
+  ft.weights.assign (mesh.triangles.size (), 0.0);
+  for (std::size_t t = 0; t < mesh.triangles.size (); ++t)
+  {
+    const Eigen::Vector3i& f = mesh.triangles[t];
+    if ((f.array () < 0).any () || (f.array () >= static_cast<int> (nv)).any ())
+    {
+      ++st.bad_index_triangles;
+      continue;
+    }
+    if (!finite[f[0]] || !finite[f[1]] || !finite[f[2]])
+    {
+      ++st.nonfinite_triangles;
+      continue;
+    }
+    bool outside = false;
+    for (int k = 0; k < 3; ++k)
+    {
+      const Eigen::Vector3d& p = ft.q[f[k]];
+      if ((p.array ().abs () > kLatticeLimit).any ())
+        outside = true;
+      if (!grow_)
+      {
+        const Eigen::Vector3d w = p * h_;
+        if ((w.array () < vol_min_.array ()).any () || (w.array () > vol_max_.array ()).any ())
+          outside = true;
       }
     }
+    if (outside)
+    {
+      ++st.outside_triangles;
+      continue;
+    }
+    const Eigen::Vector3d n = (ft.q[f[1]] - ft.q[f[0]]).cross (ft.q[f[2]] - ft.q[f[0]]);
+    const double len = n.norm ();
+    if (!(len > 1e-12))
+    {
+      ++st.degenerate_triangles;
+      continue;
+    }
+    ft.normals[t] = n / len;
+    const Eigen::Vector3d centroid = (ft.q[f[0]] + ft.q[f[1]] + ft.q[f[2]]) * (h_ / 3.0);
+    ft.weights[t] = crossingWeight (centroid, ft.normals[t], mesh.viewpoint);
+    ft.used.push_back (static_cast<std::uint32_t> (t));
+  }
+  st.used_triangles = ft.used.size ();
+  if (ft.used.empty ())
+    return fail ("no usable triangle (" + std::to_string (st.nonfinite_triangles) + " non-finite, " +
+                 std::to_string (st.degenerate_triangles) + " degenerate, " +
+                 std::to_string (st.outside_triangles) + " outside the volume, " +
+                 std::to_string (st.bad_index_triangles) + " bad indices)");
+  if (st.outside_triangles)
+    PCL_WARN ("[pcl::DualContouringOctree] %zu triangles outside the %s dropped\n", st.outside_triangles,
+              grow_ ? "lattice range" : "volume (growth off)");
+  return true;
+}
+
+bool
+DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
+{
+  const auto t0 = Clock::now ();
+  Stats& st = stats_;
+  st.input_triangles = mesh.triangles.size ();
+  st.used_triangles = st.nonfinite_triangles = st.degenerate_triangles = st.outside_triangles =
+      st.bad_index_triangles = 0;
+  st.intersections = st.multi_intersection_edges = st.touched_roots = 0;
+  if (mesh.triangles.empty () || mesh.vertices.empty ())
+    return fail ("empty mesh (no triangles)");
+  FrameTriangles ft;
+  if (!checkFrameTriangles (mesh, ft))
+    return false;
+  const std::vector<Crossing> crossings = intersectLattice (mesh, ft);
+  st.intersections = crossings.size ();
+  st.t_intersect_ms = msSince (t0);
+
+  const auto t1 = Clock::now ();
+  FrameMerger merger (*impl_, st, ft);
+  for (std::size_t g = 0; g < crossings.size ();)
+  {
+    std::size_t e = g + 1;
+    while (e < crossings.size () && crossings[e].key == crossings[g].key)
+      ++e;
+    merger.mergeEdge (crossings.data () + g, crossings.data () + e);
     g = e;
   }
   st.t_merge_ms = msSince (t1);
   ++st.frames;
+  const Impl& m = *impl_;
   st.roots = m.roots.size ();
   st.leaves = m.leaves;
   st.grid_vertices = m.voted;
-  st.memory_bytes = m.roots.size () * sizeof (Impl::Root) + m.leaves * sizeof (Leaf) +
+  st.memory_bytes = m.roots.size () * sizeof (Impl::Root) + m.leaves * sizeof (Leaf) + m.edges * sizeof (EdgeData) +
                     m.root_of.size () * 32;
   st.last_frame_ms = msSince (t0);
+  error_.clear ();
   return true;
 }
 
@@ -854,374 +1123,723 @@ DualContouringOctree::reconstructFromScratch (pcl::PolygonMesh& mesh)
   polygonise (mesh, true);
 }
 
+namespace {
+
+using Root = DualContouringOctree::Impl::Root;
+
+// Offset of a dual vertex from its cell's faces, in leaf units: vertices of neighbouring cells
+// never coincide.
+constexpr double kFaceMargin = 1e-3;
+// How far the topology signs of ε simplification extend observed signs into unobserved space
+// (lattice steps): a band's back side that far behind the surface does not stop a merge.
+constexpr int kFillDepth = 6;
+// Resolved signs of the lattice vertices −1 … 17 of one root, plus `margin` more on each side
+// (+1 exterior, −1 interior, 0 unobserved), their weighted signed distances, and the topology
+// signs that decide a cell's components: unobserved vertices take the sign of the observed ones
+// within `fill` lattice steps (exterior when those disagree or none is that close), so that the
+// unobserved inside of a shape does not count as a surface behind its band. The margin equals
+// the fill depth, so every root sees the same topology signs on the vertices it shares.
+class SignBlock
+{
+public:
+  SignBlock (const Root& r, const RootCache& rc, DualContouringOctree::SignRule rule, int fill)
+    : margin_ (fill), side_ (kRootSide + 3 + 2 * fill)
+  {
+    const std::size_t n = static_cast<std::size_t> (side_) * side_ * side_;
+    sign_.assign (n, 0);
+    topo_.assign (n, 1);
+    sdf_.assign (n, 0);
+    const SignResolver sr{rc, rule};
+    const int lo = -1 - margin_, hi = kRootSide + 1 + margin_;
+    for (int z = lo; z <= hi; ++z)
+      for (int y = lo; y <= hi; ++y)
+        for (int x = lo; x <= hi; ++x)
+        {
+          const Eigen::Vector3i v = r.origin + Eigen::Vector3i (x, y, z);
+          int state = 0;
+          const int s = sr.resolve (v, &state);
+          const int i = index (x, y, z);
+          sign_[i] = static_cast<std::int8_t> (state == 4 ? 0 : s);
+          topo_[i] = static_cast<std::int8_t> (sign_[i] < 0 ? -1 : 1);
+          sdf_[i] = rc.sdfAt (v);
+          ambiguous_ += state == 2 && x >= 0 && y >= 0 && z >= 0 && x < kRootSide && y < kRootSide && z < kRootSide;
+        }
+    if (fill > 0)
+      fillUnobserved (fill);
+  }
+
+  int
+  index (int x, int y, int z) const
+  {
+    const int o = 1 + margin_;
+    return (x + o) + side_ * ((y + o) + side_ * (z + o));
+  }
+  // Observed sign (0: unobserved).
+  int
+  at (int x, int y, int z) const
+  {
+    return sign_[index (x, y, z)];
+  }
+  double
+  sdf (int x, int y, int z) const
+  {
+    return sdf_[index (x, y, z)];
+  }
+  // Inside bits of the 8 corners of the node with min corner (x, y, z) and edge `side`.
+  unsigned
+  inside (int x, int y, int z, int side = 1) const
+  {
+    unsigned bits = 0;
+    for (int c = 0; c < 8; ++c)
+      bits |= unsigned (topo_[index (x + (c & 1) * side, y + (c >> 1 & 1) * side, z + (c >> 2) * side)] < 0) << c;
+    return bits;
+  }
+  bool
+  topologyInside (int x, int y, int z) const
+  {
+    return topo_[index (x, y, z)] < 0;
+  }
+  std::size_t
+  ambiguous () const
+  {
+    return ambiguous_;
+  }
+
+private:
+  // Breadth-first layers from the observed vertices, 6-connected, `depth` steps.
+  void
+  fillUnobserved (int depth)
+  {
+    std::vector<std::uint8_t> reached (sign_.size (), 0);
+    std::vector<int> front, next;
+    for (std::size_t i = 0; i < sign_.size (); ++i)
+      if (sign_[i])
+      {
+        reached[i] = 1;
+        front.push_back (static_cast<int> (i));
+      }
+    const int step[3] = {1, side_, side_ * side_};
+    std::vector<std::uint8_t> votes (sign_.size (), 0);  // bit 0 interior, bit 1 exterior
+    for (int d = 0; d < depth && !front.empty (); ++d)
+    {
+      next.clear ();
+      for (int i : front)
+      {
+        const int x = i % side_, y = (i / side_) % side_, z = i / (side_ * side_);
+        const int c[3] = {x, y, z};
+        for (int a = 0; a < 3; ++a)
+          for (int dir : {-1, 1})
+          {
+            if (c[a] + dir < 0 || c[a] + dir >= side_)
+              continue;
+            const int j = i + dir * step[a];
+            if (reached[j] == 1)
+              continue;
+            if (!votes[j])
+              next.push_back (j);
+            votes[j] |= topo_[i] < 0 ? 1 : 2;
+          }
+      }
+      for (int j : next)
+      {
+        reached[j] = 1;
+        topo_[j] = static_cast<std::int8_t> (votes[j] == 1 ? -1 : 1);
+      }
+      front.swap (next);
+    }
+  }
+
+  int margin_, side_;
+  std::vector<std::int8_t> sign_, topo_;
+  std::vector<std::int32_t> sdf_;
+  std::size_t ambiguous_ = 0;
+};
+
+// Computes the dual vertices of one root: per cell one vertex per surface component (manifold
+// dual contouring, Schaefer, Ju and Warren 2007), optionally merged into coarser nodes of the
+// root's octree where that keeps the topology (Ju et al. 2002) and the error within ε.
+class RootVertexBuilder
+{
+public:
+  RootVertexBuilder (Root& r, const RootCache& rc, DualContouringOctree::SignRule rule, double eps_leaf, double h)
+    : r_ (r), rc_ (rc), rule_ (rule), eps_ (eps_leaf), h_ (h), block_ (r, rc, rule, eps_leaf > 0 ? kFillDepth : 0)
+  {}
+
+  void
+  build ()
+  {
+    r_.vertices.clear ();
+    r_.cell_vertex.fill (kNone);
+    r_.cell_comp.fill (0);
+    r_.escaped = r_.collapsed = r_.rim = 0;
+    cellPass ();
+    int top = 0;
+    if (eps_ > 0)
+      top = collapseLevels ();
+    emitCollapsed (top);
+    emitCells ();
+  }
+  std::size_t
+  ambiguous () const
+  {
+    return block_.ambiguous ();
+  }
+
+private:
+  struct Plane
+  {
+    Eigen::Vector3d p, n;  // leaf units, relative to the root's origin
+  };
+  // Per cell: 0 no surface, 1 one component off the rim (may merge), 2 fixed.
+  enum : std::uint8_t { kEmpty = 0, kSimple = 1, kFixed = 2 };
+
+  // Faces of the cell where the two segments of a four-crossing face are kept apart only if
+  // cutting off the interior corners would join them on both sides of the face.
+  unsigned
+  joinedFaces (int x, int y, int z, unsigned inside) const
+  {
+    unsigned join = 0;
+    for (int f = 0; f < 6; ++f)
+    {
+      if (!ambiguousFace (inside, f))
+        continue;
+      const int axis = f / 2, side = f % 2;
+      Eigen::Vector3i nb (x, y, z);
+      nb[axis] += side ? 1 : -1;
+      const unsigned other = block_.inside (nb.x (), nb.y (), nb.z ());
+      if (faceSegmentsJoined (inside, f) && faceSegmentsJoined (other, 2 * axis + (1 - side)))
+        join |= 1u << f;
+    }
+    return join;
+  }
+  // The crossing of a cell edge in cell-local leaf units, and its plane when Hermite data exist.
+  bool
+  edgeCrossing (int x, int y, int z, int e, Eigen::Vector3d& p, Eigen::Vector3d& n) const
+  {
+    const auto& t = cellTables ();
+    const int c0 = t.edge_corners[e][0], c1 = t.edge_corners[e][1];
+    const int axis = e / 4;
+    const Eigen::Vector3d corner (c0 & 1, c0 >> 1 & 1, c0 >> 2 & 1);
+    const Eigen::Vector3i start = r_.origin + Eigen::Vector3i (x + (c0 & 1), y + (c0 >> 1 & 1), z + (c0 >> 2));
+    double frac = 0.5;
+    bool plane = false;
+    const EdgeData* ed = rc_.edgeAt (start, axis);
+    if (ed && ed->hermite (frac, n))
+      plane = true;
+    else if (rule_ == DualContouringOctree::SignRule::WEIGHTED)
+    {
+      const double d0 = block_.sdf (x + (c0 & 1), y + (c0 >> 1 & 1), z + (c0 >> 2));
+      const double d1 = block_.sdf (x + (c1 & 1), y + (c1 >> 1 & 1), z + (c1 >> 2));
+      if (d0 != d1)
+        frac = std::min (1.0, std::max (0.0, d0 / (d0 - d1)));
+    }
+    p = corner;
+    p[axis] += frac;
+    return plane;
+  }
+  void
+  cellPass ()
+  {
+    state_.fill (kEmpty);
+    planes_.clear ();
+    comp_pos_.clear ();
+    if (eps_ > 0)
+      qef_.assign (kRootCells, Qef ());
+    for (int ci = 0; ci < kRootCells; ++ci)
+    {
+      const int x = ci % kRootSide, y = (ci / kRootSide) % kRootSide, z = ci / (kRootSide * kRootSide);
+      plane_begin_[ci] = static_cast<std::uint32_t> (planes_.size ());
+      first_comp_[ci] = static_cast<std::uint32_t> (comp_pos_.size ());
+      ncomp_[ci] = 0;
+      const unsigned inside = block_.inside (x, y, z);
+      if (inside == 0 || inside == 0xFF)
+      {
+        plane_end_[ci] = plane_begin_[ci];
+        continue;
+      }
+      std::array<int, 12> comp;
+      const int n = cellComponents (inside, joinedFaces (x, y, z, inside), comp);
+      bool rim = false;
+      std::array<Qef, 4> q;
+      std::uint32_t bits = 0;
+      for (int e = 0; e < 12; ++e)
+      {
+        if (comp[e] < 0)
+          continue;
+        const auto& ec = cellTables ().edge_corners[e];
+        rim |= block_.at (x + (ec[0] & 1), y + (ec[0] >> 1 & 1), z + (ec[0] >> 2)) == 0 ||
+               block_.at (x + (ec[1] & 1), y + (ec[1] >> 1 & 1), z + (ec[1] >> 2)) == 0;
+        bits |= static_cast<std::uint32_t> (comp[e]) << (2 * e);
+        Eigen::Vector3d p, nn;
+        const bool plane = edgeCrossing (x, y, z, e, p, nn);
+        q[comp[e]].addPoint (p);
+        if (plane)
+        {
+          q[comp[e]].addPlane (p, nn);
+          planes_.push_back ({p + Eigen::Vector3d (x, y, z), nn});
+        }
+      }
+      plane_end_[ci] = static_cast<std::uint32_t> (planes_.size ());
+      r_.rim += rim;
+      comp_bits_[ci] = bits;
+      ncomp_[ci] = static_cast<std::uint8_t> (n);
+      for (int c = 0; c < n; ++c)
+      {
+        Eigen::Vector3d v;
+        r_.escaped += q[c].solve (kFaceMargin, 1 - kFaceMargin, v);
+        comp_pos_.push_back (v + Eigen::Vector3d (x, y, z));
+      }
+      state_[ci] = (n == 1 && !rim) ? kSimple : kFixed;
+      if (eps_ > 0 && n == 1)
+        qef_[ci] = q[0];
+    }
+  }
+  // Ju et al. 2002's topology test of the node with min corner o (root-local) and side s: one
+  // manifold component for its corners, and the signs at the middles of its edges, faces and
+  // of the node agree with one of the corners they lie between.
+  bool
+  topologySafe (const Eigen::Vector3i& o, int s) const
+  {
+    const unsigned inside = block_.inside (o.x (), o.y (), o.z (), s);
+    for (int f = 0; f < 6; ++f)
+      if (ambiguousFace (inside, f))
+        return false;
+    std::array<int, 12> comp;
+    if (cellComponents (inside, 0u, comp) != 1)
+      return false;
+    const int hs = s / 2;
+    auto in = [&] (int dx, int dy, int dz) { return block_.topologyInside (o.x () + dx, o.y () + dy, o.z () + dz); };
+    auto cornerIn = [&] (int c) { return ((inside >> c) & 1u) != 0; };
+    for (int e = 0; e < 12; ++e)
+    {
+      const auto& ec = cellTables ().edge_corners[e];
+      const int axis = e / 4;
+      Eigen::Vector3i m ((ec[0] & 1) * s, (ec[0] >> 1 & 1) * s, (ec[0] >> 2) * s);
+      m[axis] += hs;
+      const bool mid = in (m.x (), m.y (), m.z ());
+      if (mid != cornerIn (ec[0]) && mid != cornerIn (ec[1]))
+        return false;
+    }
+    for (int f = 0; f < 6; ++f)
+    {
+      const int axis = f / 2, side = f % 2;
+      Eigen::Vector3i m = Eigen::Vector3i::Constant (hs);
+      m[axis] = side * s;
+      const bool mid = in (m.x (), m.y (), m.z ());
+      bool agrees = false;
+      for (int k = 0; k < 4; ++k)
+        agrees |= cornerIn (cellTables ().face_corners[f][k]) == mid;
+      if (!agrees)
+        return false;
+    }
+    const bool centre = in (hs, hs, hs);
+    return centre ? inside != 0 : inside != 0xFF;
+  }
+  // The largest distance of the node's crossings to their planes through x (root-local).
+  double
+  maxPlaneDistance (const Eigen::Vector3i& o, int s, const Eigen::Vector3d& x) const
+  {
+    double worst = 0;
+    for (int z = o.z (); z < o.z () + s; ++z)
+      for (int y = o.y (); y < o.y () + s; ++y)
+        for (int xx = o.x (); xx < o.x () + s; ++xx)
+        {
+          const int ci = (z * kRootSide + y) * kRootSide + xx;
+          for (std::uint32_t k = plane_begin_[ci]; k < plane_end_[ci]; ++k)
+            worst = std::max (worst, std::abs (planes_[k].n.dot (x - planes_[k].p)));
+        }
+    return worst;
+  }
+  // Merges sibling nodes bottom-up while topologySafe holds and the merged vertex stays within
+  // ε of every crossing plane; returns the highest level that merged.
+  int
+  collapseLevels ()
+  {
+    level_state_[0].assign (state_.begin (), state_.end ());
+    level_qef_[0] = qef_;
+    int top = 0;
+    for (int l = 1; l <= DualContouringOctree::kRootLevels; ++l)
+    {
+      const int side = kRootSide >> l, cside = side * 2, s = 1 << l;
+      level_state_[l].assign (static_cast<std::size_t> (side) * side * side, kEmpty);
+      level_qef_[l].assign (static_cast<std::size_t> (side) * side * side, Qef ());
+      bool any = false;
+      for (int ni = 0; ni < side * side * side; ++ni)
+      {
+        const int x = ni % side, y = (ni / side) % side, z = ni / (side * side);
+        bool fixed = false, has = false;
+        Qef acc;
+        for (int c = 0; c < 8; ++c)
+        {
+          const int ci = ((2 * z + (c >> 2)) * cside + 2 * y + (c >> 1 & 1)) * cside + 2 * x + (c & 1);
+          const std::uint8_t cs = level_state_[l - 1][ci];
+          has |= cs != kEmpty;
+          fixed |= cs == kFixed;
+          if (cs == kSimple)
+            acc.addShifted (level_qef_[l - 1][ci], Eigen::Vector3d (c & 1, c >> 1 & 1, c >> 2) * double (s / 2));
+        }
+        if (!has)
+          continue;
+        const Eigen::Vector3i o (x * s, y * s, z * s);
+        bool ok = !fixed && acc.planes > 0 && topologySafe (o, s);
+        Eigen::Vector3d v;
+        if (ok)
+        {
+          acc.solve (kFaceMargin, s - kFaceMargin, v);
+          ok = acc.error (v) / acc.planes < eps_ * eps_ && maxPlaneDistance (o, s, v + o.cast<double> ()) <= eps_;
+        }
+        level_state_[l][ni] = ok ? kSimple : kFixed;
+        if (ok)
+        {
+          level_qef_[l][ni] = acc;
+          any = true;
+        }
+      }
+      if (!any)
+        break;
+      top = l;
+    }
+    return top;
+  }
+  std::uint16_t
+  addVertex (const Eigen::Vector3d& root_local, std::uint32_t node)
+  {
+    const Eigen::Vector3d lat = root_local + r_.origin.cast<double> ();
+    r_.vertices.push_back ({(lat * h_).cast<float> (), node});
+    return static_cast<std::uint16_t> (r_.vertices.size () - 1);
+  }
+  // Nodes that merged and whose parent did not: one vertex for all their cells.
+  void
+  emitCollapsed (int top)
+  {
+    for (int l = top; l >= 1; --l)
+    {
+      const int side = kRootSide >> l, s = 1 << l;
+      for (int ni = 0; ni < side * side * side; ++ni)
+      {
+        if (level_state_[l][ni] != kSimple)
+          continue;
+        const int x = ni % side, y = (ni / side) % side, z = ni / (side * side);
+        if (l < top && level_state_[l + 1][((z / 2) * (side / 2) + y / 2) * (side / 2) + x / 2] == kSimple)
+          continue;
+        Eigen::Vector3d v;
+        r_.escaped += level_qef_[l][ni].solve (kFaceMargin, s - kFaceMargin, v);
+        const std::uint16_t vi = addVertex (v + Eigen::Vector3d (x * s, y * s, z * s), static_cast<std::uint32_t> (l << 12 | ni));
+        for (int cz = z * s; cz < (z + 1) * s; ++cz)
+          for (int cy = y * s; cy < (y + 1) * s; ++cy)
+            for (int cx = x * s; cx < (x + 1) * s; ++cx)
+              r_.cell_vertex[(cz * kRootSide + cy) * kRootSide + cx] = vi;
+        ++r_.collapsed;
+      }
+    }
+  }
+  // Cells outside merged nodes: one vertex per component.
+  void
+  emitCells ()
+  {
+    for (int ci = 0; ci < kRootCells; ++ci)
+    {
+      if (!ncomp_[ci] || r_.cell_vertex[ci] != kNone)
+        continue;
+      r_.cell_vertex[ci] = static_cast<std::uint16_t> (r_.vertices.size ());
+      r_.cell_comp[ci] = comp_bits_[ci];
+      for (int c = 0; c < ncomp_[ci]; ++c)
+        addVertex (comp_pos_[first_comp_[ci] + c], static_cast<std::uint32_t> (ci));
+    }
+  }
+
+  Root& r_;
+  const RootCache& rc_;
+  DualContouringOctree::SignRule rule_;
+  double eps_, h_;
+  SignBlock block_;
+  std::array<std::uint8_t, kRootCells> state_, ncomp_;
+  std::array<std::uint32_t, kRootCells> comp_bits_, first_comp_, plane_begin_, plane_end_;
+  std::vector<Eigen::Vector3d> comp_pos_;
+  std::vector<Plane> planes_;
+  std::vector<Qef> qef_;
+  std::vector<std::uint8_t> level_state_[DualContouringOctree::kRootLevels + 1];
+  std::vector<Qef> level_qef_[DualContouringOctree::kRootLevels + 1];
+};
+
+// A vertex reference: root id << 16 | vertex index.
+Eigen::Vector3f
+refPosition (const DualContouringOctree::Impl& m, std::uint64_t ref)
+{
+  return m.roots[ref >> 16]->vertices[ref & 0xFFFF].p;
+}
+
+// A polygon of 3 or 4 vertices as triangles; quads split along the shorter diagonal.
+void
+emitPolygon (const DualContouringOctree::Impl& m, std::vector<std::array<std::uint64_t, 3>>& out,
+             const std::array<std::uint64_t, 4>& pv, int np)
+{
+  if (np == 3)
+  {
+    out.push_back ({pv[0], pv[1], pv[2]});
+    return;
+  }
+  const float d02 = (refPosition (m, pv[0]) - refPosition (m, pv[2])).squaredNorm ();
+  const float d13 = (refPosition (m, pv[1]) - refPosition (m, pv[3])).squaredNorm ();
+  if (d02 <= d13)
+  {
+    out.push_back ({pv[0], pv[1], pv[2]});
+    out.push_back ({pv[0], pv[2], pv[3]});
+  }
+  else
+  {
+    out.push_back ({pv[0], pv[1], pv[3]});
+    out.push_back ({pv[1], pv[2], pv[3]});
+  }
+}
+
+// The polygons owned by one root: one per lattice edge that starts in the root and joins an
+// exterior and an interior observed vertex, over the vertices of the four cells around it.
+class RootPolygonBuilder
+{
+public:
+  RootPolygonBuilder (Root& r, const DualContouringOctree::Impl& m, const RootCache& rc,
+                      DualContouringOctree::SignRule rule, bool collapsed_mode)
+    : r_ (r), m_ (m), collapsed_mode_ (collapsed_mode), rc_ (rc), block_ (r, rc, rule, 0)
+  {}
+
+  void
+  build ()
+  {
+    r_.tris.clear ();
+    r_.shared.clear ();
+    r_.missing = 0;
+    for (int vi = 0; vi < kRootCells; ++vi)
+    {
+      const Eigen::Vector3i l (vi % kRootSide, (vi / kRootSide) % kRootSide, vi / (kRootSide * kRootSide));
+      const int sa = block_.at (l.x (), l.y (), l.z ());
+      if (!sa)
+        continue;
+      for (int axis = 0; axis < 3; ++axis)
+      {
+        Eigen::Vector3i e = l;
+        e[axis] += 1;
+        const int sb = block_.at (e.x (), e.y (), e.z ());
+        if (sb && sb != sa)
+          edgePolygon (r_.origin + l, axis, sa);
+      }
+    }
+  }
+
+private:
+  void
+  edgePolygon (const Eigen::Vector3i& s, int axis, int start_sign)
+  {
+    static const int kU[4] = {-1, 0, 0, -1}, kW[4] = {-1, -1, 0, 0};
+    const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+    // Incident cells in counter-clockwise order around +axis: (−,−), (0,−), (0,0), (−,0).
+    std::array<std::uint64_t, 4> poly;
+    for (int k = 0; k < 4; ++k)
+    {
+      Eigen::Vector3i cc = s;
+      cc[u] += kU[k];
+      cc[w] += kW[k];
+      const Root* cr = rc_.findCell (cc.x (), cc.y (), cc.z ());
+      const int li = localIndex (cc.x (), cc.y (), cc.z ());
+      if (!cr || cr->cell_vertex[li] == kNone)
+      {
+        ++r_.missing;
+        return;
+      }
+      const int e = axis * 4 + (-kU[k]) + 2 * (-kW[k]);
+      const std::uint32_t comp = (cr->cell_comp[li] >> (2 * e)) & 3u;
+      poly[k] = static_cast<std::uint64_t> (cr->id) << 16 | (cr->cell_vertex[li] + comp);
+    }
+    // Interior at the start ⇒ the surface faces +axis ⇒ keep the counter-clockwise order.
+    if (start_sign > 0)
+      std::swap (poly[1], poly[3]);
+    // Drop repeated vertices (collapsed nodes) cyclically.
+    std::array<std::uint64_t, 4> pv;
+    int np = 0;
+    for (int k = 0; k < 4; ++k)
+      if (np == 0 || poly[k] != pv[np - 1])
+        pv[np++] = poly[k];
+    if (np > 1 && pv[np - 1] == pv[0])
+      --np;
+    if (np < 3)
+      return;
+    bool coarse = false;
+    if (collapsed_mode_)
+      for (int k = 0; k < np; ++k)
+        coarse |= (m_.roots[pv[k] >> 16]->vertices[pv[k] & 0xFFFF].node >> 12) > 0;
+    if (coarse)
+      r_.shared.push_back ({pv, np});  // may repeat along a coarse edge: merged at output
+    else
+      emitPolygon (m_, r_.tris, pv, np);
+  }
+
+  Root& r_;
+  const DualContouringOctree::Impl& m_;
+  bool collapsed_mode_;
+  const RootCache& rc_;
+  SignBlock block_;
+};
+
+// Roots within `radius` roots of any root in `from`, each once.
+std::vector<Root*>
+dilateRoots (const DualContouringOctree::Impl& m, const std::vector<Root*>& from, int radius)
+{
+  std::vector<Root*> out;
+  std::vector<char> mark (m.roots.size (), 0);
+  for (Root* r : from)
+  {
+    const Eigen::Vector3i b = r->origin / kRootSide;
+    for (int dz = -radius; dz <= radius; ++dz)
+      for (int dy = -radius; dy <= radius; ++dy)
+        for (int dx = -radius; dx <= radius; ++dx)
+        {
+          Root* n = m.find (b.x () + dx, b.y () + dy, b.z () + dz);
+          if (n && !mark[n->id])
+          {
+            mark[n->id] = 1;
+            out.push_back (n);
+          }
+        }
+  }
+  return out;
+}
+
+// The polygons of collapsed nodes, merged over the map: a canonical cycle (smallest first, then
+// the smaller neighbour second) with its net orientation, emitted once when that is not zero.
+std::vector<std::array<std::uint64_t, 3>>
+mergeSharedPolygons (const DualContouringOctree::Impl& m, const std::vector<const Root*>& order)
+{
+  struct KeyHash
+  {
+    std::size_t
+    operator() (const std::array<std::uint64_t, 4>& k) const
+    {
+      std::size_t h = 0;
+      for (auto x : k)
+        h = h * 0x9E3779B97F4A7C15ull + (x ^ (x >> 29));
+      return h;
+    }
+  };
+  std::unordered_map<std::array<std::uint64_t, 4>, std::size_t, KeyHash> slot;
+  std::vector<std::pair<std::array<std::uint64_t, 4>, int>> entries;  // canonical cycle, net
+  std::vector<int> sizes;
+  for (const Root* r : order)
+    for (const auto& sh : r->shared)
+    {
+      const int n = sh.n;
+      int lo = 0;
+      for (int k = 1; k < n; ++k)
+        if (sh.v[k] < sh.v[lo])
+          lo = k;
+      std::array<std::uint64_t, 4> c{~0ull, ~0ull, ~0ull, ~0ull};
+      const bool fwd = sh.v[(lo + 1) % n] < sh.v[(lo + n - 1) % n];
+      for (int k = 0; k < n; ++k)
+        c[k] = sh.v[(lo + (fwd ? k : n - k)) % n];
+      auto it = slot.find (c);
+      if (it == slot.end ())
+      {
+        slot.emplace (c, entries.size ());
+        entries.push_back ({c, fwd ? 1 : -1});
+        sizes.push_back (n);
+      }
+      else
+        entries[it->second].second += fwd ? 1 : -1;
+    }
+  std::vector<std::array<std::uint64_t, 3>> merged;
+  for (std::size_t i = 0; i < entries.size (); ++i)
+  {
+    if (entries[i].second == 0)
+      continue;
+    std::array<std::uint64_t, 4> v = entries[i].first;
+    const int n = sizes[i];
+    if (entries[i].second < 0)
+      std::reverse (v.begin (), v.begin () + n);
+    emitPolygon (m, merged, v, n);
+  }
+  return merged;
+}
+
+}  // namespace
+
 void
 DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
 {
   const auto t0 = Clock::now ();
   Impl& m = *impl_;
   Stats& st = stats_;
-  using Root = Impl::Root;
 
-  // Dirty roots D (data changed); owners to redo P = D dilated by 2 roots: a quad depends on the
-  // leaves of the ≤ 4 roots around its edge and on signs resolved ≤ 3 edges away.
-  std::vector<Root*> dirty, redo;
+  // Roots whose data changed (D); their vertices depend on the roots next to them (corner signs,
+  // edges and the face rule), so vertices are redone for D dilated by one root, and polygons,
+  // which reference the vertices of the roots around their edge, for D dilated by two.
+  std::vector<Root*> dirty;
   for (auto& r : m.roots)
     if (all || r->dirty)
       dirty.push_back (r.get ());
-  {
-    std::vector<char> mark (m.roots.size (), 0);
-    for (Root* r : dirty)
-    {
-      const Eigen::Vector3i b = r->origin / kRootSide;
-      for (int dz = -2; dz <= 2; ++dz)
-        for (int dy = -2; dy <= 2; ++dy)
-          for (int dx = -2; dx <= 2; ++dx)
-          {
-            Root* n = m.find (b.x () + dx, b.y () + dy, b.z () + dz);
-            if (n && !mark[n->id])
-            {
-              mark[n->id] = 1;
-              redo.push_back (n);
-            }
-          }
-    }
-  }
+  const std::vector<Root*> vertex_roots = dilateRoots (m, dirty, 1);
+  const std::vector<Root*> redo = dilateRoots (m, dirty, 2);
   st.repolygonised_roots = redo.size ();
 
-  // Vertices of the dirty roots: ε collapse inside the root (Ju et al.), then QEF minimisers.
   const auto tv = Clock::now ();
-  const double eps2 = (eps_ / h_) * (eps_ / h_);  // RMS distance bound in leaf units, squared
-#pragma omp parallel for schedule(dynamic, 4)
-  for (std::ptrdiff_t ri = 0; ri < static_cast<std::ptrdiff_t> (dirty.size ()); ++ri)
+  const double eps_leaf = eps_ / h_;
+  std::size_t ambiguous = 0;
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : ambiguous)
+  for (std::ptrdiff_t ri = 0; ri < static_cast<std::ptrdiff_t> (vertex_roots.size ()); ++ri)
   {
-    Root& r = *dirty[ri];
-    r.vertices.clear ();
-    r.cell_vertex.fill (kNone);
-    r.escaped = r.collapsed = 0;
-    // Nodes per level: QEF (level-local frame), state 0 empty, 1 collapsible, 2 fixed.
-    std::vector<Qef> qef[kRootLevels + 1];
-    std::vector<std::uint8_t> state[kRootLevels + 1];
-    int top = 0;  // highest level that may hold collapsed nodes
-    if (eps_ > 0)
-    {
-      for (int l = 0; l <= kRootLevels; ++l)
-      {
-        const int side = kRootSide >> l;
-        qef[l].assign (static_cast<std::size_t> (side) * side * side, Qef ());
-        state[l].assign (static_cast<std::size_t> (side) * side * side, 0);
-      }
-      for (const Leaf& lf : r.leaves)
-      {
-        qef[0][lf.cell] = Qef::fromLeaf (lf);
-        state[0][lf.cell] = 1;
-      }
-      for (int l = 1; l <= kRootLevels; ++l)
-      {
-        const int side = kRootSide >> l, cside = side * 2;
-        bool any = false;
-        for (int z = 0; z < side; ++z)
-          for (int y = 0; y < side; ++y)
-            for (int x = 0; x < side; ++x)
-            {
-              const int ni = (z * side + y) * side + x;
-              bool ok = true, has = false;
-              Qef acc;
-              for (int c = 0; c < 8; ++c)
-              {
-                const int cx = 2 * x + (c & 1), cy = 2 * y + (c >> 1 & 1), cz = 2 * z + (c >> 2);
-                const int ci = (cz * cside + cy) * cside + cx;
-                if (state[l - 1][ci] == 0)
-                  continue;
-                has = true;
-                if (state[l - 1][ci] == 2)
-                {
-                  ok = false;
-                  continue;
-                }
-                // All node QEFs are in leaf units, origin at the node's min corner.
-                acc.addShifted (qef[l - 1][ci], Eigen::Vector3d (c & 1, c >> 1 & 1, c >> 2) * double (1 << (l - 1)));
-              }
-              if (!has)
-                continue;
-              if (ok)
-              {
-                Eigen::Vector3d x0;
-                acc.solve (double (1 << l), x0);
-                ok = acc.count > 0 && acc.error (x0) / acc.count < eps2;  // mean squared distance
-              }
-              state[l][ni] = ok ? 1 : 2;
-              if (ok)
-              {
-                qef[l][ni] = acc;
-                any = true;
-              }
-            }
-        if (!any)
-          break;
-        top = l;
-      }
-    }
-    // Assign vertices top-down: a collapsible node whose parent is not collapsible is final.
-    auto emitVertex = [&] (int level, int nx, int ny, int nz, const Qef& qq) {
-      Eigen::Vector3d x;  // leaf units from the node's min corner
-      if (qq.solve (double (1 << level), x))
-        ++r.escaped;
-      const Eigen::Vector3d lat = Eigen::Vector3d (nx, ny, nz) * double (1 << level) + x + r.origin.cast<double> ();
-      const std::uint16_t vi = static_cast<std::uint16_t> (r.vertices.size ());
-      r.vertices.push_back ({(lat * h_).cast<float> (), static_cast<std::uint32_t> (level << 12 | ((nz * (kRootSide >> level) + ny) * (kRootSide >> level) + nx))});
-      const int s = 1 << level;
-      for (int z = nz * s; z < (nz + 1) * s; ++z)
-        for (int y = ny * s; y < (ny + 1) * s; ++y)
-          for (int x2 = nx * s; x2 < (nx + 1) * s; ++x2)
-            r.cell_vertex[(z * kRootSide + y) * kRootSide + x2] = vi;
-    };
-    for (int l = top; l >= 1; --l)
-    {
-      const int side = kRootSide >> l;
-      for (int z = 0; z < side; ++z)
-        for (int y = 0; y < side; ++y)
-          for (int x = 0; x < side; ++x)
-          {
-            const int ni = (z * side + y) * side + x;
-            if (state[l][ni] != 1)
-              continue;
-            bool parent_final = false;
-            if (l < top)
-            {
-              const int ps = side / 2;
-              parent_final = state[l + 1][((z / 2) * ps + y / 2) * ps + x / 2] == 1;
-            }
-            if (parent_final)
-              continue;
-            emitVertex (l, x, y, z, qef[l][ni]);
-            ++r.collapsed;
-          }
-    }
-    for (int ci = 0; ci < kRootCells; ++ci)
-    {
-      if (r.leaf_index[ci] == kNone || r.cell_vertex[ci] != kNone)
-        continue;
-      const Leaf& lf = r.leaves[r.leaf_index[ci]];
-      const int x = lf.cell % kRootSide, y = (lf.cell / kRootSide) % kRootSide, z = lf.cell / (kRootSide * kRootSide);
-      emitVertex (0, x, y, z, Qef::fromLeaf (lf));
-    }
-    r.dirty = false;
+    Root& r = *vertex_roots[ri];
+    RootCache rc (m);
+    rc.centreOn (r.origin / kRootSide);
+    RootVertexBuilder builder (r, rc, rule_, eps_leaf, h_);
+    builder.build ();
+    ambiguous += builder.ambiguous ();
   }
+  for (Root* r : dirty)
+    r->dirty = false;
   all_dirty_ = false;
   st.t_vertices_ms = msSince (tv);
 
-  // Polygons (dual contouring over minimal edges) for the owner roots to redo.
   const auto tp = Clock::now ();
-  // A vertex reference: root id << 16 | vertex index; phantom (no leaf): bit 63 + cell coords.
-  auto phantomRef = [] (const Eigen::Vector3i& c) -> std::uint64_t {
-    const std::uint64_t off = 1u << 20;
-    return (1ull << 63) | ((static_cast<std::uint64_t> (c.x () + off) & 0x1FFFFF) << 42) |
-           ((static_cast<std::uint64_t> (c.y () + off) & 0x1FFFFF) << 21) |
-           (static_cast<std::uint64_t> (c.z () + off) & 0x1FFFFF);
-  };
-  auto repOf = [&] (const RootCache& rc, const Eigen::Vector3i& c, bool& exists) -> std::uint64_t {
-    const Root* r = rc.findCell (c.x (), c.y (), c.z ());
-    if (r)
-    {
-      const std::uint16_t v = r->cell_vertex[localIndex (c.x (), c.y (), c.z ())];
-      if (v != kNone)
-      {
-        exists = true;
-        return static_cast<std::uint64_t> (r->id) << 16 | v;
-      }
-    }
-    exists = false;
-    return phantomRef (c);
-  };
-  auto position = [&] (std::uint64_t ref) -> Eigen::Vector3f {
-    if (ref >> 63)
-    {
-      const std::int64_t off = 1 << 20;
-      const Eigen::Vector3d c (static_cast<double> (static_cast<std::int64_t> ((ref >> 42) & 0x1FFFFF) - off),
-                               static_cast<double> (static_cast<std::int64_t> ((ref >> 21) & 0x1FFFFF) - off),
-                               static_cast<double> (static_cast<std::int64_t> (ref & 0x1FFFFF) - off));
-      return ((c.array () + 0.5) * h_).matrix ().cast<float> ();
-    }
-    return m.roots[ref >> 16]->vertices[ref & 0xFFFF].p;
-  };
-  // A polygon of 3 or 4 vertices as triangles; quads split along the shorter diagonal.
-  auto emitPolygon = [&] (std::vector<std::array<std::uint64_t, 3>>& out, const std::array<std::uint64_t, 4>& pv, int np) {
-    if (np == 3)
-    {
-      out.push_back ({pv[0], pv[1], pv[2]});
-      return;
-    }
-    const float d02 = (position (pv[0]) - position (pv[2])).squaredNorm ();
-    const float d13 = (position (pv[1]) - position (pv[3])).squaredNorm ();
-    if (d02 <= d13)
-    {
-      out.push_back ({pv[0], pv[1], pv[2]});
-      out.push_back ({pv[0], pv[2], pv[3]});
-    }
-    else
-    {
-      out.push_back ({pv[0], pv[1], pv[3]});
-      out.push_back ({pv[1], pv[2], pv[3]});
-    }
-  };
-  std::size_t ambiguous = 0, unresolved = 0, phantoms = 0;
-  const bool collapsed_mode = eps_ > 0;
-#pragma omp parallel for schedule(dynamic, 4) reduction(+ : ambiguous, unresolved, phantoms)
+#pragma omp parallel for schedule(dynamic, 4)
   for (std::ptrdiff_t ri = 0; ri < static_cast<std::ptrdiff_t> (redo.size ()); ++ri)
   {
     Root& r = *redo[ri];
-    r.tris.clear ();
-    r.shared.clear ();
     RootCache rc (m);
     rc.centreOn (r.origin / kRootSide);
-    SignResolver sr{rc, rule_};
-    // Cells in index order, so the output does not depend on the order leaves were created.
-    std::vector<int> cells;
-    for (int i = 0; i < kRootCells; ++i)
-      if (r.leaf_index[i] != kNone)
-        cells.push_back (i);
-    static const int kU[4] = {-1, 0, 0, -1}, kW[4] = {-1, -1, 0, 0};
-    // One lattice edge: if its resolved signs differ, the polygon of the (collapsed) cells
-    // around it.
-    auto processEdge = [&] (const Eigen::Vector3i& s, int axis) {
-      const int u = (axis + 1) % 3, w = (axis + 2) % 3;
-      Eigen::Vector3i end = s;
-      end[axis] += 1;
-      int sa = 0, sb = 0;
-      const int ga = sr.resolve (s, &sa);
-      const int gb = sr.resolve (end, &sb);
-      if (ga == gb)
-        return;
-      ambiguous += (sa == 2) + (sb == 2);
-      unresolved += (sa == 4) + (sb == 4);
-      // Incident cells in counter-clockwise order around +axis: (−,−), (0,−), (0,0), (−,0).
-      std::array<std::uint64_t, 4> poly;
-      bool missing = false;
-      for (int k = 0; k < 4; ++k)
-      {
-        Eigen::Vector3i cc = s;
-        cc[u] += kU[k];
-        cc[w] += kW[k];
-        bool exk;
-        poly[k] = repOf (rc, cc, exk);
-        if (!exk)
-        {
-          ++phantoms;
-          missing = true;
-        }
-      }
-      if (missing && !phantom_polygons_)
-        return;
-      // Interior at the start ⇒ the surface faces +axis ⇒ keep the counter-clockwise order.
-      if (ga > 0)
-        std::swap (poly[1], poly[3]);
-      // Drop repeated cells (collapsed nodes) cyclically.
-      std::array<std::uint64_t, 4> pv;
-      int np = 0;
-      for (int k = 0; k < 4; ++k)
-        if (np == 0 || poly[k] != pv[np - 1])
-          pv[np++] = poly[k];
-      if (np > 1 && pv[np - 1] == pv[0])
-        --np;
-      if (np < 3)
-        return;
-      bool coarse = false;
-      if (collapsed_mode)
-        for (int k = 0; k < np; ++k)
-          coarse |= !(pv[k] >> 63) && (m.roots[pv[k] >> 16]->vertices[pv[k] & 0xFFFF].node >> 12) > 0;
-      if (coarse)
-        r.shared.push_back ({pv, np});  // may repeat along a coarse edge: merged at output
-      else
-        emitPolygon (r.tris, pv, np);
-    };
-    // First leaf (fixed order) among the 4 cells around an edge, or the 8 around a vertex.
-    auto firstLeafAroundEdge = [&] (const Eigen::Vector3i& s, int axis, Eigen::Vector3i& out) {
-      const int u = (axis + 1) % 3, w = (axis + 2) % 3;
-      for (int k = 0; k < 4; ++k)
-      {
-        Eigen::Vector3i cc = s;
-        cc[u] += kU[k];
-        cc[w] += kW[k];
-        if (rc.leafAt (cc.x (), cc.y (), cc.z ()))
-        {
-          out = cc;
-          return true;
-        }
-      }
-      return false;
-    };
-    if (rule_ == SignRule::WEIGHTED)
-    {
-      // The sign field is defined on every vertex a crossing informed (band included), so
-      // every edge with such an end is examined: all sign changes get their polygon and the
-      // mesh closes. An edge between two informed vertices is done from its start.
-      for (int vi = 0; vi < kRootCells; ++vi)
-      {
-        if (!r.out_votes[vi] && !r.in_votes[vi] && !r.sdf[vi])
-          continue;
-        const Eigen::Vector3i v = r.origin + Eigen::Vector3i (vi % kRootSide, (vi / kRootSide) % kRootSide, vi / (kRootSide * kRootSide));
-        for (int axis = 0; axis < 3; ++axis)
-        {
-          processEdge (v, axis);
-          Eigen::Vector3i prev = v;
-          prev[axis] -= 1;
-          if (!sr.voted (prev.x (), prev.y (), prev.z ()))
-            processEdge (prev, axis);
-        }
-      }
-      continue;
-    }
-    for (int ci : cells)
-    {
-      const Eigen::Vector3i c = r.origin + Eigen::Vector3i (ci % kRootSide, (ci / kRootSide) % kRootSide, ci / (kRootSide * kRootSide));
-      // The leaf's 12 edges, each done by the first leaf around it.
-      for (int e = 0; e < 12; ++e)
-      {
-        const int axis = e / 4, u = (axis + 1) % 3, w = (axis + 2) % 3;
-        Eigen::Vector3i s = c;  // edge start vertex
-        s[u] += e & 1;
-        s[w] += (e >> 1) & 1;
-        Eigen::Vector3i owner;
-        if (firstLeafAroundEdge (s, axis, owner) && owner == c)
-          processEdge (s, axis);
-      }
-    }
+    RootPolygonBuilder (r, m, rc, rule_, eps_ > 0).build ();
   }
   st.ambiguous_vertices = ambiguous;
-  st.unresolved_vertices = unresolved;
-  st.phantom_vertices = phantoms;
   st.t_polygons_ms = msSince (tp);
 
-  // Output: every root's cached triangles; vertices numbered per root, unused ones dropped.
   const auto to = Clock::now ();
+  writeMesh (mesh);
+  st.t_output_ms = msSince (to);
+  st.last_reconstruct_ms = msSince (t0);
+}
+
+void
+DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
+{
+  const Impl& m = *impl_;
+  Stats& st = stats_;
+  // Every root's cached triangles; vertices numbered per root, unused ones dropped.
   std::vector<std::size_t> base (m.roots.size () + 1, 0);
   for (std::size_t i = 0; i < m.roots.size (); ++i)
     base[i + 1] = base[i] + m.roots[i]->vertices.size ();
   std::vector<std::int32_t> index (base.back (), -1);
-  std::unordered_map<std::uint64_t, std::int32_t> phantom_index;
   pcl::PointCloud<pcl::PointXYZ> cloud;
-  std::size_t ntris = 0, escaped = 0, collapsed = 0;
+  std::size_t ntris = 0, escaped = 0, collapsed = 0, missing = 0, rim = 0;
   for (const auto& r : m.roots)
   {
     ntris += r->tris.size ();
     escaped += r->escaped;
     collapsed += r->collapsed;
+    missing += r->missing;
+    rim += r->rim;
   }
   auto outIndex = [&] (std::uint64_t ref) -> int {
-    if (ref >> 63)
-    {
-      auto it = phantom_index.find (ref);
-      if (it != phantom_index.end ())
-        return it->second;
-      const Eigen::Vector3f p = position (ref);
-      phantom_index.emplace (ref, static_cast<std::int32_t> (cloud.size ()));
-      cloud.push_back (pcl::PointXYZ (p.x (), p.y (), p.z ()));
-      return static_cast<int> (cloud.size () - 1);
-    }
     std::int32_t& idx = index[base[ref >> 16] + (ref & 0xFFFF)];
     if (idx < 0)
     {
-      const Eigen::Vector3f& p = m.roots[ref >> 16]->vertices[ref & 0xFFFF].p;
+      const Eigen::Vector3f& p = refPosition (m, ref);
       idx = static_cast<std::int32_t> (cloud.size ());
       cloud.push_back (pcl::PointXYZ (p.x (), p.y (), p.z ()));
     }
@@ -1232,89 +1850,37 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
   for (const auto& r : m.roots)
     order.push_back (r.get ());
   std::sort (order.begin (), order.end (), [] (const Root* a, const Root* b) { return a->key < b->key; });
-  // Merge the polygons of collapsed cells: canonical cycle (smallest first, then the smaller
-  // neighbour second) → net orientation; emitted once when it is not zero.
-  std::vector<std::array<std::uint64_t, 3>> merged;
-  {
-    struct KeyHash
-    {
-      std::size_t
-      operator() (const std::array<std::uint64_t, 4>& k) const
-      {
-        std::size_t h = 0;
-        for (auto x : k)
-          h = h * 0x9E3779B97F4A7C15ull + (x ^ (x >> 29));
-        return h;
-      }
-    };
-    std::unordered_map<std::array<std::uint64_t, 4>, std::size_t, KeyHash> slot;
-    std::vector<std::pair<std::array<std::uint64_t, 4>, int>> entries;  // canonical cycle (+n), net
-    std::vector<int> sizes;
-    for (const Root* r : order)
-      for (const auto& sh : r->shared)
-      {
-        const int n = sh.n;
-        int lo = 0;
-        for (int k = 1; k < n; ++k)
-          if (sh.v[k] < sh.v[lo])
-            lo = k;
-        std::array<std::uint64_t, 4> c{~0ull, ~0ull, ~0ull, ~0ull};
-        const bool fwd = sh.v[(lo + 1) % n] < sh.v[(lo + n - 1) % n];
-        for (int k = 0; k < n; ++k)
-          c[k] = sh.v[(lo + (fwd ? k : n - k)) % n];
-        auto it = slot.find (c);
-        if (it == slot.end ())
-        {
-          slot.emplace (c, entries.size ());
-          entries.push_back ({c, fwd ? 1 : -1});
-          sizes.push_back (n);
-        }
-        else
-          entries[it->second].second += fwd ? 1 : -1;
-      }
-    for (std::size_t i = 0; i < entries.size (); ++i)
-    {
-      if (entries[i].second == 0)
-        continue;
-      std::array<std::uint64_t, 4> v = entries[i].first;
-      const int n = sizes[i];
-      if (entries[i].second < 0)
-        std::reverse (v.begin (), v.begin () + n);
-      emitPolygon (merged, v, n);
-    }
-  }
-  auto allTris = [&] (auto&& f) {
-    for (const Root* r : order)
-      for (const auto& t : r->tris)
-        f (t);
-    for (const auto& t : merged)
-      f (t);
-  };
+  const std::vector<std::array<std::uint64_t, 3>> merged = mergeSharedPolygons (m, order);
   // Fill the caller's polygons in place: a mesh passed again (every frame) reuses its storage
   // instead of one allocation per triangle.
   ntris += merged.size ();
   mesh.polygons.resize (ntris);
   std::size_t ti = 0;
-  allTris ([&] (const std::array<std::uint64_t, 3>& t) {
+  auto put = [&] (const std::array<std::uint64_t, 3>& t) {
     auto& v = mesh.polygons[ti++].vertices;
     v.resize (3);
     v[0] = outIndex (t[0]);
     v[1] = outIndex (t[1]);
     v[2] = outIndex (t[2]);
-  });
+  };
+  for (const Root* r : order)
+    for (const auto& t : r->tris)
+      put (t);
+  for (const auto& t : merged)
+    put (t);
   pcl::toPCLPointCloud2 (cloud, mesh.cloud);
   st.vertices = cloud.size ();
   st.triangles = mesh.polygons.size ();
   st.escaped_vertices = escaped;
   st.collapsed_cells = collapsed;
+  st.missing_vertices = missing;
+  st.rim_cells = rim;
   st.cells = base.back ();
   std::size_t cache_bytes = 0;
   for (const auto& r : m.roots)
     cache_bytes += r->vertices.capacity () * sizeof (Vertex) + r->tris.capacity () * sizeof (r->tris[0]) +
-                   r->leaves.capacity () * sizeof (Leaf);
+                   r->leaves.capacity () * sizeof (Leaf) + r->edges.capacity () * sizeof (EdgeData);
   st.memory_bytes = m.roots.size () * sizeof (Root) + cache_bytes + m.root_of.size () * 32;
-  st.t_output_ms = msSince (to);
-  st.last_reconstruct_ms = msSince (t0);
 }
 
 }  // namespace pcl

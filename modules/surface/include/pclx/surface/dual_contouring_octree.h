@@ -20,39 +20,46 @@
 // inside its faces, and its size would depend on how much the front end simplified. Coarse cells
 // come from the ε collapse instead (Ju et al.'s simplification), which measures geometry.
 //
-// Hermite data (§3.4.3): every lattice edge crossed by a triangle of a frame gets its
-// intersection (exact segment–triangle point; top-left rule, so a point on a shared triangle
-// edge counts once) and the unit face normal. Per frame and edge: one intersection → S =
-// (C − A)·N (Eq. 3.1) gives A's sign (with N pointing out, S > 0: A interior; the seed's text
-// has it the other way round), B the opposite; several → parity, with the intersection nearest
-// to A (leaves are at maximum depth, so the "refine" branch is never taken). Every
-// intersection's plane (C, N) goes into the QEFs of the four leaves around the edge (the seed
-// kept only the nearest to A). QEFs are kept in 64-bit fixed point in leaf-local coordinates:
-// sums are exact and commutative, so adding frames in any order gives bit-identical data.
+// Hermite data (§3.4.3), averaged over frames: every lattice edge crossed by a triangle keeps
+// running weighted sums of its crossings' positions along the edge and of their unit normals,
+// as a TSDF averages distances (the seed keeps one sample per edge and merges only signs). The
+// weight of a crossing is the cosine of its incidence angle times a falloff with range beyond
+// 1 m (1 without a viewpoint). The sums are 64-bit fixed point: exact and commutative, so adding
+// frames in any order gives bit-identical data (incremental = batch). Per frame and edge: one
+// crossing → S = (C − A)·N (Eq. 3.1) gives A's sign (with N pointing out, S > 0: A interior; the
+// seed's text has it the other way round), B the opposite; several → parity.
 // Not tried: the seed's unvalidated proposal of cell quadrics from the front end's per-vertex
 // quadrics (FrameMesh::quadrics is ignored).
 //
-// Signs live in a hash table of shared grid vertices (per root, dense): per vertex, counts of
-// exterior and interior votes and a weighted sum. SignRule::SEED (§3.5): same or unknown →
-// adopt, different → ambiguous → exterior. MAJORITY: more votes wins. WEIGHTED (default):
-// Σ ± distance to the plane; each crossing also informs the next vertex in front of it along
-// its lattice line (and behind it on steep lines): a truncated signed distance sampled on the
-// lattice lines, so noisy frames average instead of contradicting each other.
-// Resolution before polygonisation (§3.6): an unknown vertex takes the sign of the nearest
-// informed vertices reached breadth first (≤ 3 edges; SEED / MAJORITY only through leaf edges
-// without intersection: the seed's repeated passes over a cell's 3 neighbours); when those
-// disagree (Fig. 3.11) or none is reached it stays unresolved → exterior.
+// Signs live on the shared grid vertices of each root (dense): per vertex, counts of exterior
+// and interior votes and a weighted sum. SignRule::SEED (§3.5): same or unknown → adopt,
+// different → ambiguous → exterior. MAJORITY: more votes wins. WEIGHTED (default): Σ weight ·
+// ± distance to the plane; each crossing also informs the vertices in front of it along its
+// lattice line (and behind it on steep lines): a truncated signed distance sampled on the
+// lattice lines, so noisy frames average instead of contradicting each other. A vertex no
+// crossing informed is unobserved. SEED / MAJORITY resolve unknown vertices from the nearest
+// informed ones reached breadth first (≤ 3 leaf edges without intersection, §3.6; neighbours
+// that disagree, Fig. 3.11, leave it unobserved).
 //
-// Polygonisation: dual contouring over minimal edges. Every lattice edge whose resolved signs
-// differ (SEED / MAJORITY: edges of leaves; WEIGHTED: edges at informed vertices) gives a quad
-// of the (collapsed) leaves around it; the same polygon of collapsed cells from several
-// lattice edges along a coarse edge is emitted once (net orientation), as Ju's cellProc /
-// faceProc / edgeProc traversal would. Quads split along the shorter diagonal.
-// Vertices: QEF minimiser by truncated eigen-decomposition of AᵀA (singular values below
-// 0.1 σ_max dropped), biased to the mass point, clamped into the cell (counted as escaped).
-// Incremental: a root whose data changed recomputes its vertices; polygons are redone for the
-// roots within 2 of a changed one (a polygon depends on the ≤ 4 roots around its edge and on
-// signs resolved ≤ 3 edges away); all other roots keep their cached triangles.
+// Polygonisation: manifold dual contouring (Schaefer, Ju and Warren 2007) over minimal edges.
+// Every lattice edge between an exterior and an interior observed vertex gives a quad of the
+// cells around it; an edge with an unobserved end gives none (the rim of what was seen stays
+// open, as a TSDF's does). A cell holds one vertex per surface component of its corner signs,
+// the cycles of marching cubes' face segments; on a face with four crossings the interior
+// corners are cut off unless that would put both segments into one component on both sides
+// (then they are joined), so no dual edge carries more than two quads. A component's vertex
+// minimises the QEF of its edges' averaged planes (truncated eigen-decomposition, singular
+// values below 0.1 σ_max dropped, relative to the mass point of its crossings); a minimiser
+// outside the cell falls back to the mass point (counted as escaped). Quads split along the
+// shorter diagonal.
+// Simplification (ε > 0): inside a root, 8 sibling nodes of one component each merge into one
+// vertex while Ju et al.'s (2002) topology test holds (one manifold component for the node's
+// corners; the signs at the middles of its edges, faces and of the node agree with a corner
+// they lie between) and the merged vertex lies within ε of every averaged crossing plane of the
+// node: a merge neither opens a hole nor moves the surface by more than ε.
+// Incremental: a root whose data changed recomputes the vertices of the roots around it (a
+// cell's vertices read its neighbours' signs and edges); polygons are redone for the roots
+// within 2 of a changed one; all other roots keep their cached triangles.
 #include <pcl/PolygonMesh.h>
 
 #include <pclx/surface/frame_mesh.h>
@@ -91,7 +98,10 @@ public:
     // Last polygonisation
     std::size_t repolygonised_roots = 0, cells = 0;  // cells: leaves + collapsed cells with a vertex
     std::size_t vertices = 0, triangles = 0, escaped_vertices = 0, ambiguous_vertices = 0,
-                unresolved_vertices = 0, phantom_vertices = 0, collapsed_cells = 0;
+                collapsed_cells = 0;
+    // Cells whose surface reaches an unobserved vertex (the open rim of what was seen), and
+    // polygons left out for a cell without a vertex (0 unless the map is inconsistent).
+    std::size_t rim_cells = 0, missing_vertices = 0;
     double t_signs_ms = 0, t_vertices_ms = 0, t_polygons_ms = 0, t_output_ms = 0,
            last_reconstruct_ms = 0;
     std::size_t frames = 0;
@@ -115,22 +125,13 @@ public:
   void setVolumeMargin (double m) { margin_ = m; }
   void setGrowVolume (bool on) { grow_ = on; }
   bool getVolume (Eigen::Vector3d& min, Eigen::Vector3d& max) const;
-  // ε of the octree simplification in metres (0 = off, default): 8 sibling cells (collapsed
-  // or leaves) of a root merge while the RMS distance of all their planes to the merged QEF's
-  // minimiser stays below ε (Ju et al. 2002, topology-unsafe). False for ε < 0 or NaN.
+  // ε of the octree simplification in metres (0 = off, default): sibling nodes merge while the
+  // merge is topology-safe and the merged vertex lies within ε of every crossing plane of the
+  // merged cells. False for ε < 0 or NaN.
   bool setSimplificationError (double eps);
   double getSimplificationError () const { return eps_; }
-  // Default WEIGHTED: on 14 noisy (Kinect model) views of a sphere the seed's rule left 10.8k
-  // ambiguous vertex readings (→ exterior), 50 boundary and 57 non-manifold edges; WEIGHTED 0,
-  // 6 and 180... see the module README for the comparison.
+  // How votes become signs (default WEIGHTED, see above).
   void setSignRule (SignRule r) { rule_ = r; all_dirty_ = true; }
-  // A sign change on an edge whose cells are not all leaves (no Hermite data: the rim of a
-  // partly seen surface, conflicting signs) has no proper dual vertices. Default (on): use the
-  // centres of the missing cells ("phantom" vertices): the mesh stays closed, rims get
-  // artefacts up to a leaf off the surface. Off: drop such polygons (holes at rims; 14 noisy
-  // views of a sphere: 12 boundary edges instead of 0).
-  void setPhantomPolygons (bool on) { phantom_polygons_ = on; all_dirty_ = true; }
-  bool getPhantomPolygons () const { return phantom_polygons_; }
   SignRule getSignRule () const { return rule_; }
 
   // The common entry (§3.4–3.5). False + getLastError () on bad input; nothing fused is lost.
@@ -153,14 +154,17 @@ public:
   const Stats& getStats () const { return stats_; }
   const std::string& getLastError () const { return error_; }
 
-  struct Impl;  // defined in the .cpp
+  struct Impl;            // defined in the .cpp
+  struct FrameTriangles;  // defined in the .cpp
 
 private:
   bool fail (const std::string& msg);
+  bool checkFrameTriangles (const pclx::surface::FrameMesh& mesh, FrameTriangles& ft);
   void polygonise (pcl::PolygonMesh& mesh, bool all);
+  void writeMesh (pcl::PolygonMesh& mesh);
 
   double h_ = 0.01, eps_ = 0, margin_ = 1.5;
-  bool grow_ = true, volume_set_ = false, all_dirty_ = true, phantom_polygons_ = true;
+  bool grow_ = true, volume_set_ = false, all_dirty_ = true;
   SignRule rule_ = SignRule::WEIGHTED;
   Eigen::Vector3d vol_min_ = Eigen::Vector3d::Zero (), vol_max_ = Eigen::Vector3d::Zero ();
   Stats stats_;

@@ -44,7 +44,8 @@ public:
     std::size_t memory_bytes = 0;  // octree + cached polygons
     std::size_t triangles = 0, vertices = 0;
     std::size_t escaped_vertices = 0;   // QEF minimisers clamped back into their cell
-    std::size_t ambiguous_vertices = 0, unresolved_vertices = 0;
+    std::size_t ambiguous_vertices = 0;  // grid vertices whose votes cancel (taken as exterior)
+    std::size_t rim_cells = 0;           // cells whose surface reaches an unobserved vertex
     std::size_t frame_triangles = 0;    // triangles of the last frame after §3.3
     std::size_t repolygonised_roots = 0;
     std::size_t removed_plane_triangles = 0;
@@ -57,15 +58,16 @@ public:
   IncrementalDualContouring () = default;
 
   // "Detail": the leaf edge in metres (> 0, default 0.01 = 1 cm). Before the first frame.
-  bool setLeafSize (double h) { return octree_.setLeafSize (h); }
+  bool setLeafSize (double h) { return settled (octree_.setLeafSize (h)); }
   double getLeafSize () const { return octree_.getLeafSize (); }
   // Volume of interest; unset: from the first frame (§3.4.1). Growth (default on) adds roots
   // for geometry outside it; off: such geometry is dropped and counted.
-  bool setVolume (const Eigen::Vector3d& min, const Eigen::Vector3d& max) { return octree_.setVolume (min, max); }
+  bool setVolume (const Eigen::Vector3d& min, const Eigen::Vector3d& max) { return settled (octree_.setVolume (min, max)); }
   void setGrowVolume (bool on) { octree_.setGrowVolume (on); }
-  // ε of the octree simplification in metres (0 = off, default): cells merge while the RMS
-  // distance of their planes to the merged vertex stays below ε. False for ε < 0 or NaN.
-  bool setSimplificationError (double eps) { return octree_.setSimplificationError (eps); }
+  // ε of the octree simplification in metres (0 = off, default): cells merge while the merge
+  // keeps the topology and the merged vertex stays within ε of every crossing plane of the
+  // merged cells. False for ε < 0 or NaN.
+  bool setSimplificationError (double eps) { return settled (octree_.setSimplificationError (eps)); }
   double getSimplificationError () const { return octree_.getSimplificationError (); }
   void setSignRule (SignRule r) { octree_.setSignRule (r); }
   // Optional plane removal (§4.4): the largest RANSAC plane of the output vertices
@@ -95,6 +97,7 @@ public:
   void reconstruct (pcl::PolygonMesh& mesh);
 
   const Stats& getStats () const { return stats_; }
+  // The reason of the last refused call; empty after a call that succeeded.
   const std::string& getLastError () const { return error_; }
   // The extrinsic representation, for diagnostics.
   const DualContouringOctree& getOctree () const { return octree_; }
@@ -104,6 +107,9 @@ public:
 
 private:
   bool fail (const std::string& msg);
+  bool forward (const std::string& msg);
+  // The octree's answer to a setter, with its error kept here.
+  bool settled (bool ok) { return ok ? (error_.clear (), true) : forward (octree_.getLastError ()); }
   bool checkFrameSize (int width, int height);
   bool fuse (double frontend_ms);
   void removePlane (pcl::PolygonMesh& mesh);

@@ -24,6 +24,13 @@ IncrementalDualContouring<PointT>::fail (const std::string& msg)
 }
 
 template <typename PointT> bool
+IncrementalDualContouring<PointT>::forward (const std::string& msg)
+{
+  error_ = msg;  // the stage that refused has logged it already
+  return false;
+}
+
+template <typename PointT> bool
 IncrementalDualContouring<PointT>::checkFrameSize (int width, int height)
 {
   if (width <= 0 || height <= 0)
@@ -41,7 +48,7 @@ IncrementalDualContouring<PointT>::fuse (double frontend_ms)
 {
   stats_.frame_triangles = frame_.triangles.size ();
   if (!octree_.addFrameMesh (frame_))
-    return fail (octree_.getLastError ());
+    return forward (octree_.getLastError ());
   const auto& os = octree_.getStats ();
   stats_.frames = os.frames;
   stats_.leaves = os.leaves;
@@ -50,6 +57,7 @@ IncrementalDualContouring<PointT>::fuse (double frontend_ms)
   stats_.last_frontend_ms = frontend_ms;
   stats_.last_octree_ms = os.last_frame_ms;
   stats_.last_frame_ms = frontend_ms + os.last_frame_ms;
+  error_.clear ();
   return true;
 }
 
@@ -67,7 +75,7 @@ IncrementalDualContouring<PointT>::addFrame (const pcl::PointCloud<PointT>& clou
     point_buffer_[i] = cloud[i].getVector3fMap ();
   if (!simplification_.compute (point_buffer_.data (), static_cast<int> (cloud.width),
                                 static_cast<int> (cloud.height), camera_to_world, frame_))
-    return fail (simplification_.getLastError ());
+    return forward (simplification_.getLastError ());
   const double ms = std::chrono::duration<double, std::milli> (std::chrono::steady_clock::now () - t0).count ();
   if (!fuse (ms))
     return false;
@@ -87,7 +95,7 @@ IncrementalDualContouring<PointT>::addFrame (const float* depth_m, int width, in
     return false;
   const auto t0 = std::chrono::steady_clock::now ();
   if (!simplification_.compute (depth_m, width, height, K, camera_to_world, frame_))
-    return fail (simplification_.getLastError ());
+    return forward (simplification_.getLastError ());
   const double ms = std::chrono::duration<double, std::milli> (std::chrono::steady_clock::now () - t0).count ();
   if (!fuse (ms))
     return false;
@@ -210,7 +218,7 @@ IncrementalDualContouring<PointT>::reconstruct (pcl::PolygonMesh& mesh)
   stats_.vertices = mesh.cloud.width * mesh.cloud.height;
   stats_.escaped_vertices = os.escaped_vertices;
   stats_.ambiguous_vertices = os.ambiguous_vertices;
-  stats_.unresolved_vertices = os.unresolved_vertices;
+  stats_.rim_cells = os.rim_cells;
   stats_.repolygonised_roots = os.repolygonised_roots;
   stats_.last_reconstruct_ms = os.last_reconstruct_ms;
 }
