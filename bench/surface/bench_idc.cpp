@@ -1,11 +1,13 @@
-// bench_idc: IncrementalDualContouring (issue 10, seed 004) on posed depth sequences against
-// Open3D's ScalableTSDFVolume + marching cubes at matching voxel sizes, and PCL's
-// MarchingCubesHoppe / GreedyProjectionTriangulation on the fused cloud (object sequences).
+// bench_idc: IncrementalDualContouring on posed depth sequences against Open3D's
+// ScalableTSDFVolume + marching cubes over a sweep of voxel sizes, and PCL's MarchingCubesHoppe /
+// GreedyProjectionTriangulation on the fused cloud (object sequences).
 // Inputs: frames rendered from meshes with Kinect-like noise (a torus around a sphere seen from
-// an orbit, the Stanford bunny mesh scaled to 0.6 m when ../shared/data exists, a room for
-// speed), the 50 7-Scenes frames (speed and looks; no truth) and the 10 bunny range scans
-// (truth: bun_zipper.ply). Metrics: Chamfer / Hausdorff to the truth (area-uniform samples
-// both ways, CGAL AABB distances), triangles, ms per frame (median, p95), memory. CSV rows on
+// an orbit, the Stanford bunny mesh scaled to 0.6 m when ../shared/data exists, a furnished room
+// and two furnished rooms joined by a door, both seen from inside), the 50 7-Scenes frames
+// (speed and looks; no truth) and the 10 bunny range scans (truth: bun_zipper.ply).
+// Metrics: accuracy (output samples to the truth), completion (the truth samples that some
+// frame saw, to the output), their mean (Chamfer) and the larger directed maximum (Hausdorff),
+// all with CGAL AABB distances; triangles, ms per frame (median, p95), memory. CSV rows on
 // stdout (and --csv); --frames-csv gets the per-frame times for the frame-index chart.
 #include "bench_rbf_metrics.h"
 #include <bench_csv.h>
@@ -33,8 +35,11 @@
 #include <cstdlib>
 #include <unistd.h>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
+#include <memory>
 #include <sstream>
 
 namespace {
@@ -82,80 +87,240 @@ struct Sequence
   TriangleMesh truth;
   pclx::surface::DepthIntrinsics K;
   std::vector<Frame> frames;
-  std::vector<double> leaves;  // detail levels (metres)
+  std::vector<double> leaves;       // IDC detail levels (metres)
+  std::vector<double> tsdf_voxels;  // Open3D's voxel sweep (metres; pinhole sequences)
   double depth_trunc = 4.0;
 };
+
+// ---- Generated sequences
+
+// The Kinect's 640 x 480 intrinsics scaled to another image size (same field of view).
+pclx::testing::PinholeIntrinsics
+scaledIntrinsics (int width, int height)
+{
+  pclx::testing::PinholeIntrinsics K;
+  K.width = width;
+  K.height = height;
+  K.fx = K.fy = 525.f * width / 640.f;
+  K.cx = (width - 1) / 2.f;
+  K.cy = (height - 1) / 2.f;
+  return K;
+}
+
+// Renders the sequence's truth from every pose with the default Kinect-like noise.
+void
+renderFrames (Sequence& s, const std::vector<Eigen::Isometry3f>& poses, int width, int height, std::uint32_t seed)
+{
+  using namespace pclx::testing;
+  const RayCaster caster (s.truth);
+  const PinholeIntrinsics K = scaledIntrinsics (width, height);
+  s.K = {K.fx, K.fy, K.cx, K.cy};
+  for (std::size_t i = 0; i < poses.size (); ++i)
+  {
+    const DepthImage img = renderDepth (caster, K, poses[i], KinectNoise (), seed + std::uint32_t (i));
+    Frame fr;
+    fr.width = img.width;
+    fr.height = img.height;
+    fr.mm = img.depth_mm;
+    fr.pose = poses[i].matrix ().cast<double> ();
+    s.frames.push_back (std::move (fr));
+  }
+}
+
+// A camera at `eye` looking along `heading` (radians about z from +x), tilted up by `pitch`.
+Eigen::Isometry3f
+viewPose (const Eigen::Vector3f& eye, float heading, float pitch)
+{
+  const Eigen::Vector3f dir (std::cos (heading) * std::cos (pitch), std::sin (heading) * std::cos (pitch),
+                             std::sin (pitch));
+  return pclx::testing::lookAt (eye, eye + dir);
+}
 
 Sequence
 renderOrbit (const std::string& name, const TriangleMesh& mesh, int frames, double radius, int width, int height,
              std::vector<double> leaves)
 {
-  using namespace pclx::testing;
   Sequence s;
   s.name = name;
   s.truth = mesh;
   s.has_truth = s.object = true;
   s.leaves = std::move (leaves);
   s.depth_trunc = 3.0;
-  const RayCaster caster (mesh);
-  PinholeIntrinsics K;
-  K.width = width; K.height = height;
-  K.fx = K.fy = 525.f * width / 640.f;
-  K.cx = (width - 1) / 2.f; K.cy = (height - 1) / 2.f;
-  s.K = {K.fx, K.fy, K.cx, K.cy};
   const Eigen::Vector3f c = 0.5f * (mesh.bboxMin () + mesh.bboxMax ());
+  std::vector<Eigen::Isometry3f> poses;
   for (int f = 0; f < frames; ++f)
   {
     // Around the object, alternately above and below, so that the views cover it.
     const float a = 2.f * float (M_PI) * f / frames;
     const float h = (f % 2 ? -0.55f : 0.75f) * float (radius);
     const Eigen::Vector3f eye = c + Eigen::Vector3f (float (radius) * std::cos (a), float (radius) * std::sin (a), h);
-    const Eigen::Isometry3f pose = lookAt (eye, c);
-    const DepthImage img = renderDepth (caster, K, pose, KinectNoise (), 1000 + f);
-    Frame fr;
-    fr.width = img.width; fr.height = img.height;
-    fr.mm = img.depth_mm;
-    fr.pose = pose.matrix ().cast<double> ();
-    s.frames.push_back (std::move (fr));
+    poses.push_back (pclx::testing::lookAt (eye, c));
   }
+  renderFrames (s, poses, width, height, 1000);
   return s;
 }
 
-Sequence
-renderRoom (int frames)
+// The room scenes: a room's interior, the thickness of its walls, the door between two rooms and
+// the height of the camera.
+const Eigen::Vector3f kRoomSize (4.f, 3.f, 2.5f);
+const float kWall = 0.05f, kDoorWidth = 1.f, kDoorHeight = 2.f, kEyeHeight = 1.4f;
+
+// An axis-aligned box between two corners.
+TriangleMesh
+boxBetween (const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, int grid = 8)
 {
-  using namespace pclx::testing;
-  TriangleMesh scene = makeBox (Eigen::Vector3f (0.5f, 0.5f, 0.5f), 4);
-  scene.append (makeSphere (0.3f, 5, Eigen::Vector3f (0.8f, 0.2f, 0.3f)));
-  TriangleMesh torus = makeTorus (0.3f, 0.1f);
-  torus.transform (Eigen::Affine3f (Eigen::Translation3f (-0.6f, 0.5f, 0.1f)));
-  TriangleMesh floor = makeBox (Eigen::Vector3f (5.f, 5.f, 0.05f), 8);
-  floor.transform (Eigen::Affine3f (Eigen::Translation3f (0, 0, -0.28f)));
-  TriangleMesh wall = makeBox (Eigen::Vector3f (5.f, 0.05f, 3.f), 8);
-  wall.transform (Eigen::Affine3f (Eigen::Translation3f (0, 1.6f, 1.2f)));
-  scene.append (torus); scene.append (floor); scene.append (wall);
-  Sequence s;
-  s.name = "room";
-  s.truth = scene;
-  s.has_truth = true;  // accuracy only: most of the floor and wall is never seen
-  s.leaves = {0.02, 0.01};  // 5 mm over a 4 m room: millions of triangles either way
-  const RayCaster caster (scene);
-  PinholeIntrinsics K;
-  s.K = {K.fx, K.fy, K.cx, K.cy};
+  TriangleMesh b = pclx::testing::makeBox (hi - lo, grid);
+  b.transform (Eigen::Affine3f (Eigen::Translation3f (0.5f * (lo + hi))));
+  return b;
+}
+
+// A closed room around the interior [lo, hi]: floor, ceiling and four walls as boxes `t` thick
+// outside it, so their inner faces bound the interior and face into it. The boxes overlap at the
+// edges and corners, where every face they share lies inside another box or outside the room.
+TriangleMesh
+roomShell (const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, float t)
+{
+  const Eigen::Vector3f olo = lo - Eigen::Vector3f::Constant (t), ohi = hi + Eigen::Vector3f::Constant (t);
+  TriangleMesh m = boxBetween (olo, Eigen::Vector3f (ohi.x (), ohi.y (), lo.z ()));      // floor
+  m.append (boxBetween (Eigen::Vector3f (olo.x (), olo.y (), hi.z ()), ohi));            // ceiling
+  m.append (boxBetween (olo, Eigen::Vector3f (lo.x (), ohi.y (), ohi.z ())));            // -x wall
+  m.append (boxBetween (Eigen::Vector3f (hi.x (), olo.y (), olo.z ()), ohi));            // +x wall
+  m.append (boxBetween (olo, Eigen::Vector3f (ohi.x (), lo.y (), ohi.z ())));            // -y wall
+  m.append (boxBetween (Eigen::Vector3f (olo.x (), hi.y (), olo.z ()), ohi));            // +y wall
+  return m;
+}
+
+// Furniture on the floor z = 0: a table (a top on four legs) centred at `table` with a sphere and
+// a torus on it, and a tall cabinet over the footprint [cabinet_lo, cabinet_hi]. Parts sink a
+// little into what carries them, so no two faces touch flat.
+TriangleMesh
+furniture (const Eigen::Vector2f& table, const Eigen::Vector2f& cabinet_lo, const Eigen::Vector2f& cabinet_hi)
+{
+  const float top = 0.75f, thick = 0.04f, hx = 0.6f, hy = 0.35f, leg = 0.05f, inset = 0.08f, sink = 0.01f;
+  const float ball = 0.1f, ring = 0.12f, tube = 0.04f, settle = 0.005f, cabinet_height = 1.8f;
+  TriangleMesh m = boxBetween (Eigen::Vector3f (table.x () - hx, table.y () - hy, top - thick),
+                               Eigen::Vector3f (table.x () + hx, table.y () + hy, top), 4);
+  for (const float sx : {-1.f, 1.f})
+    for (const float sy : {-1.f, 1.f})
+    {
+      const Eigen::Vector2f c = table + Eigen::Vector2f (sx * (hx - inset), sy * (hy - inset));
+      m.append (boxBetween (Eigen::Vector3f (c.x () - leg / 2, c.y () - leg / 2, -sink),
+                            Eigen::Vector3f (c.x () + leg / 2, c.y () + leg / 2, top - thick / 2), 2));
+    }
+  m.append (pclx::testing::makeSphere (ball, 4, Eigen::Vector3f (table.x () - 0.3f, table.y (), top + ball - settle)));
+  TriangleMesh torus = pclx::testing::makeTorus (ring, tube, 64, 24);
+  torus.transform (Eigen::Affine3f (Eigen::Translation3f (table.x () + 0.25f, table.y (), top + tube - settle)));
+  m.append (torus);
+  m.append (boxBetween (Eigen::Vector3f (cabinet_lo.x (), cabinet_lo.y (), -sink),
+                        Eigen::Vector3f (cabinet_hi.x (), cabinet_hi.y (), cabinet_height), 4));
+  return m;
+}
+
+// One furnished room, interior centred on the origin in x and y, floor at z = 0; the cabinet
+// stands against the -x wall (sunk into it), the table near the +x, -y corner.
+TriangleMesh
+roomScene ()
+{
+  const Eigen::Vector3f lo (-kRoomSize.x () / 2, -kRoomSize.y () / 2, 0.f);
+  const Eigen::Vector3f hi (kRoomSize.x () / 2, kRoomSize.y () / 2, kRoomSize.z ());
+  TriangleMesh scene = roomShell (lo, hi, kWall);
+  scene.append (furniture (Eigen::Vector2f (1.1f, -0.85f), Eigen::Vector2f (lo.x () - 0.02f, 0.5f),
+                           Eigen::Vector2f (lo.x () + 0.5f, 1.3f)));
+  return scene;
+}
+
+// A walk on a loop around the room's centre looking across the room, past the centre so the
+// views sweep every wall, tilted down to the floor and furniture and up towards the ceiling in turn.
+std::vector<Eigen::Isometry3f>
+roomPath (int frames)
+{
+  std::vector<Eigen::Isometry3f> poses;
   for (int i = 0; i < frames; ++i)
   {
-    const float a = -2.2f + 1.6f * i / std::max (1, frames - 1);
-    const Eigen::Vector3f eye (2.2f * std::cos (a), 2.2f * std::sin (a) - 0.3f, 1.1f);
-    const Eigen::Isometry3f pose = lookAt (eye, Eigen::Vector3f (0, 0.3f, 0));
-    const DepthImage img = renderDepth (caster, K, pose, KinectNoise (), 7 + i);
-    Frame fr;
-    fr.width = img.width; fr.height = img.height;
-    fr.mm = img.depth_mm;
-    fr.pose = pose.matrix ().cast<double> ();
-    s.frames.push_back (std::move (fr));
+    const float a = 2.f * float (M_PI) * i / frames;
+    const Eigen::Vector3f eye (0.8f * std::cos (a), 0.5f * std::sin (a), kEyeHeight);
+    poses.push_back (viewPose (eye, a + float (M_PI) + 0.3f, -0.25f + 0.35f * std::sin (2.f * a)));
   }
+  return poses;
+}
+
+Sequence
+renderRoom (int frames, int width, int height, std::vector<double> leaves)
+{
+  Sequence s;
+  s.name = "room-generated";
+  s.truth = roomScene ();
+  s.has_truth = true;
+  s.leaves = std::move (leaves);
+  s.depth_trunc = 4.0;
+  renderFrames (s, roomPath (frames), width, height, 7);
   return s;
 }
+
+// Two furnished rooms side by side along x (room 1 from the origin, room 2 beyond it), sharing
+// the wall on room 1's +x side, which leaves a door in the middle of its length: two panels and a
+// lintel.
+TriangleMesh
+twoRoomScene ()
+{
+  const float w = kRoomSize.x (), d = kRoomSize.y (), h = kRoomSize.z (), t = kWall;
+  TriangleMesh scene = roomShell (Eigen::Vector3f::Zero (), Eigen::Vector3f (2 * w + t, d, h), t);
+  const float door_lo = 0.5f * (d - kDoorWidth), door_hi = door_lo + kDoorWidth;
+  // The panels reach into the outer walls, floor and ceiling by half the wall's thickness.
+  scene.append (boxBetween (Eigen::Vector3f (w, -t / 2, -t / 2), Eigen::Vector3f (w + t, door_lo, h + t / 2)));
+  scene.append (boxBetween (Eigen::Vector3f (w, door_hi, -t / 2), Eigen::Vector3f (w + t, d + t / 2, h + t / 2)));
+  scene.append (boxBetween (Eigen::Vector3f (w, door_lo, kDoorHeight), Eigen::Vector3f (w + t, door_hi, h + t / 2)));
+  scene.append (
+      furniture (Eigen::Vector2f (1.f, 2.35f), Eigen::Vector2f (-0.02f, 0.3f), Eigen::Vector2f (0.48f, 1.1f)));
+  const float x2 = w + t;  // room 2's -x side
+  scene.append (furniture (Eigen::Vector2f (x2 + 2.85f, 0.75f), Eigen::Vector2f (x2 + 3.5f, 2.1f),
+                           Eigen::Vector2f (x2 + w + 0.02f, 2.9f)));
+  return scene;
+}
+
+// A look around room 1 on a loop (views across the room, as in roomPath) ending on its centre
+// line facing the door, the walk along the centre line through the door, and a look around room 2.
+std::vector<Eigen::Isometry3f>
+twoRoomPath (int frames)
+{
+  const float w = kRoomSize.x (), d = kRoomSize.y ();
+  const Eigen::Vector3f c1 (w / 2, d / 2, kEyeHeight), c2 (w + kWall + w / 2, d / 2, kEyeHeight);
+  const Eigen::Vector3f loop (0.5f, 0.35f, 0.f);
+  const int turn1 = 2 * frames / 5, walk = frames / 4, turn2 = frames - turn1 - walk;
+  std::vector<Eigen::Isometry3f> poses;
+  auto turn = [&poses, &loop] (const Eigen::Vector3f& c, float b) {
+    const Eigen::Vector3f eye = c - loop.cwiseProduct (Eigen::Vector3f (std::cos (b), std::sin (b), 0.f));
+    poses.push_back (viewPose (eye, b, -0.25f + 0.35f * std::sin (2.f * b)));
+  };
+  for (int i = 0; i < turn1; ++i)
+    turn (c1, 2.f * float (M_PI) * (i + 1) / turn1);
+  const float x0 = c1.x () - loop.x (), x1 = c2.x () - loop.x ();
+  for (int i = 0; i < walk; ++i)
+  {
+    const float f = float (i + 1) / (walk + 1);
+    const Eigen::Vector3f eye (x0 + f * (x1 - x0), d / 2, kEyeHeight);
+    poses.push_back (viewPose (eye, 0.3f * std::sin (2.f * float (M_PI) * f), -0.15f));
+  }
+  for (int i = 0; i < turn2; ++i)
+    turn (c2, 2.f * float (M_PI) * i / turn2);
+  return poses;
+}
+
+Sequence
+renderTwoRooms (int frames, int width, int height)
+{
+  Sequence s;
+  s.name = "rooms-multi";
+  s.truth = twoRoomScene ();
+  s.has_truth = true;
+  s.leaves = {0.02, 0.01};
+  s.tsdf_voxels = {0.04, 0.02, 0.01};  // the finest voxel over two whole rooms takes minutes and gigabytes
+  s.depth_trunc = 4.0;
+  renderFrames (s, twoRoomPath (frames), width, height, 5000);
+  return s;
+}
+
+// ---- Recorded sequences
 
 Sequence
 sevenScenes (const std::string& dir, std::size_t max_frames)
@@ -245,9 +410,89 @@ cameraCloud (const Frame& f, const pclx::surface::DepthIntrinsics& K)
   return c;
 }
 
+// ---- Truth
+
+// What a sequence's meshes are measured against: the truth surface (accuracy) and the samples
+// of it that completion is measured from.
+struct Truth
+{
+  std::unique_ptr<pclx::testing::MeshDistance> distance;
+  std::vector<Eigen::Vector3f> samples;
+  std::size_t all_samples = 0;
+  double seenFraction () const { return all_samples ? double (samples.size ()) / double (all_samples) : 0.0; }
+};
+
+// The samples that some frame saw: every frame's view of the truth rendered without noise over
+// the depth range a frame keeps, and a sample kept when its depth in the frame matches the
+// rendered depth at its pixel (within a fixed tolerance or one proportional to the depth, the
+// larger), so hidden, out-of-range and never-viewed parts of the truth do not count as missing
+// from a mesh.
+std::vector<Eigen::Vector3f>
+seenSamples (const Sequence& s, const std::vector<Eigen::Vector3f>& samples)
+{
+  using namespace pclx::testing;
+  const RayCaster caster (s.truth);
+  KinectNoise exact;
+  exact.enabled = false;
+  exact.min_range = 0.4f;
+  exact.max_range = float (s.depth_trunc);
+  const float tol = 0.002f, tol_per_metre = 0.01f;
+  std::vector<char> seen (samples.size (), 0);
+  for (const auto& f : s.frames)
+  {
+    PinholeIntrinsics K;
+    K.width = f.width;
+    K.height = f.height;
+    K.fx = s.K.fx; K.fy = s.K.fy; K.cx = s.K.cx; K.cy = s.K.cy;
+    Eigen::Isometry3f pose;
+    pose.matrix () = f.pose.cast<float> ();
+    const DepthImage img = renderDepth (caster, K, pose, exact);
+    const Eigen::Isometry3f to_camera = pose.inverse ();
+    for (std::size_t i = 0; i < samples.size (); ++i)
+    {
+      if (seen[i])
+        continue;
+      const Eigen::Vector3f p = to_camera * samples[i];
+      if (!(p.z () > 0.f))
+        continue;
+      const long u = std::lround (K.fx * p.x () / p.z () + K.cx), v = std::lround (K.fy * p.y () / p.z () + K.cy);
+      if (u < 0 || v < 0 || u >= K.width || v >= K.height)
+        continue;
+      const float d = img.at (int (u), int (v)) * 0.001f;
+      if (d < exact.min_range || d > exact.max_range)
+        continue;
+      seen[i] = std::abs (p.z () - d) <= std::max (tol, tol_per_metre * d);
+    }
+  }
+  std::vector<Eigen::Vector3f> kept;
+  for (std::size_t i = 0; i < samples.size (); ++i)
+    if (seen[i])
+      kept.push_back (samples[i]);
+  return kept;
+}
+
+// Area-uniform samples of the truth; for rendered (pinhole) sequences only those a frame saw,
+// for the range scans all of them.
+std::unique_ptr<Truth>
+makeTruth (const Sequence& s, std::size_t samples)
+{
+  if (!s.has_truth)
+    return nullptr;
+  auto t = std::make_unique<Truth> ();
+  t->distance = std::make_unique<pclx::testing::MeshDistance> (s.truth);
+  for (const auto& p : pclx::testing::sampleUniform (s.truth, samples, 3).cloud)
+    t->samples.push_back (p.getVector3fMap ());
+  t->all_samples = t->samples.size ();
+  if (s.pinhole)
+    t->samples = seenSamples (s, t->samples);
+  return t;
+}
+
+// ---- Methods
+
 struct Quality
 {
-  double chamfer = -1, hausdorff = -1, acc_mean = -1;
+  double chamfer = -1, hausdorff = -1, acc_mean = -1, comp_mean = -1, seen_fraction = -1;
   std::size_t triangles = 0, boundary = 0, nonmanifold = 0;
 };
 
@@ -259,8 +504,7 @@ struct Bench
   double cell_factor, collapse_ratio, collapse_error;
 
   Quality
-  measure (const Sequence& s, const TriangleMesh& mesh, const pclx::testing::MeshDistance* truth,
-           const std::vector<Eigen::Vector3f>& truth_samples)
+  measure (const TriangleMesh& mesh, const Truth* truth)
   {
     Quality q;
     q.triangles = mesh.faces.size ();
@@ -269,12 +513,14 @@ struct Bench
     const auto topo = rbf_bench::topology (mesh);
     q.boundary = topo.boundary_edges;
     q.nonmanifold = topo.nonmanifold_edges;
-    if (s.has_truth && truth)
+    if (truth)
     {
-      const auto e = rbf_bench::meshError (mesh, *truth, truth_samples, samples);
+      const auto e = rbf_bench::meshError (mesh, *truth->distance, truth->samples, samples);
       q.acc_mean = e.out_to_truth_mean;
-      if (s.object)
+      q.seen_fraction = truth->seenFraction ();
+      if (!truth->samples.empty ())
       {
+        q.comp_mean = e.truth_to_out_mean;
         q.chamfer = e.chamfer ();
         q.hausdorff = e.hausdorff ();
       }
@@ -300,10 +546,16 @@ struct Bench
     }
     if (q.acc_mean >= 0)
       m.emplace_back ("accuracy_mean", q.acc_mean);
+    if (q.comp_mean >= 0)
+      m.emplace_back ("completion_mean", q.comp_mean);
+    if (q.seen_fraction >= 0)
+      m.emplace_back ("truth_seen_fraction", q.seen_fraction);
     m.insert (m.end (), extra.begin (), extra.end ());
     double total = extract_ms;
     for (double x : frame_ms) total += x;
     out.row ("surface", method, params, s.name, s.frames.size (), total / 1e3, m);
+    if (total > 3e3)
+      std::cerr << "bench_idc:   " << method << " " << params << ": " << total / 1e3 << " s\n";
   }
 
   void
@@ -317,8 +569,7 @@ struct Bench
 
   // IDC: every frame through addFrame; optionally reconstruct after each frame.
   void
-  idc (const Sequence& s, double leaf, double eps, bool incremental, const pclx::testing::MeshDistance* truth,
-       const std::vector<Eigen::Vector3f>& truth_samples, bool frame_rows)
+  idc (const Sequence& s, double leaf, double eps, bool incremental, const Truth* truth, bool frame_rows)
   {
     pcl::IncrementalDualContouring<pcl::PointXYZ> idc;
     idc.setLeafSize (leaf);
@@ -359,7 +610,7 @@ struct Bench
       extract = msSince (t1);
     }
     const auto& st = idc.getStats ();
-    const Quality q = measure (s, pclx::testing::fromPolygonMesh (mesh), truth, truth_samples);
+    const Quality q = measure (pclx::testing::fromPolygonMesh (mesh), truth);
     char params[96];
     std::snprintf (params, sizeof params, "leaf=%g;eps=%g;cell=%g;collapse=%g;collapse_err=%g", leaf, eps,
                    cell_factor * leaf, collapse_ratio, collapse_error);
@@ -374,8 +625,7 @@ struct Bench
 
 #ifdef PCLX_HAVE_OPEN3D
   void
-  open3d (const Sequence& s, double voxel, const pclx::testing::MeshDistance* truth,
-          const std::vector<Eigen::Vector3f>& truth_samples, bool frame_rows)
+  open3d (const Sequence& s, double voxel, const Truth* truth, bool frame_rows)
   {
     const double rss0 = rssMiB ();
     std::vector<double> ms;
@@ -394,7 +644,7 @@ struct Bench
     TriangleMesh m;
     m.vertices = std::move (v);
     m.faces = std::move (f);
-    const Quality q = measure (s, m, truth, truth_samples);
+    const Quality q = measure (m, truth);
     char params[96];
     std::snprintf (params, sizeof params, "voxel=%g;sdf_trunc=%g", voxel, 4 * voxel);
     row (s, "open3d_scalable_tsdf", params, q, ms, extract, mem, {{"volume_units", double (units)}});
@@ -450,8 +700,7 @@ struct Bench
   }
 
   void
-  pclPeers (const Sequence& s, double leaf, const pclx::testing::MeshDistance* truth,
-            const std::vector<Eigen::Vector3f>& truth_samples)
+  pclPeers (const Sequence& s, double leaf, const Truth* truth)
   {
     double fuse_ms = 0;
     const auto cloud = fuse (s, leaf, fuse_ms);
@@ -475,7 +724,7 @@ struct Bench
       const auto t0 = Clock::now ();
       mc.reconstruct (mesh);
       const double t = msSince (t0) + fuse_ms;
-      const Quality q = measure (s, rbf_bench::weld (mesh, float (1e-3 * leaf)), truth, truth_samples);
+      const Quality q = measure (rbf_bench::weld (mesh, float (1e-3 * leaf)), truth);
       std::snprintf (params, sizeof params, "leaf=%g;grid=%dx%dx%d", leaf, rx, ry, rz);
       row (s, "pcl_marching_cubes_hoppe", params, q, {t / s.frames.size ()}, 0, std::max (0.0, rssMiB () - rss0),
            {{"fused_points", double (cloud->size ())}, {"total_ms", t}});
@@ -497,7 +746,7 @@ struct Bench
       const auto t0 = Clock::now ();
       gp3.reconstruct (mesh);
       const double t = msSince (t0) + fuse_ms;
-      const Quality q = measure (s, pclx::testing::fromPolygonMesh (mesh), truth, truth_samples);
+      const Quality q = measure (pclx::testing::fromPolygonMesh (mesh), truth);
       std::snprintf (params, sizeof params, "leaf=%g;radius=%g", leaf, 3 * leaf);
       row (s, "pcl_greedy_projection", params, q, {t / s.frames.size ()}, 0, std::max (0.0, rssMiB () - rss0),
            {{"fused_points", double (cloud->size ())}, {"total_ms", t}});
@@ -505,51 +754,29 @@ struct Bench
   }
 };
 
-}  // namespace
+// ---- The run
 
-int
-main (int argc, char** argv)
+struct Options
 {
-  // OpenMP threads that spin while waiting (libgomp's default) cost Open3D's Integrate 30×
-  // on a shared, loaded machine (765 vs 21 ms per 7-Scenes frame at 2 cm, measured here);
-  // libgomp reads the policy at load time, so set it and start again.
-  if (!std::getenv ("OMP_WAIT_POLICY"))
-  {
-    setenv ("OMP_WAIT_POLICY", "PASSIVE", 1);
-    execv ("/proc/self/exe", argv);
-  }
-  CLI::App app ("IncrementalDualContouring vs Open3D ScalableTSDFVolume and PCL MarchingCubesHoppe / GP3");
-  std::string csv, frames_csv, only;
   bool quick = false;
-  app.add_option ("--csv", csv, "also write the rows to this file");
-  app.add_option ("--frames-csv", frames_csv, "per-frame times: input,method,leaf,frame,ms");
-  app.add_option ("--only", only, "run only the input whose name contains this");
-  app.add_flag ("--quick", quick, "small sequences, two detail levels (< 1 min)");
-  double cell_factor = 2, collapse_ratio = 0, collapse_error = 0;  // CoupledSimplification's defaults
-  app.add_option ("--cell-factor", cell_factor, "front-end frustum cell = factor x leaf")->capture_default_str ();
-  app.add_option ("--collapse-ratio", collapse_ratio, "front-end edge-collapse target ratio")->capture_default_str ();
-  app.add_option ("--collapse-error", collapse_error, "front-end collapse error bound (m; 0 auto, < 0 none)")
-      ->capture_default_str ();
-  CLI11_PARSE (app, argc, argv);
-  pclx::bench::CsvWriter out (csv);
-  std::ofstream fcsv;
-  if (!frames_csv.empty ())
-  {
-    fcsv.open (frames_csv);
-    fcsv << "input,method,leaf,frame,ms\n";
-  }
-  Bench bench{out, frames_csv.empty () ? nullptr : &fcsv, quick ? std::size_t (20000) : std::size_t (100000),
-              cell_factor, collapse_ratio, collapse_error};
+  std::string only, preview;
+};
 
+// Every input the options ask for, the generated ones rendered; inputs whose data is missing
+// are skipped with a line on stderr.
+std::vector<Sequence>
+loadSequences (const Options& opt)
+{
+  const bool quick = opt.quick;
   std::vector<Sequence> seqs;
   const auto data = pclx::bench::sharedDataDir ();
-  auto want = [&] (const std::string& n) { return only.empty () || n.find (only) != std::string::npos; };
+  auto want = [&] (const std::string& n) { return opt.only.empty () || n.find (opt.only) != std::string::npos; };
+  if (want ("orbit-torus-sphere"))
   {
     TriangleMesh obj = pclx::testing::makeTorus (0.3f, 0.1f, 128, 48);
     obj.append (pclx::testing::makeSphere (0.15f, 4));
-    if (want ("orbit"))
-      seqs.push_back (quick ? renderOrbit ("orbit-torus-sphere", obj, 8, 1.2, 320, 240, {0.02, 0.01})
-                            : renderOrbit ("orbit-torus-sphere", obj, 36, 1.2, 640, 480, {0.02, 0.01, 0.005}));
+    seqs.push_back (quick ? renderOrbit ("orbit-torus-sphere", obj, 8, 1.2, 320, 240, {0.02, 0.01})
+                          : renderOrbit ("orbit-torus-sphere", obj, 36, 1.2, 640, 480, {0.02, 0.01, 0.005}));
   }
   TriangleMesh zipper;
   if (data)
@@ -563,7 +790,7 @@ main (int argc, char** argv)
       std::cerr << "bench_idc: " << e.what () << "\n";
     }
   }
-  if (!zipper.faces.empty () && !quick && want ("bunny-mesh"))
+  if (!zipper.faces.empty () && !quick && want ("bunny-mesh-x4"))
   {
     // Scaled to 0.6 m: an object of the size a depth camera scans at 1 cm detail.
     TriangleMesh big = zipper;
@@ -571,9 +798,11 @@ main (int argc, char** argv)
     big.transform (Eigen::Affine3f (Eigen::Scaling (4.f) * Eigen::Translation3f (-c)));
     seqs.push_back (renderOrbit ("bunny-mesh-x4", big, 36, 1.3, 640, 480, {0.02, 0.01, 0.005}));
   }
-  if (want ("room") && !quick)
-    seqs.push_back (renderRoom (30));
-  if (data && want ("7scenes"))
+  if (want ("room-generated"))
+    seqs.push_back (quick ? renderRoom (8, 320, 240, {0.02}) : renderRoom (30, 640, 480, {0.02, 0.01}));
+  if (!quick && want ("rooms-multi"))
+    seqs.push_back (renderTwoRooms (40, 640, 480));
+  if (data && want ("7scenes-office"))
   {
     try
     {
@@ -592,36 +821,117 @@ main (int argc, char** argv)
     if (quick)
       seqs.back ().leaves = {0.004};
   }
+  for (auto& s : seqs)
+    if (s.pinhole && s.tsdf_voxels.empty ())
+      s.tsdf_voxels = quick ? std::vector<double>{0.02, 0.01} : std::vector<double>{0.04, 0.02, 0.01, 0.005};
+  return seqs;
+}
 
+// Writes the depth of every sixth of a sequence as 16-bit PGM images (millimetres) and the truth
+// samples the frames saw as an XYZ file, to look at what the camera path sees.
+void
+writePreview (const Sequence& s, const std::string& dir, std::size_t samples)
+{
+  if (const auto truth = makeTruth (s, samples))
+  {
+    std::cerr << "bench_idc: " << s.name << ": truth seen by the frames: " << 100.0 * truth->seenFraction ()
+              << " % of " << truth->all_samples << " samples\n";
+    std::ofstream xyz (dir + "/" + s.name + "_seen.xyz");
+    for (const auto& p : truth->samples)
+      xyz << p.x () << " " << p.y () << " " << p.z () << "\n";
+  }
+  const std::size_t n = s.frames.size ();
+  for (std::size_t i = 0; i < n; i += std::max<std::size_t> (1, n / 6))
+  {
+    const Frame& f = s.frames[i];
+    if (f.mm.empty ())
+      continue;
+    const std::string path = dir + "/" + s.name + "_" + std::to_string (i) + ".pgm";
+    std::ofstream out (path, std::ios::binary);
+    if (!out)
+    {
+      std::cerr << "bench_idc: cannot write " << path << "\n";
+      return;
+    }
+    out << "P5\n" << f.width << " " << f.height << "\n65535\n";
+    for (const std::uint16_t d : f.mm)
+      out.put (char (d >> 8)).put (char (d & 0xff));  // PGM stores 16-bit values big-endian
+    std::cerr << "bench_idc: wrote " << path << "\n";
+  }
+}
+
+// Every method on one sequence: IDC at its leaves, Open3D's TSDF over its voxel sweep, IDC's ε
+// sweep and the per-frame incremental mesh at the middle leaf, PCL's peers on objects.
+void
+runSequence (Bench& bench, const Sequence& s, const Options& opt)
+{
+  std::cerr << "bench_idc: " << s.name << ", " << s.frames.size () << " frames\n";
+  const std::unique_ptr<Truth> truth = makeTruth (s, bench.samples);
+  if (truth)
+    std::cerr << "bench_idc:   truth seen by the frames: " << truth->samples.size () << " of " << truth->all_samples
+              << " samples (" << 100.0 * truth->seenFraction () << " %)\n";
+  for (double leaf : s.leaves)
+    bench.idc (s, leaf, 0, false, truth.get (), true);
+#ifdef PCLX_HAVE_OPEN3D
+  for (double voxel : s.tsdf_voxels)
+    bench.open3d (s, voxel, truth.get (), true);
+#endif
   // ε in metres: the RMS plane distance a merged cell may have (IncrementalDualContouring::setSimplificationError).
   const std::vector<double> eps_sweep =
-      quick ? std::vector<double>{0.01} : std::vector<double>{0.0003, 0.001, 0.003, 0.01, 0.03, 0.1};
-  for (const auto& s : seqs)
+      opt.quick ? std::vector<double>{0.01} : std::vector<double>{0.0003, 0.001, 0.003, 0.01, 0.03, 0.1};
+  const double mid = s.leaves[s.leaves.size () > 2 ? 1 : s.leaves.size () - 1];
+  for (double eps : eps_sweep)
+    bench.idc (s, mid, eps, false, truth.get (), false);
+  bench.idc (s, mid, 0, true, truth.get (), true);
+  if (s.object && (!opt.quick || s.name.find ("orbit") != std::string::npos))
+    bench.pclPeers (s, mid, truth.get ());
+}
+
+}  // namespace
+
+int
+main (int argc, char** argv)
+{
+  // OpenMP threads that spin while waiting (libgomp's default) slow Open3D's Integrate many times
+  // over on a shared, loaded machine; libgomp reads the policy at load time, so set it and start again.
+  if (!std::getenv ("OMP_WAIT_POLICY"))
   {
-    std::cerr << "bench_idc: " << s.name << ", " << s.frames.size () << " frames\n";
-    std::unique_ptr<pclx::testing::MeshDistance> truth;
-    std::vector<Eigen::Vector3f> truth_samples;
-    if (s.has_truth)
-    {
-      truth = std::make_unique<pclx::testing::MeshDistance> (s.truth);
-      for (const auto& p : pclx::testing::sampleUniform (s.truth, bench.samples, 3).cloud)
-        truth_samples.push_back (p.getVector3fMap ());
-    }
-    const double mid = s.leaves[s.leaves.size () > 2 ? 1 : s.leaves.size () - 1];
-    for (double leaf : s.leaves)
-    {
-      bench.idc (s, leaf, 0, false, truth.get (), truth_samples, true);
-#ifdef PCLX_HAVE_OPEN3D
-      if (s.pinhole)
-        bench.open3d (s, leaf, truth.get (), truth_samples, true);
-#endif
-    }
-    // The adaptive part: ε at the middle detail, and the per-frame incremental mesh.
-    for (double eps : eps_sweep)
-      bench.idc (s, mid, eps, false, truth.get (), truth_samples, false);
-    bench.idc (s, mid, 0, true, truth.get (), truth_samples, true);
-    if (s.object && (!quick || s.name.find ("orbit") != std::string::npos))
-      bench.pclPeers (s, mid, truth.get (), truth_samples);
+    setenv ("OMP_WAIT_POLICY", "PASSIVE", 1);
+    execv ("/proc/self/exe", argv);
   }
+  CLI::App app ("IncrementalDualContouring vs Open3D ScalableTSDFVolume and PCL MarchingCubesHoppe / GP3");
+  std::string csv, frames_csv;
+  Options opt;
+  app.add_option ("--csv", csv, "also write the rows to this file");
+  app.add_option ("--frames-csv", frames_csv, "per-frame times: input,method,leaf,frame,ms");
+  app.add_option ("--only", opt.only, "run only the inputs whose name contains this");
+  app.add_flag ("--quick", opt.quick, "small sequences, two detail levels (< 1 min)");
+  app.add_option ("--preview", opt.preview,
+                  "write a few depth frames of every input as 16-bit PGM and the seen truth samples as XYZ "
+                  "into this folder, and exit");
+  double cell_factor = 2, collapse_ratio = 0, collapse_error = 0;  // CoupledSimplification's defaults
+  app.add_option ("--cell-factor", cell_factor, "front-end frustum cell = factor x leaf")->capture_default_str ();
+  app.add_option ("--collapse-ratio", collapse_ratio, "front-end edge-collapse target ratio")->capture_default_str ();
+  app.add_option ("--collapse-error", collapse_error, "front-end collapse error bound (m; 0 auto, < 0 none)")
+      ->capture_default_str ();
+  CLI11_PARSE (app, argc, argv);
+  const std::size_t samples = opt.quick ? 20000 : 100000;
+  const std::vector<Sequence> seqs = loadSequences (opt);
+  if (!opt.preview.empty ())
+  {
+    for (const auto& s : seqs)
+      writePreview (s, opt.preview, samples);
+    return 0;
+  }
+  pclx::bench::CsvWriter out (csv);
+  std::ofstream fcsv;
+  if (!frames_csv.empty ())
+  {
+    fcsv.open (frames_csv);
+    fcsv << "input,method,leaf,frame,ms\n";
+  }
+  Bench bench{out, frames_csv.empty () ? nullptr : &fcsv, samples, cell_factor, collapse_ratio, collapse_error};
+  for (const auto& s : seqs)
+    runSequence (bench, s, opt);
   return 0;
 }

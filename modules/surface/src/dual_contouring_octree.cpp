@@ -1290,7 +1290,7 @@ private:
   {
     Eigen::Vector3d p, n;  // leaf units, relative to the root's origin
   };
-  // Per cell: 0 no surface, 1 one component off the rim (may merge), 2 fixed.
+  // Per cell: 0 no seen surface, 1 one component (may merge), 2 fixed.
   enum : std::uint8_t { kEmpty = 0, kSimple = 1, kFixed = 2 };
 
   // Faces of the cell where the two segments of a four-crossing face are kept apart only if
@@ -1359,7 +1359,9 @@ private:
       }
       std::array<int, 12> comp;
       const int n = cellComponents (inside, joinedFaces (x, y, z, inside), comp);
-      bool rim = false;
+      // Crossed edges with an unobserved end give no polygon: a cell with only such edges is
+      // outside what was seen (no merge cares about it), one with both kinds lies on a rim.
+      bool open = false, seen = false;
       std::array<Qef, 4> q;
       std::uint32_t bits = 0;
       for (int e = 0; e < 12; ++e)
@@ -1367,8 +1369,10 @@ private:
         if (comp[e] < 0)
           continue;
         const auto& ec = cellTables ().edge_corners[e];
-        rim |= block_.at (x + (ec[0] & 1), y + (ec[0] >> 1 & 1), z + (ec[0] >> 2)) == 0 ||
-               block_.at (x + (ec[1] & 1), y + (ec[1] >> 1 & 1), z + (ec[1] >> 2)) == 0;
+        const bool unobserved = block_.at (x + (ec[0] & 1), y + (ec[0] >> 1 & 1), z + (ec[0] >> 2)) == 0 ||
+                                block_.at (x + (ec[1] & 1), y + (ec[1] >> 1 & 1), z + (ec[1] >> 2)) == 0;
+        open |= unobserved;
+        seen |= !unobserved;
         bits |= static_cast<std::uint32_t> (comp[e]) << (2 * e);
         Eigen::Vector3d p, nn;
         const bool plane = edgeCrossing (x, y, z, e, p, nn);
@@ -1380,6 +1384,7 @@ private:
         }
       }
       plane_end_[ci] = static_cast<std::uint32_t> (planes_.size ());
+      const bool rim = open && seen;
       r_.rim += rim;
       comp_bits_[ci] = bits;
       ncomp_[ci] = static_cast<std::uint8_t> (n);
@@ -1389,7 +1394,7 @@ private:
         r_.escaped += q[c].solve (kFaceMargin, 1 - kFaceMargin, v);
         comp_pos_.push_back (v + Eigen::Vector3d (x, y, z));
       }
-      state_[ci] = (n == 1 && !rim) ? kSimple : kFixed;
+      state_[ci] = !seen ? kEmpty : (n == 1 ? kSimple : kFixed);
       if (eps_ > 0 && n == 1)
         qef_[ci] = q[0];
     }
