@@ -502,6 +502,19 @@ struct Bench
   std::ofstream* frames_csv;
   std::size_t samples;
   double cell_factor, collapse_ratio, collapse_error;
+  std::string mesh_dir;  // when set, every IDC and TSDF mesh is written there as PLY
+
+  void
+  saveMesh (const Sequence& s, const std::string& method, const std::string& params, const pcl::PolygonMesh& mesh)
+  {
+    if (mesh_dir.empty ())
+      return;
+    std::string name = s.name + "_" + method + "_" + params;
+    for (char& c : name)
+      if (c == ';' || c == '=')
+        c = '_';
+    pcl::io::savePLYFileBinary (mesh_dir + "/" + name + ".ply", mesh);
+  }
 
   Quality
   measure (const TriangleMesh& mesh, const Truth* truth)
@@ -574,7 +587,10 @@ struct Bench
     pcl::IncrementalDualContouring<pcl::PointXYZ> idc;
     idc.setLeafSize (leaf);
     idc.setSimplificationError (eps);
-    idc.getSimplification ().setFrustumCellSize (cell_factor * leaf);
+    if (cell_factor > 0)
+      idc.getSimplification ().setFrustumCellSize (cell_factor * leaf);
+    else
+      idc.getSimplification ().setFrustumCellPixels (8);  // fixed 8 x 8 pixel blocks, for comparison
     idc.getSimplification ().setCollapseTargetRatio (collapse_ratio);
     idc.getSimplification ().setCollapseMaxError (collapse_error);
     idc.setDepthRange (0.1f, float (s.depth_trunc));  // as Open3D's depth_trunc
@@ -614,6 +630,8 @@ struct Bench
     char params[96];
     std::snprintf (params, sizeof params, "leaf=%g;eps=%g;cell=%g;collapse=%g;collapse_err=%g", leaf, eps,
                    cell_factor * leaf, collapse_ratio, collapse_error);
+    if (!incremental)
+      saveMesh (s, "idc", params, mesh);
     row (s, incremental ? "idc_incremental" : "idc", params, q, ms, extract, st.memory_bytes / 1048576.0,
          {{"leaves", double (st.leaves)}, {"escaped_vertices", double (st.escaped_vertices)},
           {"failed_frames", double (failed)},
@@ -647,6 +665,8 @@ struct Bench
     const Quality q = measure (m, truth);
     char params[96];
     std::snprintf (params, sizeof params, "voxel=%g;sdf_trunc=%g", voxel, 4 * voxel);
+    if (!mesh_dir.empty ())
+      saveMesh (s, "open3d_scalable_tsdf", params, pclx::testing::toPolygonMesh (m));
     row (s, "open3d_scalable_tsdf", params, q, ms, extract, mem, {{"volume_units", double (units)}});
     if (frame_rows)
       frameRows (s, "open3d_scalable_tsdf", voxel, ms);
@@ -876,12 +896,16 @@ runSequence (Bench& bench, const Sequence& s, const Options& opt)
   for (double voxel : s.tsdf_voxels)
     bench.open3d (s, voxel, truth.get (), true);
 #endif
-  // ε in metres: the RMS plane distance a merged cell may have (IncrementalDualContouring::setSimplificationError).
+  // ε in metres: how far a merged vertex may lie from the crossing planes it replaces
+  // (IncrementalDualContouring::setSimplificationError), swept at every leaf of inputs with truth
+  // (at the middle leaf otherwise), so that the chart shows each leaf's error against triangles.
   const std::vector<double> eps_sweep =
       opt.quick ? std::vector<double>{0.01} : std::vector<double>{0.0003, 0.001, 0.003, 0.01, 0.03, 0.1};
   const double mid = s.leaves[s.leaves.size () > 2 ? 1 : s.leaves.size () - 1];
-  for (double eps : eps_sweep)
-    bench.idc (s, mid, eps, false, truth.get (), false);
+  for (double leaf : s.leaves)
+    if (leaf == mid || (truth && !opt.quick))
+      for (double eps : eps_sweep)
+        bench.idc (s, leaf, eps, false, truth.get (), false);
   bench.idc (s, mid, 0, true, truth.get (), true);
   if (s.object && (!opt.quick || s.name.find ("orbit") != std::string::npos))
     bench.pclPeers (s, mid, truth.get ());
@@ -903,6 +927,8 @@ main (int argc, char** argv)
   std::string csv, frames_csv;
   Options opt;
   app.add_option ("--csv", csv, "also write the rows to this file");
+  std::string mesh_dir;
+  app.add_option ("--mesh-dir", mesh_dir, "write every IDC and TSDF mesh to this folder (PLY)");
   app.add_option ("--frames-csv", frames_csv, "per-frame times: input,method,leaf,frame,ms");
   app.add_option ("--only", opt.only, "run only the inputs whose name contains this");
   app.add_flag ("--quick", opt.quick, "small sequences, two detail levels (< 1 min)");
@@ -910,7 +936,8 @@ main (int argc, char** argv)
                   "write a few depth frames of every input as 16-bit PGM and the seen truth samples as XYZ "
                   "into this folder, and exit");
   double cell_factor = 2, collapse_ratio = 0, collapse_error = 0;  // CoupledSimplification's defaults
-  app.add_option ("--cell-factor", cell_factor, "front-end frustum cell = factor x leaf")->capture_default_str ();
+  app.add_option ("--cell-factor", cell_factor, "front-end frustum cell = factor x leaf (0: 8 x 8 pixel blocks)")
+      ->capture_default_str ();
   app.add_option ("--collapse-ratio", collapse_ratio, "front-end edge-collapse target ratio")->capture_default_str ();
   app.add_option ("--collapse-error", collapse_error, "front-end collapse error bound (m; 0 auto, < 0 none)")
       ->capture_default_str ();
@@ -930,7 +957,7 @@ main (int argc, char** argv)
     fcsv.open (frames_csv);
     fcsv << "input,method,leaf,frame,ms\n";
   }
-  Bench bench{out, frames_csv.empty () ? nullptr : &fcsv, samples, cell_factor, collapse_ratio, collapse_error};
+  Bench bench{out, frames_csv.empty () ? nullptr : &fcsv, samples, cell_factor, collapse_ratio, collapse_error, mesh_dir};
   for (const auto& s : seqs)
     runSequence (bench, s, opt);
   return 0;

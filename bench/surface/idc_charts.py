@@ -53,7 +53,7 @@ def detail(d):
 
 STYLE = {
     "idc": dict(color="tab:blue", marker="o", label="IDC, eps = 0 (one point per leaf)"),
-    "idc_eps": dict(color="tab:cyan", marker="s", label="IDC eps sweep (middle leaf)"),
+    "idc_eps": dict(color="tab:cyan", marker="s", label="IDC eps sweep (one curve per leaf)"),
     "open3d_scalable_tsdf": dict(color="tab:red", marker="^", label="Open3D ScalableTSDF + MC (voxel sweep)"),
     "pcl_marching_cubes_hoppe": dict(color="tab:green", marker="v", label="PCL MarchingCubesHoppe (fused cloud)"),
     "pcl_greedy_projection": dict(color="tab:olive", marker="D", label="PCL GreedyProjection (fused cloud)"),
@@ -64,9 +64,14 @@ def mm(x):
     return "%g mm" % round(1e3 * x, 2)
 
 
+def eps_leaves(rs):
+    """The leaves at which IDC's eps was swept (rows with eps > 0)."""
+    return sorted({detail(r) for r in rs if r["method"] == "idc" and r.get("p_eps", 0) > 0})
+
+
 def eps_leaf(rs):
-    """The leaf of IDC's eps sweep (the rows with eps > 0), or None."""
-    leaves = sorted({detail(r) for r in rs if r["method"] == "idc" and r.get("p_eps", 0) > 0})
+    """The finest leaf of IDC's eps sweep, or None."""
+    leaves = eps_leaves(rs)
     return leaves[0] if leaves else None
 
 
@@ -82,17 +87,15 @@ def error_vs_triangles(rows, out):
     handles = {}
     for ax, inp in zip(axes.flat, inputs):
         rs = [r for r in rows if r["input"] == inp and "chamfer" in r and r["method"] != "idc_incremental"]
-        leaf = eps_leaf(rs)
-        curves = {
-            "open3d_scalable_tsdf": sorted([r for r in rs if r["method"] == "open3d_scalable_tsdf"],
-                                           key=lambda r: -detail(r)),
-            "idc_eps": sorted([r for r in rs if r["method"] == "idc" and leaf is not None and detail(r) == leaf],
-                              key=lambda r: -r.get("p_eps", 0)),
-        }
+        curves = [("open3d_scalable_tsdf", sorted([r for r in rs if r["method"] == "open3d_scalable_tsdf"],
+                                                  key=lambda r: -detail(r)))]
+        for leaf in eps_leaves(rs):
+            curves.append(("idc_eps", sorted([r for r in rs if r["method"] == "idc" and detail(r) == leaf],
+                                             key=lambda r: -r.get("p_eps", 0))))
         points = {"idc": [r for r in rs if r["method"] == "idc" and r.get("p_eps", 0) == 0]}
         for m in ("pcl_marching_cubes_hoppe", "pcl_greedy_projection"):
             points[m] = [r for r in rs if r["method"] == m]
-        for key, crs in curves.items():
+        for key, crs in curves:
             if len(crs) < 1:
                 continue
             st = STYLE[key]
@@ -167,8 +170,8 @@ def error_vs_eps(rows, out):
         ax.grid(True, which="both", alpha=0.3)
     fig.legend(list(handles.values()), list(handles.keys()), loc="lower center", ncol=len(handles), fontsize=8,
                frameon=False)
-    fig.suptitle("IDC octree simplification: error and triangles against eps, the RMS plane distance a merged cell "
-                 "may have (eps = 0 drawn at 1e-5)", fontsize=10)
+    fig.suptitle("IDC octree simplification at the finest swept leaf: error and triangles against eps, the largest "
+                 "distance of a merged vertex to the crossing planes it replaces (eps = 0 drawn at 1e-5)", fontsize=10)
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     fig.savefig(out + "/idc_error_vs_eps.png", dpi=110)
 

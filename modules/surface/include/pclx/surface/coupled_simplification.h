@@ -65,11 +65,12 @@ public:
   // §3.3 frustum cells: pixel block side B (≥ 1, default 8; 1 = no clustering) and depth-bin
   // ratio r (> 0; 0 = auto: B / fx, about cubic cells; organized clouds without intrinsics:
   // B × the mean neighbour spacing / range).
-  void setFrustumCellPixels (int b) { cell_pixels_ = b; }
+  void setFrustumCellPixels (int b) { cell_pixels_ = b; cell_size_ = 0; }  // the last setter wins
   int getFrustumCellPixels () const { return cell_pixels_; }
   void setDepthBinRatio (double r) { bin_ratio_ = r; }
   // Frustum cell side in metres at the frame's median range (> 0; 0 = off, default): B is
-  // chosen per frame as size · fx / median range (1–64 pixels), e.g. the octree leaf size.
+  // chosen per frame as size · fx / median range (1–64 pixels), e.g. the octree leaf size
+  // (pcl::IncrementalDualContouring sets 2 leaves).
   void setFrustumCellSize (double metres) { cell_size_ = metres; }
   double getFrustumCellSize () const { return cell_size_; }
   // Edge collapse stops at the first of: triangles ≤ target_ratio · clustered triangles

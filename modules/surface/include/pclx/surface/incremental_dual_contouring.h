@@ -55,10 +55,24 @@ public:
     double last_reconstruct_ms = 0;
   };
 
-  IncrementalDualContouring () = default;
+  // The front end's frustum cells follow the leaf size (kCellLeaves leaves at the frame's
+  // median range), so that a finer leaf gets finer frames.
+  IncrementalDualContouring () { simplification_.setFrustumCellSize (kCellLeaves * octree_.getLeafSize ()); }
 
-  // "Detail": the leaf edge in metres (> 0, default 0.01 = 1 cm). Before the first frame.
-  bool setLeafSize (double h) { return settled (octree_.setLeafSize (h)); }
+  // "Detail": the leaf edge in metres (> 0, default 0.01 = 1 cm). Before the first frame. Frustum
+  // cells still at their default follow it.
+  bool
+  setLeafSize (double h)
+  {
+    const bool cells_follow = simplification_.getFrustumCellSize () == kCellLeaves * octree_.getLeafSize ();
+    if (!settled (octree_.setLeafSize (h)))
+      return false;
+    if (cells_follow)
+      simplification_.setFrustumCellSize (kCellLeaves * h);
+    return true;
+  }
+  // Default frustum cell side, in leaves.
+  static constexpr double kCellLeaves = 2.0;
   double getLeafSize () const { return octree_.getLeafSize (); }
   // Volume of interest; unset: from the first frame (§3.4.1). Growth (default on) adds roots
   // for geometry outside it; off: such geometry is dropped and counted.
