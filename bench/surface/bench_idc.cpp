@@ -492,7 +492,7 @@ makeTruth (const Sequence& s, std::size_t samples)
 
 struct Quality
 {
-  double chamfer = -1, hausdorff = -1, acc_mean = -1, comp_mean = -1, seen_fraction = -1;
+  double chamfer = -1, hausdorff = -1, acc_mean = -1, comp_mean = -1, acc_max = -1, comp_max = -1, seen_fraction = -1;
   std::size_t triangles = 0, boundary = 0, nonmanifold = 0;
 };
 
@@ -530,10 +530,12 @@ struct Bench
     {
       const auto e = rbf_bench::meshError (mesh, *truth->distance, truth->samples, samples);
       q.acc_mean = e.out_to_truth_mean;
+      q.acc_max = e.out_to_truth_max;
       q.seen_fraction = truth->seenFraction ();
       if (!truth->samples.empty ())
       {
         q.comp_mean = e.truth_to_out_mean;
+        q.comp_max = e.truth_to_out_max;
         q.chamfer = e.chamfer ();
         q.hausdorff = e.hausdorff ();
       }
@@ -561,6 +563,10 @@ struct Bench
       m.emplace_back ("accuracy_mean", q.acc_mean);
     if (q.comp_mean >= 0)
       m.emplace_back ("completion_mean", q.comp_mean);
+    if (q.acc_max >= 0)
+      m.emplace_back ("accuracy_max", q.acc_max);
+    if (q.comp_max >= 0)
+      m.emplace_back ("completion_max", q.comp_max);
     if (q.seen_fraction >= 0)
       m.emplace_back ("truth_seen_fraction", q.seen_fraction);
     m.insert (m.end (), extra.begin (), extra.end ());

@@ -75,7 +75,7 @@ sevenScenes (const std::string& dir, std::size_t max_frames)
 }
 
 std::vector<Frame>
-rendered (std::size_t count)
+rendered (std::size_t count, int width, int height)
 {
   using namespace pclx::testing;
   // A room corner with a box, a sphere and a torus: walls, edges and curved objects.
@@ -89,7 +89,12 @@ rendered (std::size_t count)
   wall.transform (Eigen::Affine3f (Eigen::Translation3f (0, 1.6f, 1.2f)));
   scene.append (sphere); scene.append (torus); scene.append (floor); scene.append (wall);
   const RayCaster caster (scene);
-  PinholeIntrinsics K;
+  PinholeIntrinsics K;  // the Kinect's field of view at the requested size
+  K.width = width;
+  K.height = height;
+  K.fx = K.fy = 525.f * width / 640.f;
+  K.cx = (width - 1) / 2.f;
+  K.cy = (height - 1) / 2.f;
   std::vector<Frame> frames;
   for (std::size_t i = 0; i < count; ++i)
   {
@@ -150,7 +155,8 @@ main (int argc, char** argv)
     if (!f.empty ())
       inputs.emplace_back ("7scenes-office", std::move (f));
   }
-  inputs.emplace_back ("rendered-room", rendered (quick ? 10 : 30));
+  inputs.emplace_back ("rendered-room", rendered (quick ? 10 : 30, 640, 480));
+  inputs.emplace_back ("rendered-room-1200x680", rendered (quick ? 10 : 30, 1200, 680));
 
   for (const auto& [input, frames] : inputs)
   {

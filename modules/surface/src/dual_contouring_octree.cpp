@@ -1290,7 +1290,7 @@ private:
   {
     Eigen::Vector3d p, n;  // leaf units, relative to the root's origin
   };
-  // Per cell: 0 no seen surface, 1 one component (may merge), 2 fixed.
+  // Per cell: 0 no seen surface, 1 one component off the rim (may merge), 2 fixed.
   enum : std::uint8_t { kEmpty = 0, kSimple = 1, kFixed = 2 };
 
   // Faces of the cell where the two segments of a four-crossing face are kept apart only if
@@ -1360,7 +1360,8 @@ private:
       std::array<int, 12> comp;
       const int n = cellComponents (inside, joinedFaces (x, y, z, inside), comp);
       // Crossed edges with an unobserved end give no polygon: a cell with only such edges is
-      // outside what was seen (no merge cares about it), one with both kinds lies on a rim.
+      // outside what was seen (no merge cares about it), one with both kinds lies on a rim and
+      // stays fine (merged across a rim, the polygons of a thin part's two sides can cancel).
       bool open = false, seen = false;
       std::array<Qef, 4> q;
       std::uint32_t bits = 0;
@@ -1394,7 +1395,7 @@ private:
         r_.escaped += q[c].solve (kFaceMargin, 1 - kFaceMargin, v);
         comp_pos_.push_back (v + Eigen::Vector3d (x, y, z));
       }
-      state_[ci] = !seen ? kEmpty : (n == 1 ? kSimple : kFixed);
+      state_[ci] = !seen ? kEmpty : ((n == 1 && !rim) ? kSimple : kFixed);
       if (eps_ > 0 && n == 1)
         qef_[ci] = q[0];
     }
