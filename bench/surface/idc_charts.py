@@ -218,10 +218,14 @@ def time_vs_frame(path, out):
     inputs = [i for i in dict.fromkeys(k[0] for k in data)]
     if not inputs:
         return
-    fig, axes = plt.subplots(1, len(inputs), figsize=(5 * len(inputs), 4.5), squeeze=False)
+    cols = min(3, len(inputs))
+    nrows = (len(inputs) + cols - 1) // cols
+    fig, axes = plt.subplots(nrows, cols, figsize=(5.5 * cols, 3.8 * nrows + 0.5), squeeze=False)
     colors = {"idc": "tab:blue", "idc_incremental": "tab:purple", "open3d_scalable_tsdf": "tab:red"}
     handles = {}
-    for ax, inp in zip(axes[0], inputs):
+    for ax in list(axes.flat)[len(inputs):]:
+        ax.set_visible(False)
+    for ax, inp in zip(axes.flat, inputs):
         leaves = sorted({k[2] for k in data if k[0] == inp and k[1] == "idc_incremental"}) or \
             sorted({k[2] for k in data if k[0] == inp})
         leaf = leaves[0]
@@ -243,7 +247,7 @@ def time_vs_frame(path, out):
     fig.legend(list(handles.values()), list(handles.keys()), loc="lower center", ncol=len(handles), fontsize=8,
                frameon=False)
     fig.suptitle("Time per frame against frame index (does the cost grow with the map?)")
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    fig.tight_layout(rect=(0, 0.5 / (3.8 * nrows + 0.5), 1, 1))
     fig.savefig(out + "/idc_time_vs_frame.png", dpi=110)
 
 

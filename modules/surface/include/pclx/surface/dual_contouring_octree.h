@@ -56,7 +56,10 @@
 // vertex while Ju et al.'s (2002) topology test holds (one manifold component for the node's
 // corners; the signs at the middles of its edges, faces and of the node agree with a corner
 // they lie between) and the merged vertex lies within ε of every averaged crossing plane of the
-// node: a merge neither opens a hole nor moves the surface by more than ε.
+// node: a merge neither opens a hole nor moves a crossing plane by more than ε. The test reads
+// the signs with unobserved vertices taking those of the observed ones a few steps away, so the
+// unseen inside of a wall does not count as a second surface; cells on the rim of what was seen
+// do not merge (the two sides of a thin part could cancel).
 // Incremental: a root whose data changed recomputes the vertices of the roots around it (a
 // cell's vertices read its neighbours' signs and edges); polygons are redone for the roots
 // within 2 of a changed one; all other roots keep their cached triangles.
