@@ -493,7 +493,7 @@ makeTruth (const Sequence& s, std::size_t samples)
 struct Quality
 {
   double chamfer = -1, hausdorff = -1, acc_mean = -1, comp_mean = -1, acc_max = -1, comp_max = -1, seen_fraction = -1;
-  std::size_t triangles = 0, boundary = 0, nonmanifold = 0;
+  std::size_t triangles = 0, boundary = 0, nonmanifold = 0, duplicates = 0, zero_area = 0;
 };
 
 struct Bench
@@ -526,6 +526,14 @@ struct Bench
     const auto topo = rbf_bench::topology (mesh);
     q.boundary = topo.boundary_edges;
     q.nonmanifold = topo.nonmanifold_edges;
+    std::vector<Eigen::Vector3f> sorted = mesh.vertices;
+    std::sort (sorted.begin (), sorted.end (), [] (const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
+      return std::lexicographical_compare (a.data (), a.data () + 3, b.data (), b.data () + 3);
+    });
+    q.duplicates = static_cast<std::size_t> (std::distance (
+        std::unique (sorted.begin (), sorted.end ()), sorted.end ()));
+    for (const auto& f : mesh.faces)
+      q.zero_area += !((mesh.vertices[f[1]] - mesh.vertices[f[0]]).cross (mesh.vertices[f[2]] - mesh.vertices[f[0]]).squaredNorm () > 0);
     if (truth)
     {
       const auto e = rbf_bench::meshError (mesh, *truth->distance, truth->samples, samples);
@@ -553,7 +561,9 @@ struct Bench
                            {"triangles", double (q.triangles)},
                            {"memory_mib", memory_mib},
                            {"boundary_edges", double (q.boundary)},
-                           {"nonmanifold_edges", double (q.nonmanifold)}};
+                           {"nonmanifold_edges", double (q.nonmanifold)},
+                           {"duplicate_vertices", double (q.duplicates)},
+                           {"zero_area_triangles", double (q.zero_area)}};
     if (q.chamfer >= 0)
     {
       m.emplace_back ("chamfer", q.chamfer);

@@ -159,7 +159,9 @@ struct Qef
   bool
   solve (double lo, double hi, Eigen::Vector3d& x) const
   {
-    const Eigen::Vector3d m = points > 0 ? Eigen::Vector3d (mass / points) : Eigen::Vector3d::Constant (0.5 * (lo + hi));
+    const Eigen::Vector3d m = (points > 0 ? Eigen::Vector3d (mass / points) : Eigen::Vector3d::Constant (0.5 * (lo + hi)))
+                                  .cwiseMax (lo)
+                                  .cwiseMin (hi);
     x = m;
     if (planes == 0)
       return false;
@@ -177,7 +179,7 @@ struct Qef
         }
     if ((x.array () < lo).any () || (x.array () > hi).any ())
     {
-      x = m.cwiseMax (lo).cwiseMin (hi);
+      x = m;
       return true;
     }
     return false;
@@ -1337,6 +1339,24 @@ private:
     p[axis] += frac;
     return plane;
   }
+  // Components of one cell whose vertices (nearly) coincide, as symmetric crossings can place
+  // them, are moved apart towards the middle of their own first edge: no two output vertices
+  // share a position.
+  static void
+  separateComponentVertices (const std::array<int, 12>& comp, int n, std::array<Eigen::Vector3d, 4>& v)
+  {
+    for (int b = 1; b < n; ++b)
+      for (int a = 0; a < b; ++a)
+      {
+        if ((v[a] - v[b]).squaredNorm () > kFaceMargin * kFaceMargin)
+          continue;
+        const int e = static_cast<int> (std::find (comp.begin (), comp.end (), b) - comp.begin ());
+        const auto& ec = cellTables ().edge_corners[e];
+        const Eigen::Vector3d mid = 0.5 * (Eigen::Vector3d (ec[0] & 1, ec[0] >> 1 & 1, ec[0] >> 2) +
+                                           Eigen::Vector3d (ec[1] & 1, ec[1] >> 1 & 1, ec[1] >> 2));
+        v[b] = (v[b] + 0.1 * (mid - v[b])).cwiseMax (kFaceMargin).cwiseMin (1 - kFaceMargin);
+      }
+  }
   void
   cellPass ()
   {
@@ -1389,12 +1409,12 @@ private:
       r_.rim += rim;
       comp_bits_[ci] = bits;
       ncomp_[ci] = static_cast<std::uint8_t> (n);
+      std::array<Eigen::Vector3d, 4> v;
       for (int c = 0; c < n; ++c)
-      {
-        Eigen::Vector3d v;
-        r_.escaped += q[c].solve (kFaceMargin, 1 - kFaceMargin, v);
-        comp_pos_.push_back (v + Eigen::Vector3d (x, y, z));
-      }
+        r_.escaped += q[c].solve (kFaceMargin, 1 - kFaceMargin, v[c]);
+      separateComponentVertices (comp, n, v);
+      for (int c = 0; c < n; ++c)
+        comp_pos_.push_back (v[c] + Eigen::Vector3d (x, y, z));
       state_[ci] = !seen ? kEmpty : ((n == 1 && !rim) ? kSimple : kFixed);
       if (eps_ > 0 && n == 1)
         qef_[ci] = q[0];

@@ -371,6 +371,8 @@ TEST (IncrementalDualContouring, DistantFrameTouchesFewRootsAndGrowsVolume)
   idc.reconstruct (m2);
   EXPECT_GT (idc.getStats ().roots, roots_a);
   EXPECT_LT (idc.getStats ().repolygonised_roots, idc.getStats ().roots - roots_a + 1);
+  expectManifold (check (m1));
+  expectManifold (check (m2));
   // The first sphere's triangles are all still there.
   std::size_t near_a = 0;
   for (const auto& p : points (m2))
@@ -405,6 +407,7 @@ TEST (IncrementalDualContouring, SignResolutionConsistentCell)
   oct.reconstruct (mesh);
   EXPECT_EQ (oct.getStats ().missing_vertices, 0u);
   EXPECT_GT (mesh.polygons.size (), 0u);
+  expectManifold (check (mesh));
 }
 
 // Fig. 3.11: two fragments with boundary give an unknown vertex whose neighbours disagree; it
@@ -528,6 +531,7 @@ TEST (IncrementalDualContouring, PlaneRemovalIsolatesObject)
   // A large plane goes (the slab's top or bottom face, RANSAC picks one), the ball stays.
   EXPECT_GT (idc.getStats ().removed_plane_triangles, all.polygons.size () / 5);
   EXPECT_LT (object.polygons.size (), all.polygons.size ());
+  expectManifold (check (all));
   auto ballVertices = [] (const pcl::PolygonMesh& m) {
     std::size_t n = 0;
     for (const auto& p : points (m))
@@ -741,6 +745,7 @@ TEST (IncrementalDualContouring, HermiteDataAverageNoisyFrames)
       EXPECT_TRUE (oct.addFrameMesh (noisyPlane (100 + k)));
     pcl::PolygonMesh mesh;
     oct.reconstruct (mesh);
+    expectManifold (check (mesh));
     double sum = 0;
     std::size_t count = 0;
     for (const auto& p : points (mesh))
@@ -818,6 +823,8 @@ TEST (IncrementalDualContouring, OrganizedCloudLikeDepthImage)
   a.reconstruct (ma);
   b.reconstruct (mb);
   EXPECT_GT (ma.polygons.size (), 100u);
+  expectManifold (check (ma));
+  expectManifold (check (mb));
   EXPECT_GT (mb.polygons.size (), ma.polygons.size () / 2);
   EXPECT_LT (mb.polygons.size (), ma.polygons.size () * 2);
   // One view is a fragment with a rim: rim cells have few planes (≤ 1.6 leaves measured).
