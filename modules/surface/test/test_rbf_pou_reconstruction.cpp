@@ -514,3 +514,54 @@ TEST (RBFPOUReconstruction, PolygonMeshAndPointCloudOutputsAgree)
     ASSERT_EQ (mesh.polygons[i].vertices, polygons[i].vertices);
   EXPECT_GT (a.getStats ().t_output, 0.0);
 }
+
+// Correct, oriented normals are never turned by the vote: on a clean torus the mesh is the one
+// without the vote, and on a plate thinner than the sample spacing the other side's opposite
+// normals (off the point's tangent plane) do not outvote a point.
+TEST (RBFPOUReconstruction, VoteNeverTurnsCorrectNormals)
+{
+  const auto torus = sample (torusMesh (), 8000, 31);
+  Recon with, without;
+  without.setNormalVote (false);
+  const pcl::PolygonMesh a = run (with, torus), b = run (without, torus);
+  EXPECT_EQ (with.getStats ().normals_voted, 0u);
+  ASSERT_GT (a.polygons.size (), 0u);
+  EXPECT_EQ (a.cloud.data, b.cloud.data);
+  ASSERT_EQ (a.polygons.size (), b.polygons.size ());
+  for (std::size_t i = 0; i < a.polygons.size (); ++i)
+    ASSERT_EQ (a.polygons[i].vertices, b.polygons[i].vertices);
+
+  const std::size_t n = 20000;
+  const double spacing = std::sqrt (2.0 / n);  // two faces of a unit plate
+  const auto plate = pclx::testing::makeThinPlate (1.f, static_cast<float> (0.7 * spacing), 16);
+  Recon thin;
+  thin.setInputCloud (sample (plate, n, 37));
+  pcl::PolygonMesh m;
+  thin.reconstruct (m);
+  EXPECT_EQ (thin.getStats ().normals_voted, 0u);
+}
+
+// reconstruct () without an input cloud is refused (PCL's base class would dereference it),
+// also through a base-class pointer.
+TEST (RBFPOUReconstruction, NoInputIsRefused)
+{
+  Recon rec;
+  pcl::PolygonMesh mesh;
+  mesh.polygons.resize (3);
+  rec.reconstruct (mesh);
+  EXPECT_TRUE (mesh.polygons.empty ());
+  EXPECT_EQ (mesh.cloud.width * mesh.cloud.height, 0u);
+  EXPECT_NE (rec.getLastError ().find ("input"), std::string::npos) << rec.getLastError ();
+
+  pcl::PCLSurfaceBase<pcl::PointNormal>::Ptr base (new Recon);
+  pcl::PolygonMesh other;
+  base->reconstruct (other);
+  EXPECT_TRUE (other.polygons.empty ());
+
+  Cloud points;
+  points.resize (5);
+  std::vector<pcl::Vertices> polygons (2);
+  rec.reconstruct (points, polygons);
+  EXPECT_TRUE (points.empty ());
+  EXPECT_TRUE (polygons.empty ());
+}

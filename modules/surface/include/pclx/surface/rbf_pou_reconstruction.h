@@ -99,11 +99,17 @@ public:
   // unoriented normals (PCA, PlanarOctreeNormalEstimation). Without it, unoriented input
   // gives a wrong F (a warning is printed when the vote below flips more than 10 %).
   void setOrientNormals (bool on) { orient_normals_ = on; }
-  // Neighbour vote (default on): a normal opposed to ≥ 6 of its 8 nearest neighbours'
-  // normals is flipped. Isolated flipped normals then cost nothing; thin sheets (whose
-  // other side is among the neighbours) are left alone.
+  // Neighbour vote (default on): a normal opposed (more than 120° away) to ≥ 6 of its 8 nearest
+  // neighbours' normals, counting only neighbours that lie on its tangent plane, is flipped.
+  // Isolated flipped normals then cost nothing; the other side of a thin sheet and the far
+  // side of a crease do not count, so correct normals are not turned.
   void setNormalVote (bool on) { normal_vote_ = on; }
   void setNumberOfThreads (unsigned int threads) { threads_ = threads; }
+
+  // PCL's reconstruct, refused with an error and an empty result when no input cloud is set
+  // (the base class would dereference it).
+  void reconstruct (PolygonMesh& output) override;
+  void reconstruct (PointCloud<PointNT>& points, std::vector<Vertices>& polygons) override;
 
   const Stats& getStats () const { return stats_; }
   const std::string& getLastError () const { return error_; }

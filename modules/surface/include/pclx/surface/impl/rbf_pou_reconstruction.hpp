@@ -376,8 +376,11 @@ RBFPOUReconstruction<PointNT>::build ()
   }
   if (vote)
   {
-    // A few Jacobi passes so that small clusters of flips also turn.
+    // A few Jacobi passes so that small clusters of flips also turn. A neighbour counts when it
+    // lies on the point's tangent plane (within half the mean spacing): a thin sheet's other
+    // side lies off it.
     std::vector<char> flip (n, 0);
+    const float on_plane = 0.5f * float (stats_.mean_spacing);
     for (int pass = 0; pass < 4; ++pass)
     {
       std::size_t changed = 0;
@@ -386,7 +389,11 @@ RBFPOUReconstruction<PointNT>::build ()
       {
         int against = 0;
         for (int j = 0; j < 8; ++j)
-          against += nn[8 * i + j] >= 0 && nrm_[i].dot (nrm_[nn[8 * i + j]]) < 0;
+        {
+          const int k = nn[8 * i + j];
+          against += k >= 0 && nrm_[i].dot (nrm_[k]) < -0.5f &&
+                     std::abs (nrm_[i].dot (pts_[k] - pts_[i])) <= on_plane;
+        }
         flip[i] = nn[8 * i + 7] >= 0 && against >= 6;
         changed += flip[i];
       }
@@ -1109,6 +1116,31 @@ RBFPOUReconstruction<PointNT>::makeVertices (std::vector<Eigen::Vector3f>& verti
       p.getNormalVector3fMap () /= len;
   }
   stats_.t_output = seconds (t0);
+}
+
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::reconstruct (PolygonMesh& output)
+{
+  if (!input_)
+  {
+    fail ("no input cloud (setInputCloud)");
+    output = PolygonMesh ();
+    return;
+  }
+  SurfaceReconstruction<PointNT>::reconstruct (output);
+}
+
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::reconstruct (PointCloud<PointNT>& points, std::vector<Vertices>& polygons)
+{
+  if (!input_)
+  {
+    fail ("no input cloud (setInputCloud)");
+    points.clear ();
+    polygons.clear ();
+    return;
+  }
+  SurfaceReconstruction<PointNT>::reconstruct (points, polygons);
 }
 
 template <typename PointNT> void
