@@ -42,6 +42,15 @@ CsvWriter::row (const std::string& module, const std::string& method, const std:
     file_ << s.str () << std::endl;
 }
 
+void
+passiveOpenMpWaits (char** argv)
+{
+  if (std::getenv ("OMP_WAIT_POLICY"))
+    return;
+  setenv ("OMP_WAIT_POLICY", "PASSIVE", 1);
+  execv ("/proc/self/exe", argv);
+}
+
 std::optional<std::string>
 sharedDataDir ()
 {

@@ -64,6 +64,12 @@ timeBestWallCpu (Fn&& fn, int repeats = 1)
   return {wall, cpu};
 }
 
+// libgomp spins in its barriers by default; on a shared 2-core machine that makes OpenMP code
+// with many short parallel regions (Open3D's Integrate and Poisson) many times slower than its
+// work. Sets OMP_WAIT_POLICY=PASSIVE and re-executes the program when it is unset (libgomp reads
+// it when it loads); returns only when the policy was already set.
+void passiveOpenMpWaits (char** argv);
+
 // ../shared/data beside the checkout (or $PCLX_DATA_DIR); prints to stderr when absent
 // so the bench log says it fell back to generated scenes.
 std::optional<std::string> sharedDataDir ();

@@ -932,13 +932,7 @@ runSequence (Bench& bench, const Sequence& s, const Options& opt)
 int
 main (int argc, char** argv)
 {
-  // OpenMP threads that spin while waiting (libgomp's default) slow Open3D's Integrate many times
-  // over on a shared, loaded machine; libgomp reads the policy at load time, so set it and start again.
-  if (!std::getenv ("OMP_WAIT_POLICY"))
-  {
-    setenv ("OMP_WAIT_POLICY", "PASSIVE", 1);
-    execv ("/proc/self/exe", argv);
-  }
+  pclx::bench::passiveOpenMpWaits (argv);
   CLI::App app ("IncrementalDualContouring vs Open3D ScalableTSDFVolume and PCL MarchingCubesHoppe / GP3");
   std::string csv, frames_csv;
   Options opt;

@@ -129,14 +129,7 @@ percentile (std::vector<double> v, double q)
 int
 main (int argc, char** argv)
 {
-  // OpenMP threads that spin while waiting (libgomp's default) cost Open3D's Integrate 30×
-  // on a shared, loaded machine (765 vs 21 ms per 7-Scenes frame at 2 cm, measured here);
-  // libgomp reads the policy at load time, so set it and start again.
-  if (!std::getenv ("OMP_WAIT_POLICY"))
-  {
-    setenv ("OMP_WAIT_POLICY", "PASSIVE", 1);
-    execv ("/proc/self/exe", argv);
-  }
+  pclx::bench::passiveOpenMpWaits (argv);
   CLI::App app ("IDC front end (CoupledSimplification) per frame vs pcl::OrganizedFastMesh");
   std::string csv;
   bool quick = false;

@@ -667,14 +667,7 @@ main (int argc, char** argv)
   app.add_option ("--slow-time-limit", opt.slow_time_limit, "seconds per MarchingCubesRBF run")
       ->capture_default_str ();
   CLI11_PARSE (app, argc, argv);
-  // libgomp spins in its barriers by default; on a shared, oversubscribed machine that makes
-  // OpenMP code with many short parallel regions (both Poissons) 5-10x slower than its work.
-  // Every method gets the passive policy (re-exec: libgomp reads it when it loads).
-  if (!std::getenv ("OMP_WAIT_POLICY"))
-  {
-    setenv ("OMP_WAIT_POLICY", "PASSIVE", 1);
-    execv ("/proc/self/exe", argv);
-  }
+  pclx::bench::passiveOpenMpWaits (argv);
   if (opt.threads < 1)
   {
     std::cerr << "bench_rbf: --threads must be >= 1\n";

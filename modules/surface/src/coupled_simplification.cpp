@@ -465,8 +465,9 @@ CoupledSimplification::connect (bool dense_only)
     const float t = kf * std::min (range_[a], range_[b]);
     return d2 < t * t * scale2;
   };
-  // Per thread: its faces (clustered or dense), orientation vote and dense-face count.
-  struct Part
+  // Per thread: its faces (clustered or dense), orientation vote and dense-face count, each on
+  // its own cache line (the counters change with every face).
+  struct alignas (64) Part
   {
     std::vector<Eigen::Vector3i> tris;
     long vote = 0;
