@@ -144,9 +144,13 @@ def error_vs_eps(rows, out):
               if any(r["method"] == "idc" and r.get("p_eps", 0) > 0 for r in rows if r["input"] == i)]
     if not inputs:
         return
-    fig, axes = plt.subplots(1, len(inputs), figsize=(5 * len(inputs), 4.6), squeeze=False)
+    cols = min(3, len(inputs))
+    nrows = (len(inputs) + cols - 1) // cols
+    fig, axes = plt.subplots(nrows, cols, figsize=(5.5 * cols, 4.2 * nrows + 0.6), squeeze=False)
+    for ax in list(axes.flat)[len(inputs):]:
+        ax.set_visible(False)
     handles = {}
-    for ax, inp in zip(axes[0], inputs):
+    for ax, inp in zip(axes.flat, inputs):
         rs = [r for r in rows if r["input"] == inp and r["method"] == "idc"]
         leaf = eps_leaf(rs)
         if leaf is None:
@@ -170,9 +174,9 @@ def error_vs_eps(rows, out):
         ax.grid(True, which="both", alpha=0.3)
     fig.legend(list(handles.values()), list(handles.keys()), loc="lower center", ncol=len(handles), fontsize=8,
                frameon=False)
-    fig.suptitle("IDC octree simplification at the finest swept leaf: error and triangles against eps, the largest "
-                 "distance of a merged vertex to the crossing planes it replaces (eps = 0 drawn at 1e-5)", fontsize=10)
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    fig.suptitle("IDC octree simplification at the finest swept leaf: error and triangles against eps\n(the largest "
+                 "distance of a merged vertex to the crossing planes it replaces; eps = 0 drawn at 1e-5)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.6 / (4.2 * nrows + 0.6), 1, 1))
     fig.savefig(out + "/idc_error_vs_eps.png", dpi=110)
 
 
