@@ -627,7 +627,8 @@ struct SignResolver
           }
           if (std::find (seen.begin (), seen.begin () + nseen, w) != seen.begin () + nseen)
             continue;
-          // The seed's rules propagate inside cells, through leaf edges without intersection.
+          // The dissertation's rules propagate inside cells, through leaf edges without
+          // intersection.
           if (!openEdge (start, axis))
             continue;
           if (nseen < 64)
@@ -819,8 +820,9 @@ public:
       ++st_.multi_intersection_edges;
     const Eigen::Vector3d& n = ft_.normals[c.tri];
     // Eq. 3.1: S = (C − A)·N = frac · N_axis. With N pointing out, S > 0 means A lies behind
-    // the surface, i.e. inside (the seed's text says exterior; its figure and the geometry say
-    // interior). Odd count: B opposite; even: B as A, intersections disregarded (§3.4.3).
+    // the surface, i.e. inside (the dissertation's text says exterior; its figure and the
+    // geometry say interior). Odd count: B opposite; even: B as A, intersections disregarded
+    // (§3.4.3).
     const bool a_ext = n[axis] < 0;
     const bool b_ext = (count % 2) ? !a_ext : a_ext;
     Eigen::Vector3i b = s;

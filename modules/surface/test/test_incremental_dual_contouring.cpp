@@ -1,4 +1,4 @@
-// Tests of pcl::IncrementalDualContouring / pcl::DualContouringOctree (seed 004 §3.4–3.6).
+// Tests of pcl::IncrementalDualContouring / pcl::DualContouringOctree (da Paz 2017, §3.4–3.6).
 #include <pclx/surface/incremental_dual_contouring.h>
 #include <pclx/testing/depth_renderer.h>
 #include <pclx/testing/mesh_distance.h>
@@ -281,7 +281,7 @@ TEST (IncrementalDualContouring, BoxCornersKept)
   }
 }
 
-// The seed: incremental construction gives the batch result when nothing is simplified.
+// The dissertation: incremental construction gives the batch result when nothing is simplified.
 // Fragments that partition the shape's faces, added one by one in two orders and as one mesh:
 // bit-identical meshes (fixed-point QEF sums, world-anchored lattice).
 TEST (IncrementalDualContouring, IncrementalEqualsBatch)

@@ -1,6 +1,8 @@
 #pragma once
-// DualContouringOctree: the extrinsic representation of incremental dual contouring (seed 004
-// §3.4–3.6) and its polygonisation. Non-template core of pcl::IncrementalDualContouring.
+// DualContouringOctree: the extrinsic representation of incremental dual contouring and its
+// polygonisation (H. O. da Paz, "Reconstrução adaptativa de superfícies implícitas a partir de
+// imagens de profundidade", MSc dissertation, IMPA, 2017, §3.4–3.6; "the dissertation" below).
+// Non-template core of pcl::IncrementalDualContouring.
 //
 // Structure (a hashed octree):
 //   * a lattice of leaf cells of edge h anchored at the world origin, so the structure depends
@@ -14,7 +16,7 @@
 //   * the inner levels of each root are rebuilt at polygonisation time for the ε collapse
 //     (Ju et al. 2002), never across roots, so a root is the unit of re-polygonisation.
 //
-// Departure from §3.4.2: every leaf is at maximum depth (the lattice); the seed's stop
+// Departure from §3.4.2: every leaf is at maximum depth (the lattice); the dissertation's stop
 // criterion 2 (no interior triangle in a cell and its parent → coarse leaf) is not used, because
 // a coarse leaf's Hermite data lives on its long edges while finer neighbours' minimal edges lie
 // inside its faces, and its size would depend on how much the front end simplified. Coarse cells
@@ -22,13 +24,13 @@
 //
 // Hermite data (§3.4.3), averaged over frames: every lattice edge crossed by a triangle keeps
 // running weighted sums of its crossings' positions along the edge and of their unit normals,
-// as a TSDF averages distances (the seed keeps one sample per edge and merges only signs). The
+// as a TSDF averages distances (the dissertation keeps one sample per edge and merges only signs). The
 // weight of a crossing is the cosine of its incidence angle times a falloff with range beyond
 // 1 m (1 without a viewpoint). The sums are 64-bit fixed point: exact and commutative, so adding
 // frames in any order gives bit-identical data (incremental = batch). Per frame and edge: one
 // crossing → S = (C − A)·N (Eq. 3.1) gives A's sign (with N pointing out, S > 0: A interior; the
-// seed's text has it the other way round), B the opposite; several → parity.
-// Not tried: the seed's unvalidated proposal of cell quadrics from the front end's per-vertex
+// dissertation's text has it the other way round), B the opposite; several → parity.
+// Not tried: the dissertation's unvalidated proposal of cell quadrics from the front end's per-vertex
 // quadrics (FrameMesh::quadrics is ignored).
 //
 // Signs live on the shared grid vertices of each root (dense): per vertex, counts of exterior

@@ -1,14 +1,15 @@
 #pragma once
 // IncrementalDualContouring: posed depth frames (or meshes) become an adaptive mesh that is
-// updated frame by frame (seed 004, ch. 3).
+// updated frame by frame (H. O. da Paz, "Reconstrução adaptativa de superfícies implícitas a
+// partir de imagens de profundidade", MSc dissertation, IMPA, 2017, ch. 3).
 //   §3.2–3.3  each frame → pcl::CoupledSimplification (connected cloud, coupled
-//             simplification) → a small world-space FrameMesh;
-//   §3.4–3.5  the FrameMesh is fused into an extrinsic hashed octree of Hermite data and grid
-//             vertex signs (pcl::DualContouringOctree, see there for the details);
-//   §3.6      reconstruct (): sign resolution, dual contouring over minimal edges with a robust
-//             QEF, optional octree simplification by QEF error ε (flat regions get few
-//             triangles) and optional removal of the dominant plane (RANSAC) to isolate an
-//             object (§4.4). Only roots touched since the last call are re-polygonised.
+//             simplification, frustum cells of 2 leaves) → a small world-space FrameMesh;
+//   §3.4–3.5  the FrameMesh is fused into an extrinsic hashed octree of Hermite data averaged
+//             over frames and grid vertex signs (pcl::DualContouringOctree, see there);
+//   §3.6      reconstruct (): manifold dual contouring over minimal edges, optional
+//             topology-safe simplification within ε (flat regions get few triangles) and
+//             optional removal of the dominant plane (RANSAC) to isolate an object (§4.4).
+//             Only roots touched since the last call are re-polygonised.
 //
 // Bad input (no valid pixel, NaN / Inf, zero intrinsics, singular or non-finite pose, frames
 // of different sizes, empty meshes) gives false, PCL_ERROR and getLastError (); the map is left
@@ -43,7 +44,7 @@ public:
     std::size_t roots = 0;
     std::size_t memory_bytes = 0;  // octree + cached polygons
     std::size_t triangles = 0, vertices = 0;
-    std::size_t escaped_vertices = 0;   // QEF minimisers clamped back into their cell
+    std::size_t escaped_vertices = 0;   // QEF minimisers outside their cell (mass point used)
     std::size_t ambiguous_vertices = 0;  // grid vertices whose votes cancel (taken as exterior)
     std::size_t rim_cells = 0;           // cells whose surface reaches an unobserved vertex
     std::size_t frame_triangles = 0;    // triangles of the last frame after §3.3
