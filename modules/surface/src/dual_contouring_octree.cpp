@@ -872,7 +872,8 @@ private:
     }
   }
   // The cells around an informed vertex must have roots: their dual vertices are made by the
-  // root that holds the cell.
+  // root that holds the cell. Such a root only has to exist (a new root starts dirty); its data
+  // did not change, so it is not marked.
   void
   touchCellsAround (const Eigen::Vector3i& v)
   {
@@ -881,7 +882,15 @@ private:
       return;
     for (int mask = 1; mask < 8; ++mask)
       if ((!(mask & 1) || !lx) && (!(mask & 2) || !ly) && (!(mask & 4) || !lz))
-        rootOf (v.x () - (mask & 1), v.y () - (mask >> 1 & 1), v.z () - (mask >> 2 & 1));
+      {
+        const int x = v.x () - (mask & 1), y = v.y () - (mask >> 1 & 1), z = v.z () - (mask >> 2 & 1);
+        const int dx = floorDiv (x) - centre_.x () + 1, dy = floorDiv (y) - centre_.y () + 1,
+                  dz = floorDiv (z) - centre_.z () + 1;
+        const bool cached = static_cast<unsigned> (dx) < 3u && static_cast<unsigned> (dy) < 3u &&
+                            static_cast<unsigned> (dz) < 3u && near_[dx + 3 * dy + 9 * dz];
+        if (!cached)
+          m_.get (floorDiv (x), floorDiv (y), floorDiv (z));
+      }
   }
   // `weighted_ext`: the vertex's own reading of its nearest crossing (for the WEIGHTED rule),
   // at `dist` leaf units along the edge.
@@ -919,10 +928,8 @@ private:
       v[axis] += k;
       Root* r = rootOf (v.x (), v.y (), v.z ());
       const double d = std::max (-double (kBand), std::min (double (kBand), (k - frac) * n_axis));
-      std::int32_t& sdf = r->sdf[localIndex (v.x (), v.y (), v.z ())];
-      if (sdf == 0 && !r->out_votes[localIndex (v.x (), v.y (), v.z ())] && !r->in_votes[localIndex (v.x (), v.y (), v.z ())])
-        touchCellsAround (v);
-      addSaturated (sdf, static_cast<std::int32_t> (std::lround (weight * d * 4096)));
+      addSaturated (r->sdf[localIndex (v.x (), v.y (), v.z ())], static_cast<std::int32_t> (std::lround (weight * d * 4096)));
+      touchCellsAround (v);
     }
   }
   // The weighted running sums of the edge's crossings (position and normal).
