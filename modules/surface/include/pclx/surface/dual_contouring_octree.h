@@ -24,14 +24,14 @@
 //
 // Hermite data (§3.4.3), averaged over frames: every lattice edge crossed by a triangle keeps
 // running weighted sums of its crossings' positions along the edge and of their unit normals,
-// as a TSDF averages distances (the dissertation keeps one sample per edge and merges only signs). The
-// weight of a crossing is the cosine of its incidence angle times a falloff with range beyond
-// 1 m (1 without a viewpoint). The sums are 64-bit fixed point: exact and commutative, so adding
-// frames in any order gives bit-identical data (incremental = batch). Per frame and edge: one
-// crossing → S = (C − A)·N (Eq. 3.1) gives A's sign (with N pointing out, S > 0: A interior; the
-// dissertation's text has it the other way round), B the opposite; several → parity.
-// Not tried: the dissertation's unvalidated proposal of cell quadrics from the front end's per-vertex
-// quadrics (FrameMesh::quadrics is ignored).
+// as a TSDF averages distances (the dissertation keeps one sample per edge and merges only
+// signs). The weight of a crossing is the cosine of its incidence angle times a falloff with
+// range beyond 1 m (1 without a viewpoint). The sums are 64-bit fixed point: exact and
+// commutative, so adding frames in any order gives bit-identical data (incremental = batch).
+// Per frame and edge: one crossing → S = (C − A)·N (Eq. 3.1) gives A's sign (with N pointing
+// out, S > 0: A interior; the dissertation's text has it the other way round), B the opposite;
+// several → parity. Not tried: the dissertation's unvalidated proposal of cell quadrics from
+// the front end's per-vertex quadrics (FrameMesh::quadrics is ignored).
 //
 // Signs live on the shared grid vertices of each root (dense): per vertex, counts of exterior
 // and interior votes and a weighted sum. SignRule::SEED (§3.5): same or unknown → adopt,

@@ -65,7 +65,8 @@ public:
   bool
   setLeafSize (double h)
   {
-    const bool cells_follow = simplification_.getFrustumCellSize () == kCellLeaves * octree_.getLeafSize ();
+    const bool cells_follow =
+        simplification_.getFrustumCellSize () == kCellLeaves * octree_.getLeafSize ();
     if (!settled (octree_.setLeafSize (h)))
       return false;
     if (cells_follow)
