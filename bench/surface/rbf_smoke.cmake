@@ -1,5 +1,6 @@
 # ctest bench_rbf_smoke: `bench_rbf --quick` exits 0 and prints the CSV header and an ok row of
 # every method (Open3D's only when it was found at build time).
+include(${CMAKE_CURRENT_LIST_DIR}/../smoke_checks.cmake)
 execute_process(COMMAND ${BENCH} --quick --threads 2 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "bench_rbf --quick exited with ${rc}\n${out}\n${err}")
@@ -11,8 +12,4 @@ set(methods rbf rbf_mst pcl_poisson pcl_mc_hoppe pcl_mc_rbf)
 if(HAVE_OPEN3D)
   list(APPEND methods o3d_poisson o3d_poisson_trim)
 endif()
-foreach(m ${methods})
-  if(NOT out MATCHES "surface,${m},[^\n]*status=ok[^\n]*,chamfer,")
-    message(FATAL_ERROR "no ok row with a chamfer distance for ${m}\n${out}")
-  endif()
-endforeach()
+expect_method_rows("${out}" surface "[^\n]*status=ok[^\n]*,chamfer," "ok (with a chamfer distance)" ${methods})
