@@ -135,6 +135,8 @@ TEST (RBFPOUReconstruction, SphereClosedGenusZeroWithinBound)
   expectClosed (r, 2, "sphere");
   EXPECT_LT (r.mean_dist, 0.05 * s);
   EXPECT_LT (r.max_dist, 0.5 * s);
+  EXPECT_EQ (rec.getStats ().noise, 0.0) << "clean samples are interpolated";
+  EXPECT_EQ (rec.getStats ().smoothed_subdomains, 0u);
   std::printf ("sphere: %zu vertices, %zu triangles, mean %.2e max %.2e (spacing %.3f), %zu subdomains\n",
                r.vertices, r.triangles, r.mean_dist, r.max_dist, s, rec.getNumberOfSubdomains ());
 }
@@ -391,6 +393,12 @@ TEST (RBFPOUReconstruction, BadInputGivesEmptyMeshAndError)
     rec.setBandWidth (0);
     expectError (rec, good, "band");
   }
+  for (const double sigma : {-0.01, std::numeric_limits<double>::quiet_NaN (), std::numeric_limits<double>::infinity ()})
+  {
+    Recon rec;
+    rec.setNoiseLevel (sigma);
+    expectError (rec, good, "noise");
+  }
   {
     Recon rec;  // a good run after a failed one on the same instance works again
     rec.setOverlap (0.5);
@@ -564,4 +572,52 @@ TEST (RBFPOUReconstruction, NoInputIsRefused)
   rec.reconstruct (points, polygons);
   EXPECT_TRUE (points.empty ());
   EXPECT_TRUE (polygons.empty ());
+}
+
+// Noisy samples are approximated, not interpolated: the noise is measured, every fit smooths,
+// and the sphere comes out as one closed surface within 2σ; interpolating the same points
+// (setNoiseLevel (0)) wraps every noisy point and lands farther from the sphere.
+TEST (RBFPOUReconstruction, NoisySphereIsOneClosedSurfaceWithinTwoSigma)
+{
+  const std::size_t n = 20000;
+  auto s = pclx::testing::sampleUniform (sphereMesh (), n, 41);
+  const double sigma = 0.0025 * sphereMesh ().diagonal ();
+  pclx::testing::addGaussianNoise (s, 0.0025f, 43);
+  const Cloud::Ptr cloud (new Cloud (s.cloud));
+
+  Recon smooth;
+  const auto r = inspect (run (smooth, cloud), &sphereMesh ());
+  expectClosed (r, 2, "noisy sphere");
+  EXPECT_LT (r.max_dist, 2 * sigma);
+  EXPECT_NEAR (smooth.getStats ().noise, sigma, 0.3 * sigma);
+  EXPECT_EQ (smooth.getStats ().smoothed_subdomains, smooth.getNumberOfSubdomains ());
+  EXPECT_EQ (smooth.getStats ().normals_voted, 0u);
+
+  Recon interpolating;
+  interpolating.setNoiseLevel (0);
+  const auto ri = inspect (run (interpolating, cloud), &sphereMesh ());
+  EXPECT_EQ (interpolating.getStats ().smoothed_subdomains, 0u);
+  EXPECT_GT (ri.mean_dist, 2 * r.mean_dist);
+  std::printf ("noisy sphere (sigma %.4f): mean %.2e max %.2e; interpolated mean %.2e max %.2e\n", sigma,
+               r.mean_dist, r.max_dist, ri.mean_dist, ri.max_dist);
+}
+
+// Where a quadric cannot follow the surface within the noise (a box's edges under little noise)
+// the fit is Carr et al.'s smoothing spline with ρ between interpolation and the polynomial.
+TEST (RBFPOUReconstruction, SmoothingSplineWhereAQuadricMissesTheShape)
+{
+  const auto box = pclx::testing::makeBox ();
+  auto s = pclx::testing::sampleUniform (box, 60000, 47);
+  pclx::testing::addGaussianNoise (s, 0.0007f, 53);
+  const double sigma = 0.0007 * box.diagonal ();
+  Recon rec;
+  const auto r = inspect (run (rec, Cloud::Ptr (new Cloud (s.cloud))), &box);
+  const auto& st = rec.getStats ();
+  EXPECT_GT (st.noise, 0.0);
+  EXPECT_GT (st.smoothed_subdomains, st.polynomial_subdomains) << "some fits keep r³ terms";
+  EXPECT_GT (st.polynomial_subdomains, 0u);
+  expectClosed (r, 2, "noisy box");
+  EXPECT_LT (r.mean_dist, sigma);
+  std::printf ("noisy box: %zu of %zu fits are splines, mean %.2e (sigma %.2e)\n",
+               st.smoothed_subdomains - st.polynomial_subdomains, rec.getNumberOfSubdomains (), r.mean_dist, sigma);
 }

@@ -8,12 +8,17 @@
 //         leaves with fewer than Tmin grow (and shrink back) until Tmin ≤ n ≤ Tmax (§4.3.2).
 //         Each subdomain gets a local RBF fit f_i (polyharmonic r³ + linear polynomial);
 //         F = Σ W_i f_i / Σ W_i with W_i = V ∘ D_i (Eqs. 4.4–4.6).
+// On noisy input (a noise level measured from the points, or set) each fit approximates
+// instead of interpolating: Carr et al. 2001's smoothing spline (A + ρI) with a quadratic
+// polynomial, ρ chosen per subdomain so that the residual at the centres matches the noise.
 // The zero set of F − iso is polygonised by marching cubes (PCL's tables) on a sparse grid:
 // only the cells within a band of the input points, so no sheets appear far from the data.
 // F is undefined where no subdomain covers a corner; such cells are skipped.
 //
 // Bad input and parameters give PCL_ERROR, an empty mesh and getLastError () (no exceptions,
 // as PCL's own reconstructions). NaN / Inf points and zero normals are dropped and counted.
+#include <pcl/kdtree/kdtree.h>
+#include <pcl/point_types.h>
 #include <pcl/surface/reconstruction.h>
 
 #include <Eigen/Core>
@@ -53,6 +58,11 @@ public:
     std::size_t band_cells = 0, active_cells = 0, corners = 0, uncovered_corners = 0, waves = 0;
     std::size_t vertices = 0, triangles = 0;
     double mean_spacing = 0, grid_resolution = 0, epsilon = 0;
+    double noise = 0;                      // σ the fits smooth for (0: they interpolate)
+    double noise_ratio = 0;                // estimated σ / point spacing (when estimated)
+    int min_constraints = 0, max_constraints = 0;  // Tmin / Tmax used (grown under noise)
+    std::size_t smoothed_subdomains = 0;   // fits with a smoothing term ρ > 0
+    std::size_t polynomial_subdomains = 0; // of those, fits by the least-squares polynomial alone
   };
 
   // An off-surface constraint: position, value (±ε) and the input point that made it
@@ -93,6 +103,11 @@ public:
   double getIsoLevel () const { return iso_; }
   // Initial ε of the off-surface points (> 0). Until set: the mean spacing.
   void setOffSurfaceEpsilon (double eps) { epsilon_ = eps; epsilon_auto_ = false; }
+  // Noise σ of the points along their normals (≥ 0; 0 interpolates every point). Until set:
+  // estimated from the points' offsets to their neighbours' centroids, and 0 when that is
+  // below a tenth of the mean spacing (clean samples, whose offsets are curvature).
+  void setNoiseLevel (double sigma) { noise_ = sigma; noise_auto_ = false; }
+  double getNoiseLevel () const { return noise_; }
   void setDecay (Decay v) { decay_ = v; }
   Decay getDecay () const { return decay_; }
   // Orient the normals with pclx::normals' MSTNormalOrientation first (default off): for
@@ -136,8 +151,20 @@ private:
     Eigen::Vector3d lo, hi;     // the box Ω_i
     Eigen::Vector3d centre;     // local frame: q = (p − centre) / scale
     double scale;
-    Eigen::Vector4d poly;       // linear polynomial in q
-    std::uint32_t first, count; // range in sub_ids_ and sub_lambda_
+    Eigen::Matrix<double, 10, 1> poly;  // [1 q q²] coefficients (quadratic ones 0 when interpolating)
+    std::uint32_t first, count;         // range in sub_ids_ and sub_lambda_
+    float smoothing = 0;                // ρ of the fit (0: interpolating, ∞: polynomial alone)
+    bool rbf = true;                    // false: the r³ terms are all 0
+  };
+
+  // An octree leaf before it becomes a subdomain: centre, half size of its enlarged box, the
+  // constraints inside and the growth factor (0: dropped below Tmin).
+  struct Leaf
+  {
+    Eigen::Vector3d c;
+    double half;
+    std::vector<std::uint32_t> ids;
+    double scale = 1;
   };
 
   // Subdomains of one lookup bucket (a range of buckets_); cached per thread because
@@ -150,6 +177,31 @@ private:
 
   bool fail (const std::string& msg);
   bool build ();  // filtering, off-surface points, octree, fits
+  // The stages of build (), in order.
+  bool checkParameters ();
+  bool collectPoints ();  // finite points with usable normals
+  // Mean spacing and every point's kNeighbours nearest neighbours (−1: fewer found).
+  bool measureSpacing (const pcl::KdTree<pcl::PointXYZ>& tree, std::vector<int>& nn);
+  bool orientNormals (const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& xyz);
+  // The noise σ, and the subdomain sizes that follow from it.
+  void estimateNoise (const pcl::KdTree<pcl::PointXYZ>& tree);
+  void voteNormals (const std::vector<int>& nn);
+  void placeOffSurfaceConstraints (const pcl::KdTree<pcl::PointXYZ>& tree);
+  std::vector<Leaf> splitOctree ();
+  void growLeaves (std::vector<Leaf>& leaves);
+  // Subdomains from the kept leaves (freed); returns the value h of every renumbered constraint.
+  std::vector<float> makeSubdomains (std::vector<Leaf>& leaves);
+  void buildBuckets ();
+  void fitSubdomains (const std::vector<float>& value);
+  // One local fit with np polynomial terms (4 or 10); false when it needed least squares.
+  bool fitSubdomain (Subdomain& s, const std::vector<float>& value, int np);
+  // The least-squares polynomial alone when its residual at the centres is within `target`.
+  bool fitPolynomial (const Eigen::MatrixXd& p, const Eigen::VectorXd& h, double target, Subdomain& s) const;
+  // Constraint c: an input point (c < pts_.size ()) or an off-surface point.
+  const Eigen::Vector3f& constraintPosition (std::uint32_t c) const
+  {
+    return c < pts_.size () ? pts_[c] : off_[c - pts_.size ()].p;
+  }
   // Marching cubes: vertex positions and triangles (vertex normals / attributes come after).
   bool extract (std::vector<Eigen::Vector3f>& vertices, std::vector<Vertices>& polygons);
   // Output points: positions (then freed), the attributes of the nearest input point and
@@ -162,8 +214,8 @@ private:
   double evaluateCached (const Eigen::Vector3d& p, BucketCache& cache, double* weight_sum = nullptr) const;
 
   int t_max_ = 150, t_min_ = 50, band_ = 2;
-  double overlap_ = 1.5, grid_resolution_ = 0, iso_ = 0, epsilon_ = 0;
-  bool grid_auto_ = true, epsilon_auto_ = true, orient_normals_ = false, normal_vote_ = true;
+  double overlap_ = 1.5, grid_resolution_ = 0, iso_ = 0, epsilon_ = 0, noise_ = 0;
+  bool grid_auto_ = true, epsilon_auto_ = true, noise_auto_ = true, orient_normals_ = false, normal_vote_ = true;
   bool continuation_ = true;
   Decay decay_ = Decay::LINEAR;
   unsigned int threads_ = 0;

@@ -1,5 +1,6 @@
 #pragma once
 #include <pclx/normals/mst_normal_orientation.h>
+#include <pclx/normals/scale_selection.h>
 #include <pclx/surface/rbf_pou_reconstruction.h>
 
 #include <pcl/common/io.h>
@@ -158,6 +159,160 @@ constexpr int kCorner[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 0, 1}, {0, 0, 1},
 constexpr int kEdge[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
                               {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
 
+// Neighbours of each point for the spacing and the normal vote.
+constexpr int kNeighbours = 8;
+// Noise below this share of the point spacing is left to interpolation (the normals module
+// calls noise above 0.15 spacing significant).
+constexpr double kCleanNoiseRatio = 0.1;
+// The noise estimate's sample count and neighbours (its largest support is 200).
+constexpr std::size_t kNoiseSamples = 500, kNoiseNeighbours = 201;
+// Under noise Tmin and Tmax grow by this factor times σ / spacing, at most by the second.
+constexpr double kNoiseSubdomainGrowth = 8, kMaxSubdomainGrowth = 16;
+// Target RMS residual of a smoothing fit at its centres, in units of σ: pure noise leaves about
+// 1 σ, the margin lets a fit that is slightly too stiff for the shape pass as the smoothest.
+constexpr double kNoiseResidual = 1.5;
+// Polynomial terms of a fit: [1 x y z] or [1 x y z x² y² z² xy xz yz].
+constexpr int kLinearTerms = 4, kQuadricTerms = 10;
+
+inline Eigen::Matrix<double, kQuadricTerms, 1>
+polynomialBasis (const Eigen::Vector3d& q)
+{
+  Eigen::Matrix<double, kQuadricTerms, 1> b;
+  b << 1, q[0], q[1], q[2], q[0] * q[0], q[1] * q[1], q[2] * q[2], q[0] * q[1], q[0] * q[2], q[1] * q[2];
+  return b;
+}
+
+// [A + ρI  P; Pᵀ 0] [λ; c] = [h; 0] by the null-space method: with P = QR and Q = [Q1 Q2],
+// λ = Q2 μ and (Q2ᵀ A Q2 + ρI) μ = Q2ᵀ h, SPD because r³ is conditionally positive definite of
+// order 2 (an LLT of size m − np, a third of an LU's flops); then R c = Q1ᵀ h − Q1ᵀ A Q2 μ.
+// ρ = 0 interpolates (Carr et al. 2001); ρ > 0 is their smoothing spline, whose residual at the
+// centres is ρ λ, of norm ρ ‖μ‖.
+class ProjectedFit
+{
+public:
+  ProjectedFit (const Eigen::MatrixXd& a, const Eigen::MatrixXd& p, const Eigen::VectorXd& h)
+    : m_ (int (p.rows ())), np_ (int (p.cols ())), qr_ (p)
+  {
+    const Eigen::VectorXd r = qr_.matrixQR ().topLeftCorner (np_, np_).diagonal ().cwiseAbs ();
+    valid_ = m_ > np_ && r.minCoeff () > 1e-9 * r.maxCoeff ();  // else (nearly) flat centres
+    if (!valid_)
+      return;
+    // Q = I − V T Vᵀ (LAPACK's larft), so Qᵀ A Q = A − U Vᵀ − V Uᵀ with U = A V T − ½ V M,
+    // M = Tᵀ Vᵀ A V T: two rank-np products instead of 2 np rank-1 reflector updates.
+    v_ = Eigen::MatrixXd::Zero (m_, np_);
+    for (int i = 0; i < np_; ++i)
+    {
+      v_ (i, i) = 1;
+      v_.col (i).tail (m_ - i - 1) = qr_.matrixQR ().col (i).tail (m_ - i - 1);
+    }
+    const Eigen::VectorXd tau = qr_.hCoeffs ();
+    t_ = Eigen::MatrixXd::Zero (np_, np_);
+    for (int i = 0; i < np_; ++i)
+    {
+      t_ (i, i) = tau[i];
+      if (i > 0)
+      {
+        const Eigen::VectorXd vtv = v_.leftCols (i).transpose () * v_.col (i);
+        const Eigen::VectorXd col = t_.topLeftCorner (i, i).triangularView<Eigen::Upper> () * vtv;
+        t_.col (i).head (i) = -tau[i] * col;
+      }
+    }
+    const Eigen::MatrixXd w = a * v_;
+    const Eigen::MatrixXd mm = t_.transpose () * (v_.transpose () * w) * t_;
+    const Eigen::MatrixXd u = w * t_ - 0.5 * v_ * mm;
+    b_ = a;
+    b_.noalias () -= u * v_.transpose ();
+    b_.noalias () -= v_ * u.transpose ();
+    g_ = h - v_ * (t_.transpose () * (v_.transpose () * h));  // Qᵀ h
+  }
+
+  bool valid () const { return valid_; }
+  // Mean diagonal of Q2ᵀ A Q2: the scale of ρ.
+  double scale () const { return b_.bottomRightCorner (m_ - np_, m_ - np_).trace () / (m_ - np_); }
+
+  // Factors for ρ; false when the projected matrix is not positive definite.
+  bool solve (double rho)
+  {
+    const int k = m_ - np_;
+    Eigen::MatrixXd c = b_.bottomRightCorner (k, k);
+    c.diagonal ().array () += rho;
+    llt_.compute (c);
+    if (llt_.info () != Eigen::Success)
+      return false;
+    mu_ = llt_.solve (g_.tail (k));
+    rho_ = rho;
+    return mu_.allFinite ();
+  }
+  double residualNorm () const { return rho_ * mu_.norm (); }
+
+  // λ = Q [0; μ] and the polynomial coefficients of the last solve.
+  bool get (Eigen::VectorXd& lambda, Eigen::VectorXd& poly) const
+  {
+    const int k = m_ - np_;
+    Eigen::VectorXd full = Eigen::VectorXd::Zero (m_);
+    full.tail (k) = mu_;
+    poly = qr_.matrixQR ().topLeftCorner (np_, np_).triangularView<Eigen::Upper> ().solve (
+        g_.head (np_) - b_.topRightCorner (np_, k) * mu_);
+    lambda = full - v_ * (t_ * (v_.transpose () * full));
+    return lambda.allFinite () && poly.allFinite ();
+  }
+
+private:
+  int m_, np_;
+  bool valid_ = false;
+  Eigen::HouseholderQR<Eigen::MatrixXd> qr_;
+  Eigen::MatrixXd v_, t_, b_;
+  Eigen::VectorXd g_, mu_;
+  Eigen::LLT<Eigen::MatrixXd> llt_;
+  double rho_ = 0;
+};
+
+// Morozov's discrepancy principle: the largest ρ whose residual at the centres stays below the
+// target (the residual grows with ρ), by bisection in log ρ over 12 decades of the fit's scale.
+inline double
+chooseSmoothing (ProjectedFit& fit, double target)
+{
+  double lo = 1e-8 * fit.scale (), hi = 1e4 * fit.scale ();
+  if (!(target > 0) || !fit.solve (hi))
+    return 0;
+  if (fit.residualNorm () <= target)
+    return hi;
+  for (int it = 0; it < 10; ++it)
+  {
+    const double mid = std::sqrt (lo * hi);
+    if (fit.solve (mid) && fit.residualNorm () < target)
+      lo = mid;
+    else
+      hi = mid;
+  }
+  return lo;
+}
+
+// The full saddle-point system by LU, then least squares when it is singular (duplicated
+// centres, too few distinct ones). Returns whether least squares was needed.
+inline bool
+solveFull (const Eigen::MatrixXd& a, const Eigen::MatrixXd& p, const Eigen::VectorXd& h, Eigen::VectorXd& lambda,
+           Eigen::VectorXd& poly)
+{
+  const int m = int (p.rows ()), np = int (p.cols ());
+  Eigen::MatrixXd full = Eigen::MatrixXd::Zero (m + np, m + np);
+  full.topLeftCorner (m, m) = a;
+  full.topRightCorner (m, np) = p;
+  full.bottomLeftCorner (np, m) = p.transpose ();
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero (m + np);
+  rhs.head (m) = h;
+  Eigen::VectorXd x = full.partialPivLu ().solve (rhs);
+  bool least_squares = false;
+  if (!x.allFinite () || (full * x - rhs).norm () > 1e-6 * rhs.norm () + 1e-12)
+  {
+    x = full.completeOrthogonalDecomposition ().solve (rhs);
+    least_squares = true;
+  }
+  lambda = x.head (m);
+  poly = x.tail (np);
+  return least_squares;
+}
+
 }  // namespace rbf_pou_detail
 
 template <typename PointNT> bool
@@ -192,9 +347,10 @@ RBFPOUReconstruction<PointNT>::local (const Subdomain& s, const Eigen::Vector3d&
 {
   // In the frame of the fit: q = (p − centre) / scale, so |q − q_j|³ = |p − c_j|³ / scale³.
   const Eigen::Vector3d q = (p - s.centre) / s.scale;
-  const double rbf = rbf_pou_detail::sumR3 (cpos_.data (), sub_ids_.data () + s.first, sub_lambda_.data () + s.first,
-                                            s.count, p[0], p[1], p[2]);
-  return s.poly[0] + s.poly.template tail<3> ().dot (q) + rbf / (s.scale * s.scale * s.scale);
+  const double rbf = s.rbf ? rbf_pou_detail::sumR3 (cpos_.data (), sub_ids_.data () + s.first,
+                                                   sub_lambda_.data () + s.first, s.count, p[0], p[1], p[2])
+                           : 0.0;
+  return s.poly.dot (rbf_pou_detail::polynomialBasis (q)) + rbf / (s.scale * s.scale * s.scale);
 }
 
 template <typename PointNT> template <typename F> void
@@ -264,14 +420,8 @@ RBFPOUReconstruction<PointNT>::weightsAt (const Eigen::Vector3f& pf) const
 }
 
 template <typename PointNT> bool
-RBFPOUReconstruction<PointNT>::build ()
+RBFPOUReconstruction<PointNT>::checkParameters ()
 {
-  using namespace rbf_pou_detail;
-  stats_ = Stats ();
-  error_.clear ();
-  pts_.clear (); nrm_.clear (); src_.clear (); off_.clear (); subs_.clear ();
-  sub_ids_.clear (); sub_lambda_.clear (); cpos_.clear (); buckets_.clear ();
-
   if (t_min_ < 10)
     return fail ("Tmin must be >= 10 (got " + std::to_string (t_min_) + ")");
   if (t_min_ > t_max_)
@@ -284,12 +434,16 @@ RBFPOUReconstruction<PointNT>::build ()
     return fail ("band width must be >= 1 cell (got " + std::to_string (band_) + ")");
   if (!epsilon_auto_ && !(epsilon_ > 0 && std::isfinite (epsilon_)))
     return fail ("off-surface epsilon must be > 0 (got " + std::to_string (epsilon_) + ")");
+  if (!noise_auto_ && !(noise_ >= 0 && std::isfinite (noise_)))
+    return fail ("noise level must be a finite value >= 0 (got " + std::to_string (noise_) + ")");
   if (!std::isfinite (iso_))
     return fail ("iso level must be finite");
-  const int nt = threadCount (threads_);
+  return true;
+}
 
-  // --- valid points -------------------------------------------------------------------
-  auto t0 = Clock::now ();
+template <typename PointNT> bool
+RBFPOUReconstruction<PointNT>::collectPoints ()
+{
   stats_.input_points = indices_->size ();
   for (const auto idx : *indices_)
   {
@@ -315,104 +469,153 @@ RBFPOUReconstruction<PointNT>::build ()
     return fail (stats_.zero_normals ? "no usable normals: all " + std::to_string (stats_.zero_normals) +
                                            " finite points have zero or non-finite normals"
                                      : "no finite input points");
-  const std::size_t n = pts_.size ();
-  if (3 * n < std::size_t (t_min_))
-    return fail ("too few points: " + std::to_string (n) + " valid points give " + std::to_string (3 * n) +
-                 " constraints, fewer than Tmin = " + std::to_string (t_min_));
+  if (3 * pts_.size () < std::size_t (t_min_))
+    return fail ("too few points: " + std::to_string (pts_.size ()) + " valid points give " +
+                 std::to_string (3 * pts_.size ()) + " constraints, fewer than Tmin = " + std::to_string (t_min_));
   if (stats_.dropped_points || stats_.zero_normals)
     PCL_WARN ("[pcl::%s] dropped %zu non-finite points and %zu zero / non-finite normals\n",
               getClassName ().c_str (), stats_.dropped_points, stats_.zero_normals);
+  return true;
+}
 
-  pcl::PointCloud<pcl::PointXYZ>::Ptr xyz (new pcl::PointCloud<pcl::PointXYZ>);
-  xyz->resize (n);
-  for (std::size_t i = 0; i < n; ++i)
-    (*xyz)[i].getVector3fMap () = pts_[i];
-  auto tree = std::make_unique<pcl::KdTreeFLANN<pcl::PointXYZ>> (false);  // freed after the off-surface points
-  tree->setInputCloud (xyz);
-
-  // One kNN pass gives the mean spacing (second nearest, the first is the point itself) and
-  // the 8 neighbours of the normal vote.
-  const bool vote = normal_vote_ && n > 8;
-  const int kq = vote ? 9 : 2;
-  std::vector<int> nn (vote ? 8 * n : 0, -1);
+template <typename PointNT> bool
+RBFPOUReconstruction<PointNT>::measureSpacing (const pcl::KdTree<pcl::PointXYZ>& tree, std::vector<int>& nn)
+{
+  using namespace rbf_pou_detail;
+  const std::size_t n = pts_.size ();
+  const int nt = threadCount (threads_);
+  // The point itself is its first neighbour: the second gives the spacing.
+  nn.assign (kNeighbours * n, -1);
   double spacing_sum = 0;
 #pragma omp parallel for num_threads(nt) reduction(+ : spacing_sum) schedule(static)
   for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (n); ++i)
   {
-    pcl::Indices k (kq);
-    std::vector<float> d (kq);
-    const int found = tree->nearestKSearch ((*xyz)[i], kq, k, d);
+    pcl::Indices k (kNeighbours + 1);
+    std::vector<float> d (kNeighbours + 1);
+    pcl::PointXYZ q;
+    q.getVector3fMap () = pts_[i];
+    const int found = tree.nearestKSearch (q, kNeighbours + 1, k, d);
     if (found >= 2)
       spacing_sum += std::sqrt (d[1]);
-    if (vote)
-      for (int j = 0, o = 0; j < found && o < 8; ++j)
-        if (k[j] != int (i))
-          nn[8 * i + o++] = k[j];
+    for (int j = 0, o = 0; j < found && o < kNeighbours; ++j)
+      if (k[j] != int (i))
+        nn[kNeighbours * i + o++] = k[j];
   }
   stats_.mean_spacing = spacing_sum / double (n);
   if (!(stats_.mean_spacing > 0))
     return fail ("all valid points coincide (mean spacing 0)");
   stats_.grid_resolution = grid_auto_ ? 1.5 * stats_.mean_spacing : grid_resolution_;
   stats_.epsilon = epsilon_auto_ ? stats_.mean_spacing : epsilon_;
+  return true;
+}
 
-  // --- normals: optional MST orientation, then the neighbour vote ----------------------
-  if (orient_normals_)
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::estimateNoise (const pcl::KdTree<pcl::PointXYZ>& tree)
+{
+  using namespace rbf_pou_detail;
+  if (!noise_auto_)
+    stats_.noise = noise_;
+  else
   {
-    pcl::PointCloud<pcl::PointNormal> nc;
-    nc.resize (n);
-    for (std::size_t i = 0; i < n; ++i)
+    // The normals module's estimate: quadric height-field residuals around a few hundred
+    // evenly spread points, on the smallest support (24–200 neighbours) whose plane is defined.
+    struct Scratch
     {
-      nc[i].getVector3fMap () = pts_[i];
-      nc[i].getNormalVector3fMap () = nrm_[i];
-    }
-    pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::PointNormal> mst;
-    mst.setInputCloud (xyz);
-    mst.setNumberOfThreads (threads_);
-    if (!mst.orient (nc))
-      return fail ("MST normal orientation failed");
-    for (std::size_t i = 0; i < n; ++i)
-      nrm_[i] = nc[i].getNormalVector3fMap ();
-    stats_.normals_oriented = mst.getNumberOfFlipped ();
+      pcl::Indices ids;
+      std::vector<float> d2;
+    };
+    const int k = int (std::min<std::size_t> (kNoiseNeighbours, pts_.size ()));
+    const pclx::normals::NoiseEstimate e = pclx::normals::estimateCloudNoise<Scratch> (
+        pts_.size (), kNoiseSamples, 1, [&] (std::size_t i, std::vector<Eigen::Vector3f>& sorted, Scratch& t) {
+          pcl::PointXYZ q;
+          q.getVector3fMap () = pts_[i];
+          tree.nearestKSearch (q, k, t.ids, t.d2);
+          for (const auto id : t.ids)
+            sorted.push_back (pts_[id]);
+        });
+    stats_.noise_ratio = e.ratio ();
+    // Below this share of the spacing the residuals are sampling and shape, not noise.
+    stats_.noise = e.ratio () > kCleanNoiseRatio ? e.sigma : 0.0;
   }
-  if (vote)
+  // Under noise each fit averages more points: its own error falls as 1/√points (see
+  // docs/surface.md for the sweep behind the factor).
+  // Never beyond what a quarter of the constraints (about 3 per point) could fill.
+  const double room = std::max (1.0, 0.75 * double (pts_.size ()) / t_min_);
+  const double f = stats_.noise > 0 ? std::clamp (kNoiseSubdomainGrowth * stats_.noise / stats_.mean_spacing, 1.0,
+                                                  std::min (kMaxSubdomainGrowth, room))
+                                    : 1.0;
+  stats_.max_constraints = int (std::lround (f * t_max_));
+  stats_.min_constraints = int (std::lround (f * t_min_));
+}
+
+template <typename PointNT> bool
+RBFPOUReconstruction<PointNT>::orientNormals (const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& xyz)
+{
+  const std::size_t n = pts_.size ();
+  pcl::PointCloud<pcl::PointNormal> nc;
+  nc.resize (n);
+  for (std::size_t i = 0; i < n; ++i)
   {
-    // A few Jacobi passes so that small clusters of flips also turn. A neighbour counts when it
-    // lies on the point's tangent plane (within half the mean spacing): a thin sheet's other
-    // side lies off it.
-    std::vector<char> flip (n, 0);
-    const float on_plane = 0.5f * float (stats_.mean_spacing);
-    for (int pass = 0; pass < 4; ++pass)
-    {
-      std::size_t changed = 0;
+    nc[i].getVector3fMap () = pts_[i];
+    nc[i].getNormalVector3fMap () = nrm_[i];
+  }
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::PointNormal> mst;
+  mst.setInputCloud (xyz);
+  mst.setNumberOfThreads (threads_);
+  if (!mst.orient (nc))
+    return fail ("MST normal orientation failed");
+  for (std::size_t i = 0; i < n; ++i)
+    nrm_[i] = nc[i].getNormalVector3fMap ();
+  stats_.normals_oriented = mst.getNumberOfFlipped ();
+  return true;
+}
+
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::voteNormals (const std::vector<int>& nn)
+{
+  using namespace rbf_pou_detail;
+  // A few Jacobi passes so that small clusters of flips also turn. A neighbour counts when it
+  // lies on the point's tangent plane (within half the mean spacing): a thin sheet's other side
+  // lies off it. Under noise fewer neighbours count, so fewer correct normals are turned.
+  const std::size_t n = pts_.size ();
+  const int nt = threadCount (threads_);
+  std::vector<char> flip (n, 0);
+  const float on_plane = float (0.5 * stats_.mean_spacing);
+  for (int pass = 0; pass < 4; ++pass)
+  {
+    std::size_t changed = 0;
 #pragma omp parallel for num_threads(nt) reduction(+ : changed) schedule(static)
-      for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (n); ++i)
+    for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (n); ++i)
+    {
+      int against = 0;
+      for (int j = 0; j < kNeighbours; ++j)
       {
-        int against = 0;
-        for (int j = 0; j < 8; ++j)
-        {
-          const int k = nn[8 * i + j];
-          against += k >= 0 && nrm_[i].dot (nrm_[k]) < -0.5f &&
-                     std::abs (nrm_[i].dot (pts_[k] - pts_[i])) <= on_plane;
-        }
-        flip[i] = nn[8 * i + 7] >= 0 && against >= 6;
-        changed += flip[i];
+        const int k = nn[kNeighbours * i + j];
+        against += k >= 0 && nrm_[i].dot (nrm_[k]) < -0.5f && std::abs (nrm_[i].dot (pts_[k] - pts_[i])) <= on_plane;
       }
-      if (!changed)
-        break;
-      for (std::size_t i = 0; i < n; ++i)
-        if (flip[i])
-          nrm_[i] = -nrm_[i];
-      stats_.normals_voted += changed;
+      flip[i] = nn[kNeighbours * i + kNeighbours - 1] >= 0 && against >= 6;
+      changed += flip[i];
     }
-    if (stats_.normals_voted > n / 10)
-      PCL_WARN ("[pcl::%s] %zu of %zu normals disagreed with their neighbours: are the normals oriented? "
-                "(setOrientNormals (true) orients them with an MST)\n",
-                getClassName ().c_str (), stats_.normals_voted, n);
+    if (!changed)
+      break;
+    for (std::size_t i = 0; i < n; ++i)
+      if (flip[i])
+        nrm_[i] = -nrm_[i];
+    stats_.normals_voted += changed;
   }
-  stats_.t_prepare = seconds (t0);
+  if (stats_.normals_voted > n / 10)
+    PCL_WARN ("[pcl::%s] %zu of %zu normals disagreed with their neighbours: are the normals oriented? "
+              "(setOrientNormals (true) orients them with an MST)\n",
+              getClassName ().c_str (), stats_.normals_voted, n);
+}
 
-  // --- off-surface constraints (Carr et al.: halve ε until the origin is the nearest) ---
-  t0 = Clock::now ();
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::placeOffSurfaceConstraints (const pcl::KdTree<pcl::PointXYZ>& tree)
+{
+  using namespace rbf_pou_detail;
+  // Carr et al. 2001: halve ε until the point's nearest input point is its origin.
+  const std::size_t n = pts_.size ();
+  const int nt = threadCount (threads_);
   const float eps0 = float (stats_.epsilon);
   std::vector<float> eps (2 * n, 0.f);
   std::size_t halved = 0;
@@ -430,7 +633,7 @@ RBFPOUReconstruction<PointNT>::build ()
         pcl::PointXYZ q;
         q.getVector3fMap () = pts_[i] + sign * e * nrm_[i];
         // Ties (another point exactly as near) count as failures.
-        if (tree->nearestKSearch (q, 1, k, d) == 1 &&
+        if (tree.nearestKSearch (q, 1, k, d) == 1 &&
             (k[0] == int (i) || d[0] > (q.getVector3fMap () - pts_[i]).squaredNorm () * (1.f + 1e-5f)))
         {
           eps[2 * i + side] = sign * e;
@@ -442,30 +645,21 @@ RBFPOUReconstruction<PointNT>::build ()
   off_.reserve (2 * n);
   for (std::size_t i = 0; i < 2 * n; ++i)
   {
-    const float e = eps[i];
-    if (e == 0.f)
+    if (eps[i] == 0.f)
     {
       ++stats_.off_surface_dropped;
       continue;
     }
-    off_.push_back ({pts_[i / 2] + e * nrm_[i / 2], e, int (i / 2)});
+    off_.push_back ({pts_[i / 2] + eps[i] * nrm_[i / 2], eps[i], int (i / 2)});
   }
   stats_.eps_halved = halved - stats_.off_surface_dropped * 12;
   stats_.off_surface_points = off_.size ();
-  stats_.t_off_surface = seconds (t0);
-  tree.reset ();
-  xyz.reset ();
+}
 
-  // --- octree partition of unity (§4.3.2) ----------------------------------------------
-  t0 = Clock::now ();
-  const std::size_t nc = n + off_.size ();
-  auto centre_of = [&] (std::uint32_t c) -> const Eigen::Vector3f& { return c < n ? pts_[c] : off_[c - n].p; };
-  Eigen::Vector3f bmin = pts_[0], bmax = pts_[0];
-  for (std::uint32_t c = 0; c < nc; ++c)
-  {
-    bmin = bmin.cwiseMin (centre_of (c));
-    bmax = bmax.cwiseMax (centre_of (c));
-  }
+template <typename PointNT> std::vector<typename RBFPOUReconstruction<PointNT>::Leaf>
+RBFPOUReconstruction<PointNT>::splitOctree ()
+{
+  // Tobor et al. 2004 §4.3.2: split until every enlarged cell holds at most Tmax constraints.
   struct Node
   {
     Eigen::Vector3d c;
@@ -473,76 +667,77 @@ RBFPOUReconstruction<PointNT>::build ()
     int depth;
     std::vector<std::uint32_t> ids;  // constraints in the enlarged cell
   };
-  struct Leaf
+  const std::uint32_t nc = std::uint32_t (pts_.size () + off_.size ());
+  Eigen::Vector3f bmin = pts_[0], bmax = pts_[0];
+  for (std::uint32_t c = 0; c < nc; ++c)
   {
-    Eigen::Vector3d c;
-    double half;  // of the enlarged box
-    std::vector<std::uint32_t> ids;
-  };
-  std::vector<Leaf> leaves;
-  {
-    std::vector<Node> stack;
-    Node root;
-    root.c = 0.5 * (bmin + bmax).cast<double> ();
-    root.half = 0.5 * double ((bmax - bmin).maxCoeff ()) * 1.001 + 1e-9;
-    root.depth = 0;
-    root.ids.resize (nc);
-    std::iota (root.ids.begin (), root.ids.end (), 0u);
-    stack.push_back (std::move (root));
-    while (!stack.empty ())
-    {
-      Node node = std::move (stack.back ());
-      stack.pop_back ();
-      if (int (node.ids.size ()) <= t_max_ || node.depth >= 20)
-      {
-        stats_.over_tmax += int (node.ids.size ()) > t_max_;
-        leaves.push_back ({node.c, overlap_ * node.half, std::move (node.ids)});
-        continue;
-      }
-      // Children enlarged by d stay inside the parent's enlarged box (d ≥ 1): filter its list.
-      // Per axis a constraint lies in the low child's range, the high one's or both (the
-      // overlap), so it is tested 3 × 2 times and appended to its ~d³ children only.
-      std::array<Node, 8> child;
-      for (int o = 0; o < 8; ++o)
-      {
-        child[o].half = node.half / 2;
-        child[o].depth = node.depth + 1;
-        child[o].c = node.c + child[o].half * Eigen::Vector3d (o & 1 ? 1 : -1, o & 2 ? 1 : -1, o & 4 ? 1 : -1);
-      }
-      const double r = overlap_ * node.half / 2;
-      for (const auto id : node.ids)
-      {
-        const Eigen::Vector3d p = centre_of (id).template cast<double> ();
-        int side[3];  // bit 0: in the low child's range, bit 1: in the high child's
-        for (int a = 0; a < 3; ++a)
-          side[a] = (std::abs (p[a] - child[0].c[a]) < r) | (std::abs (p[a] - child[7].c[a]) < r) << 1;
-        for (int o = 0; o < 8; ++o)
-          if ((side[0] >> (o & 1) & 1) && (side[1] >> (o >> 1 & 1) & 1) && (side[2] >> (o >> 2 & 1) & 1))
-            child[o].ids.push_back (id);
-      }
-      for (int o = 0; o < 8; ++o)
-        if (!child[o].ids.empty ())
-          stack.push_back (std::move (child[o]));
-    }
+    bmin = bmin.cwiseMin (constraintPosition (c));
+    bmax = bmax.cwiseMax (constraintPosition (c));
   }
+  std::vector<Leaf> leaves;
+  std::vector<Node> stack (1);
+  stack[0].c = 0.5 * (bmin + bmax).cast<double> ();
+  stack[0].half = 0.5 * double ((bmax - bmin).maxCoeff ()) * 1.001 + 1e-9;
+  stack[0].depth = 0;
+  stack[0].ids.resize (nc);
+  std::iota (stack[0].ids.begin (), stack[0].ids.end (), 0u);
+  while (!stack.empty ())
+  {
+    Node node = std::move (stack.back ());
+    stack.pop_back ();
+    if (int (node.ids.size ()) <= stats_.max_constraints || node.depth >= 20)
+    {
+      stats_.over_tmax += int (node.ids.size ()) > stats_.max_constraints;
+      leaves.push_back ({node.c, overlap_ * node.half, std::move (node.ids)});
+      continue;
+    }
+    // Children enlarged by d stay inside the parent's enlarged box (d ≥ 1): filter its list.
+    // Per axis a constraint lies in the low child's range, the high one's or both (the
+    // overlap), so it is tested 3 × 2 times and appended to its ~d³ children only.
+    std::array<Node, 8> child;
+    for (int o = 0; o < 8; ++o)
+    {
+      child[o].half = node.half / 2;
+      child[o].depth = node.depth + 1;
+      child[o].c = node.c + child[o].half * Eigen::Vector3d (o & 1 ? 1 : -1, o & 2 ? 1 : -1, o & 4 ? 1 : -1);
+    }
+    const double r = overlap_ * node.half / 2;
+    for (const auto id : node.ids)
+    {
+      const Eigen::Vector3d p = constraintPosition (id).template cast<double> ();
+      int side[3];  // bit 0: in the low child's range, bit 1: in the high child's
+      for (int a = 0; a < 3; ++a)
+        side[a] = (std::abs (p[a] - child[0].c[a]) < r) | (std::abs (p[a] - child[7].c[a]) < r) << 1;
+      for (int o = 0; o < 8; ++o)
+        if ((side[0] >> (o & 1) & 1) && (side[1] >> (o >> 1 & 1) & 1) && (side[2] >> (o >> 2 & 1) & 1))
+          child[o].ids.push_back (id);
+    }
+    for (int o = 0; o < 8; ++o)
+      if (!child[o].ids.empty ())
+        stack.push_back (std::move (child[o]));
+  }
+  return leaves;
+}
 
-  // Grow leaves below Tmin (factor 1.25 per step, at most 4×), shrinking back by bisection
-  // when a step overshoots Tmax; leaves that cannot reach Tmin are dropped.
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::growLeaves (std::vector<Leaf>& leaves)
+{
+  using namespace rbf_pou_detail;
+  // Leaves below Tmin grow (factor 1.25 per step, at most 4×), shrinking back by bisection when
+  // a step overshoots Tmax; leaves that cannot reach Tmin are dropped (scale 0).
+  const std::uint32_t nc = std::uint32_t (pts_.size () + off_.size ());
   pcl::PointCloud<pcl::PointXYZ>::Ptr cxyz (new pcl::PointCloud<pcl::PointXYZ>);
   cxyz->resize (nc);
   for (std::uint32_t c = 0; c < nc; ++c)
-    (*cxyz)[c].getVector3fMap () = centre_of (c);
-  auto ctree = std::make_unique<pcl::KdTreeFLANN<pcl::PointXYZ>> (false);  // freed after growing
-  ctree->setInputCloud (cxyz);
-  std::vector<char> keep (leaves.size (), 1);
-  std::vector<std::uint32_t>& sub_centres = sub_ids_;  // constraint ids (renumbered below)
-  std::vector<double> scale (leaves.size (), 1.0);
+    (*cxyz)[c].getVector3fMap () = constraintPosition (c);
+  pcl::KdTreeFLANN<pcl::PointXYZ> ctree (false);
+  ctree.setInputCloud (cxyz);
   std::size_t grown = 0;
-#pragma omp parallel for num_threads(nt) reduction(+ : grown) schedule(dynamic, 16)
+#pragma omp parallel for num_threads(threadCount (threads_)) reduction(+ : grown) schedule(dynamic, 16)
   for (std::ptrdiff_t l = 0; l < std::ptrdiff_t (leaves.size ()); ++l)
   {
     Leaf& leaf = leaves[l];
-    if (int (leaf.ids.size ()) >= t_min_)
+    if (int (leaf.ids.size ()) >= stats_.min_constraints)
       continue;
     ++grown;
     pcl::PointXYZ q;
@@ -558,16 +753,14 @@ RBFPOUReconstruction<PointNT>::build ()
       if (f > covered)
       {
         covered = std::max (f * 1.25, covered * 1.5625);
-        const double r = leaf.half * covered;
-        ctree->radiusSearch (q, float (r * std::sqrt (3.0) * 1.0001), k, d);
+        ctree.radiusSearch (q, float (leaf.half * covered * std::sqrt (3.0) * 1.0001), k, d);
         near.clear ();
         for (const auto id : k)
-          near.emplace_back ((centre_of (id).template cast<double> () - leaf.c).array ().abs ().maxCoeff (),
+          near.emplace_back ((constraintPosition (id).template cast<double> () - leaf.c).array ().abs ().maxCoeff (),
                              std::uint32_t (id));
         std::sort (near.begin (), near.end ());
       }
-      const double h = leaf.half * f;
-      const auto end = std::lower_bound (near.begin (), near.end (), std::make_pair (h, std::uint32_t (0)));
+      const auto end = std::lower_bound (near.begin (), near.end (), std::make_pair (leaf.half * f, std::uint32_t (0)));
       if (out)
         for (auto it = near.begin (); it != end; ++it)
           out->push_back (it->second);
@@ -575,23 +768,23 @@ RBFPOUReconstruction<PointNT>::build ()
     };
     double lo = 1, f = 1;
     int count = int (leaf.ids.size ());
-    while (count < t_min_ && f < 4)
+    while (count < stats_.min_constraints && f < 4)
     {
       lo = f;
       f *= 1.25;
       count = inBox (f, nullptr);
     }
-    if (count < t_min_)
+    if (count < stats_.min_constraints)
     {
-      keep[l] = 0;
+      leaf.scale = 0;
       continue;
     }
     double hi = f;
-    for (int it = 0; it < 10 && count > t_max_; ++it)
+    for (int it = 0; it < 10 && count > stats_.max_constraints; ++it)
     {
       const double mid = 0.5 * (lo + hi);
       const int c = inBox (mid, nullptr);
-      if (c < t_min_)
+      if (c < stats_.min_constraints)
         lo = mid;
       else
       {
@@ -599,190 +792,230 @@ RBFPOUReconstruction<PointNT>::build ()
         count = c;
       }
     }
-    scale[l] = hi;
+    leaf.scale = hi;
     leaf.ids.clear ();
     inBox (hi, &leaf.ids);
     std::sort (leaf.ids.begin (), leaf.ids.end ());
   }
   stats_.grown = grown;
-  ctree.reset ();
-  cxyz.reset ();
-  for (std::size_t l = 0; l < leaves.size (); ++l)
+}
+
+template <typename PointNT> std::vector<float>
+RBFPOUReconstruction<PointNT>::makeSubdomains (std::vector<Leaf>& leaves)
+{
+  for (const Leaf& leaf : leaves)
   {
-    if (!keep[l])
+    if (!(leaf.scale > 0))
       continue;
     Subdomain s;
-    const double h = leaves[l].half * scale[l];
-    s.centre = leaves[l].c;
+    const double h = leaf.half * leaf.scale;
+    s.centre = leaf.c;
     s.lo = s.centre.array () - h;
     s.hi = s.centre.array () + h;
     s.scale = h;
     s.poly.setZero ();
-    s.first = std::uint32_t (sub_centres.size ());
-    s.count = std::uint32_t (leaves[l].ids.size ());
-    stats_.over_tmax += leaves[l].ids.size () > std::size_t (t_max_) && scale[l] > 1;
-    sub_centres.insert (sub_centres.end (), leaves[l].ids.begin (), leaves[l].ids.end ());
+    s.first = std::uint32_t (sub_ids_.size ());
+    s.count = std::uint32_t (leaf.ids.size ());
+    stats_.over_tmax += leaf.ids.size () > std::size_t (stats_.max_constraints) && leaf.scale > 1;
+    sub_ids_.insert (sub_ids_.end (), leaf.ids.begin (), leaf.ids.end ());
     subs_.push_back (s);
   }
+  std::vector<Leaf> ().swap (leaves);
   // Renumber the constraints in the order the octree's depth-first leaves first list them, so
   // that the centres of a subdomain lie close together in cpos_ (evaluation gathers them).
-  std::vector<float> cvalue (nc);  // h of every constraint, new numbering, until fitted
+  const std::uint32_t nc = std::uint32_t (pts_.size () + off_.size ());
+  std::vector<float> value (nc);  // h of every constraint, new numbering
+  std::vector<std::uint32_t> rank (nc, std::numeric_limits<std::uint32_t>::max ());
+  std::uint32_t next = 0;
+  for (auto& id : sub_ids_)
   {
-    std::vector<std::uint32_t> rank (nc, std::numeric_limits<std::uint32_t>::max ());
-    std::uint32_t next = 0;
-    for (auto& id : sub_centres)
-    {
-      if (rank[id] == std::numeric_limits<std::uint32_t>::max ())
-        rank[id] = next++;
-      id = rank[id];
-    }
-    for (auto& r : rank)
-      if (r == std::numeric_limits<std::uint32_t>::max ())
-        r = next++;
-    cpos_.resize (3 * std::size_t (nc));
-    for (std::uint32_t c = 0; c < nc; ++c)
-    {
-      Eigen::Map<Eigen::Vector3f> dst (&cpos_[3 * std::size_t (rank[c])]);
-      dst = centre_of (c);
-      cvalue[rank[c]] = c < n ? 0.f : off_[c - n].value;
-    }
+    if (rank[id] == std::numeric_limits<std::uint32_t>::max ())
+      rank[id] = next++;
+    id = rank[id];
   }
-  leaves.clear ();
-  leaves.shrink_to_fit ();
+  for (auto& r : rank)
+    if (r == std::numeric_limits<std::uint32_t>::max ())
+      r = next++;
+  cpos_.resize (3 * std::size_t (nc));
+  for (std::uint32_t c = 0; c < nc; ++c)
+  {
+    Eigen::Map<Eigen::Vector3f> dst (&cpos_[3 * std::size_t (rank[c])]);
+    dst = constraintPosition (c);
+    value[rank[c]] = c < pts_.size () ? 0.f : off_[c - pts_.size ()].value;
+  }
   stats_.subdomains = subs_.size ();
   stats_.subdomain_centres = sub_ids_.size ();
-  if (subs_.empty ())
-    return fail ("no subdomain reached Tmin = " + std::to_string (t_min_) + " constraints");
+  return value;
+}
 
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::buildBuckets ()
+{
   // Lookup buckets of the median subdomain size.
+  std::vector<double> sizes (subs_.size ());
+  Eigen::Vector3d o = subs_[0].lo;
+  for (std::size_t i = 0; i < subs_.size (); ++i)
   {
-    std::vector<double> sizes (subs_.size ());
-    Eigen::Vector3d o = subs_[0].lo;
-    for (std::size_t i = 0; i < subs_.size (); ++i)
-    {
-      sizes[i] = 2 * subs_[i].scale;
-      o = o.cwiseMin (subs_[i].lo);
-    }
-    std::nth_element (sizes.begin (), sizes.begin () + sizes.size () / 2, sizes.end ());
-    bucket_size_ = sizes[sizes.size () / 2];
-    bucket_origin_ = o.array () - bucket_size_;
-    for (std::uint32_t i = 0; i < subs_.size (); ++i)
-    {
-      const Eigen::Array3i a = ((subs_[i].lo - bucket_origin_) / bucket_size_).array ().floor ().template cast<int> ();
-      const Eigen::Array3i b = ((subs_[i].hi - bucket_origin_) / bucket_size_).array ().floor ().template cast<int> ();
-      for (int z = a[2]; z <= b[2]; ++z)
-        for (int y = a[1]; y <= b[1]; ++y)
-          for (int x = a[0]; x <= b[0]; ++x)
-            buckets_.emplace_back (pack (x, y, z), i);
-    }
-    std::sort (buckets_.begin (), buckets_.end ());
+    sizes[i] = 2 * subs_[i].scale;
+    o = o.cwiseMin (subs_[i].lo);
   }
-  stats_.t_octree = seconds (t0);
+  std::nth_element (sizes.begin (), sizes.begin () + sizes.size () / 2, sizes.end ());
+  bucket_size_ = sizes[sizes.size () / 2];
+  bucket_origin_ = o.array () - bucket_size_;
+  for (std::uint32_t i = 0; i < subs_.size (); ++i)
+  {
+    const Eigen::Array3i a = ((subs_[i].lo - bucket_origin_) / bucket_size_).array ().floor ().template cast<int> ();
+    const Eigen::Array3i b = ((subs_[i].hi - bucket_origin_) / bucket_size_).array ().floor ().template cast<int> ();
+    for (int z = a[2]; z <= b[2]; ++z)
+      for (int y = a[1]; y <= b[1]; ++y)
+        for (int x = a[0]; x <= b[0]; ++x)
+          buckets_.emplace_back (rbf_pou_detail::pack (x, y, z), i);
+  }
+  std::sort (buckets_.begin (), buckets_.end ());
+}
 
-  // --- local fits: [A P; Pᵀ 0] [λ; c] = [h; 0], A_jk = |q_j − q_k|³ -------------------
-  t0 = Clock::now ();
-  sub_lambda_.assign (sub_centres.size (), 0.f);
-  std::size_t fallbacks = 0;
-#pragma omp parallel for num_threads(nt) reduction(+ : fallbacks) schedule(dynamic, 4)
+template <typename PointNT> bool
+RBFPOUReconstruction<PointNT>::fitSubdomain (Subdomain& s, const std::vector<float>& value, int np)
+{
+  using namespace rbf_pou_detail;
+  const int m = int (s.count);
+  const bool smooth = stats_.noise > 0;
+  Eigen::MatrixXd p (m, np);  // the polynomial basis at the centres, in the frame of the fit
+  Eigen::VectorXd h (m);
+  for (int j = 0; j < m; ++j)
+  {
+    const std::uint32_t c = sub_ids_[s.first + j];
+    const Eigen::Vector3d q =
+        (Eigen::Vector3f (&cpos_[3 * std::size_t (c)]).template cast<double> () - s.centre) / s.scale;
+    p.row (j) = polynomialBasis (q).head (np).transpose ();
+    h[j] = double (value[c]);
+  }
+  const double target = std::sqrt (double (m)) * kNoiseResidual * stats_.noise;
+  if (smooth && fitPolynomial (p, h, target, s))
+    return true;
+  Eigen::MatrixXd a (m, m);
+  for (int j = 0; j < m; ++j)  // upper triangle by columns, then mirrored
+  {
+    r3Row (&p (0, 1), &p (0, 2), &p (0, 3), j, p (j, 1), p (j, 2), p (j, 3), &a (0, j));
+    a (j, j) = 0;
+  }
+  a.template triangularView<Eigen::StrictlyLower> () = a.transpose ();
+
+  Eigen::VectorXd lambda, poly;
+  double rho = 0;
+  bool ok = false;
+  ProjectedFit fit (a, p, h);
+  if (fit.valid ())
+  {
+    rho = smooth ? chooseSmoothing (fit, target) : 0.0;
+    ok = fit.solve (rho) && fit.get (lambda, poly);
+  }
+  else if (np > kLinearTerms)
+    return fitSubdomain (s, value, kLinearTerms);  // centres too flat for a quadric
+  // The residual of the full system decides: duplicated centres or too few distinct ones make
+  // the projection singular, then an LU and least squares.
+  a.diagonal ().array () += rho;
+  auto residual = [&] {
+    return std::sqrt ((a * lambda + p * poly - h).squaredNorm () + (p.transpose () * lambda).squaredNorm ());
+  };
+  bool fallback = false;
+  if (!ok || !(residual () <= 1e-6 * h.norm () + 1e-12))
+    fallback = solveFull (a, p, h, lambda, poly);
+  for (int j = 0; j < m; ++j)
+    sub_lambda_[s.first + j] = float (lambda[j]);
+  s.poly.setZero ();
+  s.poly.head (np) = poly;
+  s.smoothing = float (rho);
+  s.rbf = true;
+  return !fallback;
+}
+
+template <typename PointNT> bool
+RBFPOUReconstruction<PointNT>::fitPolynomial (const Eigen::MatrixXd& p, const Eigen::VectorXd& h, double target,
+                                              Subdomain& s) const
+{
+  // As ρ grows the smoothing spline tends to the least-squares polynomial; when that one's
+  // residual is within the noise already, Morozov's principle takes it and no r³ system is solved.
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr (p);
+  const Eigen::VectorXd r = qr.matrixQR ().topLeftCorner (p.cols (), p.cols ()).diagonal ().cwiseAbs ();
+  if (p.rows () <= p.cols () || !(r.minCoeff () > 1e-9 * r.maxCoeff ()))
+    return false;
+  const Eigen::VectorXd c = qr.solve (h);
+  if (!c.allFinite () || !((p * c - h).norm () <= target))
+    return false;
+  s.poly.setZero ();
+  s.poly.head (p.cols ()) = c;
+  s.smoothing = std::numeric_limits<float>::infinity ();
+  s.rbf = false;
+  return true;
+}
+
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::fitSubdomains (const std::vector<float>& value)
+{
+  sub_lambda_.assign (sub_ids_.size (), 0.f);
+  std::size_t fallbacks = 0, smoothed = 0, polynomial = 0;
+#pragma omp parallel for num_threads(rbf_pou_detail::threadCount (threads_)) \
+    reduction(+ : fallbacks, smoothed, polynomial) \
+    schedule(dynamic, 4)
   for (std::ptrdiff_t si = 0; si < std::ptrdiff_t (subs_.size ()); ++si)
   {
-    Subdomain& s = subs_[si];
-    const int m = int (s.count);
-    Eigen::MatrixXd p (m, 4);  // the linear polynomial [1 q] at the centres
-    Eigen::VectorXd h (m);
-    for (int j = 0; j < m; ++j)
-    {
-      const std::uint32_t c = sub_centres[s.first + j];
-      const Eigen::Vector3d q =
-          (Eigen::Vector3f (&cpos_[3 * std::size_t (c)]).template cast<double> () - s.centre) / s.scale;  // conditioning
-      p.row (j) << 1, q.transpose ();
-      h[j] = double (cvalue[c]);
-    }
-    Eigen::MatrixXd a (m, m);
-    for (int j = 0; j < m; ++j)  // upper triangle by columns, then mirrored
-    {
-      r3Row (&p (0, 1), &p (0, 2), &p (0, 3), j, p (j, 1), p (j, 2), p (j, 3), &a (0, j));
-      a (j, j) = 0;
-    }
-    a.template triangularView<Eigen::StrictlyLower> () = a.transpose ();
-    // [A P; Pᵀ 0] [λ; c] = [h; 0]. With P = QR and Q = [Q1 Q2], λ = Q2 μ and Q2ᵀ A Q2 μ = Q2ᵀ h;
-    // r³ is conditionally positive definite of order 2, so Q2ᵀ A Q2 is SPD: an LLT of size m − 4
-    // (a third of the LU's flops), then R c = Q1ᵀ (h − A λ).
-    Eigen::VectorXd lambda;
-    Eigen::Vector4d poly;
-    bool ok = false;
-    {
-      const Eigen::HouseholderQR<Eigen::MatrixXd> qr (p);
-      const auto r = qr.matrixQR ().template topLeftCorner<4, 4> ();
-      const double rmax = r.diagonal ().cwiseAbs ().maxCoeff ();
-      if (r.diagonal ().cwiseAbs ().minCoeff () > 1e-9 * rmax)  // else coplanar centres: fallback
-      {
-        // Q = I − V T Vᵀ (LAPACK's larft), so Qᵀ A Q = A − U Vᵀ − V Uᵀ with U = A V T − ½ V M,
-        // M = Tᵀ Vᵀ A V T: two rank-4 products instead of eight rank-1 reflector updates.
-        Eigen::MatrixXd v = Eigen::MatrixXd::Zero (m, 4);
-        for (int i = 0; i < 4; ++i)
-        {
-          v (i, i) = 1;
-          v.col (i).tail (m - i - 1) = qr.matrixQR ().col (i).tail (m - i - 1);
-        }
-        const Eigen::Vector4d tau = qr.hCoeffs ();
-        Eigen::Matrix4d t = Eigen::Matrix4d::Zero ();
-        for (int i = 0; i < 4; ++i)
-        {
-          t (i, i) = tau[i];
-          if (i > 0)
-          {
-            const Eigen::VectorXd vtv = v.leftCols (i).transpose () * v.col (i);
-            const Eigen::VectorXd col = t.topLeftCorner (i, i).template triangularView<Eigen::Upper> () * vtv;
-            t.col (i).head (i) = -tau[i] * col;
-          }
-        }
-        const Eigen::MatrixXd w = a * v;
-        const Eigen::Matrix4d mm = t.transpose () * (v.transpose () * w) * t;
-        const Eigen::MatrixXd u = w * t - 0.5 * v * mm;
-        Eigen::MatrixXd b = a;
-        b.noalias () -= u * v.transpose ();
-        b.noalias () -= v * u.transpose ();
-        const Eigen::VectorXd g = h - v * (t.transpose () * (v.transpose () * h));  // Qᵀ h
-        const Eigen::LLT<Eigen::MatrixXd> llt (b.bottomRightCorner (m - 4, m - 4));
-        if (llt.info () == Eigen::Success)
-        {
-          Eigen::VectorXd mu = Eigen::VectorXd::Zero (m);
-          mu.tail (m - 4) = llt.solve (g.tail (m - 4));
-          poly = r.template triangularView<Eigen::Upper> ().solve (
-              g.head<4> () - b.topRightCorner (4, m - 4) * mu.tail (m - 4));
-          lambda = mu - v * (t * (v.transpose () * mu));  // Q μ
-          ok = lambda.allFinite () && poly.allFinite ();
-        }
-      }
-    }
-    // The residual of the full system decides, as for the LU: duplicated centres or too few
-    // distinct ones make it singular, then least squares.
-    auto residual = [&] (const Eigen::VectorXd& l, const Eigen::Vector4d& c) {
-      return std::sqrt ((a * l + p * c - h).squaredNorm () + (p.transpose () * l).squaredNorm ());
-    };
-    if (!ok || !(residual (lambda, poly) <= 1e-6 * h.norm () + 1e-12))
-    {
-      Eigen::MatrixXd full = Eigen::MatrixXd::Zero (m + 4, m + 4);
-      full.topLeftCorner (m, m) = a;
-      full.topRightCorner (m, 4) = p;
-      full.bottomLeftCorner (4, m) = p.transpose ();
-      Eigen::VectorXd rhs = Eigen::VectorXd::Zero (m + 4);
-      rhs.head (m) = h;
-      Eigen::VectorXd x = full.partialPivLu ().solve (rhs);
-      if (!x.allFinite () || (full * x - rhs).norm () > 1e-6 * rhs.norm () + 1e-12)
-      {
-        x = full.completeOrthogonalDecomposition ().solve (rhs);
-        ++fallbacks;
-      }
-      lambda = x.head (m);
-      poly = x.tail<4> ();
-    }
-    for (int j = 0; j < m; ++j)
-      sub_lambda_[s.first + j] = float (lambda[j]);
-    s.poly = poly;
+    // Smoothing fits also carry the quadratic terms: for a large ρ the fit tends to the
+    // least-squares quadric through the constraints, which follows curvature a plane cannot.
+    fallbacks += !fitSubdomain (subs_[si], value, stats_.noise > 0 ? rbf_pou_detail::kQuadricTerms
+                                                                   : rbf_pou_detail::kLinearTerms);
+    smoothed += subs_[si].smoothing > 0;
+    polynomial += !subs_[si].rbf;
   }
   stats_.fit_fallbacks = fallbacks;
+  stats_.smoothed_subdomains = smoothed;
+  stats_.polynomial_subdomains = polynomial;
+}
+
+template <typename PointNT> bool
+RBFPOUReconstruction<PointNT>::build ()
+{
+  using namespace rbf_pou_detail;
+  stats_ = Stats ();
+  error_.clear ();
+  pts_.clear (); nrm_.clear (); src_.clear (); off_.clear (); subs_.clear ();
+  sub_ids_.clear (); sub_lambda_.clear (); cpos_.clear (); buckets_.clear ();
+  if (!checkParameters ())
+    return false;
+
+  auto t0 = Clock::now ();
+  if (!collectPoints ())
+    return false;
+  pcl::PointCloud<pcl::PointXYZ>::Ptr xyz (new pcl::PointCloud<pcl::PointXYZ>);
+  xyz->resize (pts_.size ());
+  for (std::size_t i = 0; i < pts_.size (); ++i)
+    (*xyz)[i].getVector3fMap () = pts_[i];
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree (false);
+  tree.setInputCloud (xyz);
+  std::vector<int> nn;
+  if (!measureSpacing (tree, nn) || (orient_normals_ && !orientNormals (xyz)))
+    return false;
+  estimateNoise (tree);
+  if (normal_vote_ && pts_.size () > std::size_t (kNeighbours))
+    voteNormals (nn);
+  std::vector<int> ().swap (nn);
+  stats_.t_prepare = seconds (t0);
+
+  t0 = Clock::now ();
+  placeOffSurfaceConstraints (tree);
+  stats_.t_off_surface = seconds (t0);
+
+  t0 = Clock::now ();
+  std::vector<Leaf> leaves = splitOctree ();
+  growLeaves (leaves);
+  const std::vector<float> value = makeSubdomains (leaves);
+  if (subs_.empty ())
+    return fail ("no subdomain reached Tmin = " + std::to_string (stats_.min_constraints) + " constraints");
+  buildBuckets ();
+  stats_.t_octree = seconds (t0);
+
+  t0 = Clock::now ();
+  fitSubdomains (value);
   stats_.t_fits = seconds (t0);
   return true;
 }
