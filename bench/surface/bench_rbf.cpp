@@ -95,8 +95,8 @@ struct Options
 {
   bool quick = false;
   int threads = 2;
-  std::string csv, data_dir, sweeps = "main,mcrbf,robust,noise,size";
-  std::size_t main_points = 20000, sweep_points = 10000, eval_samples = 50000;
+  std::string csv, data_dir, sweeps = "main,mcrbf,robust,noise,noisy,size";
+  std::size_t main_points = 20000, sweep_points = 10000, noisy_points = 100000, eval_samples = 50000;
   std::vector<std::size_t> sizes{10000, 30000, 100000, 300000, 1000000};
   double mem_limit_gb = 8, time_limit = 240, slow_time_limit = 90, peer_time_limit = 150, eval_limit = 300;
 };
@@ -294,8 +294,9 @@ setCubicGrid (MC& mc, const CloudN& cloud, int res)
   mc.setIsoLevel (0.f);
 }
 
+// interpolate: setNoiseLevel (0), every fit interpolates its constraints whatever the noise.
 Job
-rbfJob (const std::string& normals, double grid, bool orient, int threads, double limit)
+rbfJob (const std::string& normals, double grid, bool orient, int threads, double limit, bool interpolate = false)
 {
   Job j;
   j.method = orient ? "rbf_mst" : "rbf";
@@ -303,7 +304,7 @@ rbfJob (const std::string& normals, double grid, bool orient, int threads, doubl
   // cells at h = 1 s already leaves the zero set where it bulges between samples (holes).
   const int band = grid > 0 ? std::max (2, int (std::ceil (3.0 / grid - 1e-9))) : 2;
   j.params = "normals=" + normals + ";grid=" + (grid > 0 ? fmt (grid) : std::string ("auto")) +
-             ";band=" + std::to_string (band);
+             ";band=" + std::to_string (band) + (interpolate ? ";fit=interpolate" : "");
   j.time_limit = limit;
   j.run = [=] (const Case& c, Result& r) {
     double tn = 0;
@@ -312,6 +313,8 @@ rbfJob (const std::string& normals, double grid, bool orient, int threads, doubl
     rbf.setInputCloud (cloud);
     rbf.setNumberOfThreads (unsigned (threads));
     rbf.setOrientNormals (orient);
+    if (interpolate)
+      rbf.setNoiseLevel (0);
     if (grid > 0)
     {
       rbf.setGridResolution (grid * c.spacing);
@@ -327,7 +330,9 @@ rbfJob (const std::string& normals, double grid, bool orient, int threads, doubl
     r.seconds.push_back (tn + tr);
     const auto& s = rbf.getStats ();
     r.extra = {{"subdomains", double (s.subdomains)}, {"grid_h", s.grid_resolution},
-               {"normals_voted", double (s.normals_voted)}};
+               {"normals_voted", double (s.normals_voted)}, {"noise", s.noise},
+               {"smoothed_subdomains", double (s.smoothed_subdomains)},
+               {"polynomial_subdomains", double (s.polynomial_subdomains)}};
   };
   return j;
 }
@@ -651,10 +656,12 @@ main (int argc, char** argv)
   app.add_option ("--csv", opt.csv, "also write the CSV rows (and '#' notes) to this file");
   app.add_option ("--threads", opt.threads, "threads for every method")->capture_default_str ();
   app.add_option ("--data-dir", opt.data_dir, "real data (bunny, fertility); default ../shared/data or $PCLX_DATA_DIR");
-  app.add_option ("--sweeps", opt.sweeps, "comma-separated subset of main,mcrbf,robust,noise,size")
+  app.add_option ("--sweeps", opt.sweeps, "comma-separated subset of main,mcrbf,robust,noise,noisy,size")
       ->capture_default_str ();
   app.add_option ("--main-points", opt.main_points, "points of the main and peer sweeps")->capture_default_str ();
   app.add_option ("--sweep-points", opt.sweep_points, "points of the robustness and noise sweeps")
+      ->capture_default_str ();
+  app.add_option ("--noisy-points", opt.noisy_points, "points of the noisy sweep (every shape)")
       ->capture_default_str ();
   app.add_option ("--sizes", opt.sizes, "size sweep point counts")->capture_default_str ();
   app.add_option ("--eval-samples", opt.eval_samples, "samples of each mesh for the distances")
@@ -752,6 +759,8 @@ main (int argc, char** argv)
                o3dJob (7, th, tl), pclPoissonJob (7, th, tl), hoppeJob (48, tl)});
     const Case tiny = b.makeCase (shape ("sphere"), "quick", "clean", 0, 600);
     b.run (tiny, {rbfJob ("true", 0, false, th, tl), mcRbfJob (24, slow)});
+    const Case noisy = b.makeCase (shape ("sphere"), "quick", "noise", 0.005, 3000);
+    b.run (noisy, {rbfJob ("true", 0, false, th, tl), rbfJob ("true", 0, false, th, tl, true), o3dJob (7, th, tl)});
     const Case bad = b.makeCase (shape ("sphere"), "quick", "flip", 0.05, 3000);
     b.run (bad, {rbfJob ("true", 0, false, th, tl), rbfJob ("true", 0, true, th, tl)});
     std::cerr << "[bench_rbf] done: " << b.done << " runs in " << since (b.start) << " s\n";
@@ -827,7 +836,22 @@ main (int argc, char** argv)
                    pclPoissonJob (7, th, tl), hoppeJob (96, tl)});
       }
 
-  // 5. Size: time and memory from 10k to 1M points on the sphere (peers at the depth / grid that
+  // 5. Noisy: every shape clean and at σ = 0.25 % / 0.5 % of the diagonal, the defaults (which
+  // smooth by the measured noise) beside the interpolating fits and Open3D at depths 8–10.
+  if (want ("noisy"))
+    for (const auto& name : all)
+      for (double sigma : {0.0, 0.0025, 0.005})
+      {
+        const Case c = b.makeCase (shape (name), "noisy", sigma > 0 ? "noise" : "clean", sigma, opt.noisy_points);
+        std::vector<Job> jobs{rbfJob ("true", 0, false, th, tl)};
+        if (sigma > 0)
+          jobs.push_back (rbfJob ("true", 0, false, th, tl, true));
+        for (int d : {8, 9, 10})
+          jobs.push_back (o3dJob (d, th, tl));
+        b.run (c, jobs);
+      }
+
+  // 6. Size: time and memory from 10k to 1M points on the sphere (peers at the depth / grid that
   // suits the size) and the largest sizes of the real shape. Caps, so that the full run stays
   // near 30 minutes on 2 shared cores: our normals (+10 % over true normals up to 100k) stop at
   // 100k, PCL Poisson at 100k (98 s at 300k in a trial run, single-threaded solver), Hoppe at

@@ -8,6 +8,8 @@ Reads rows with bench/plot.py's reader and draws
   rbf_error_vs_bad_normals.png              error and open edges against the share of flipped /
                                             perturbed normals
   rbf_error_vs_noise.png                    error against position noise
+  rbf_noisy.png                             every shape at 100k points, clean and noisy: Chamfer,
+                                            connected components and time against the noise
   rbf_time_memory_vs_points.png             time and peak memory against points (log-log)
   rbf_mcrbf.png                             small clouds: where MarchingCubesRBF runs, and stops
 Rows whose run failed (status=oom / timeout / crash / empty) are drawn as crosses on the x axis,
@@ -40,6 +42,7 @@ SPECS = [
 
 STYLE = {  # label: (colour, marker)
     "RBF-POU, true normals": ("tab:red", "o"),
+    "RBF-POU, true normals, interpolating (setNoiseLevel (0))": ("lightcoral", "x"),
     "RBF-POU, our normals + MST": ("tab:orange", "s"),
     "RBF-POU, PCA normals + MST": ("tab:brown", "D"),
     "RBF-POU + MST re-orientation": ("tab:pink", "P"),
@@ -56,6 +59,8 @@ def label(r):
     m = r["method"]
     if m == "rbf" and r.get("p_sweep") == "robust":
         return "RBF-POU, the given normals (neighbour vote)"
+    if m == "rbf" and r.get("p_fit") == "interpolate":
+        return "RBF-POU, true normals, interpolating (setNoiseLevel (0))"
     if m == "rbf":
         return {"true": "RBF-POU, true normals", "ours": "RBF-POU, our normals + MST",
                 "pca": "RBF-POU, PCA normals + MST"}[r.get("p_normals", "true")]
@@ -247,6 +252,57 @@ def noise(rows, out):
     return path
 
 
+def noisy(rows, out):
+    rows = [r for r in rows if r.get("p_sweep") == "noisy"]
+    if not rows:
+        return None
+    for r in rows:
+        r["noise_pct"] = 100.0 * r.get("p_noise", 0.0)
+    inputs = list(collections.OrderedDict.fromkeys(r["input"] for r in rows))
+    metrics = [("chamfer_rel", "Chamfer / diagonal", "log"), ("components", "connected components", "symlog"),
+               ("seconds", "seconds", "log")]
+    fig, axes = plt.subplots(len(metrics), len(inputs), figsize=(3.6 * len(inputs) + 1, 3.2 * len(metrics) + 1.2),
+                             squeeze=False)
+    for j, name in enumerate(inputs):
+        irows = [r for r in rows if r["input"] == name]
+        for lab, lrows in by_label(irows):
+            c, mk = STYLE.get(lab, ("k", "o"))
+            # Open3D at its best depth for each noise level (lowest Chamfer), as one line.
+            if lab.startswith("Open3D"):
+                best = {}
+                for r in lrows:
+                    if ok(r) and (r["noise_pct"] not in best or r["chamfer_rel"] < best[r["noise_pct"]]["chamfer_rel"]):
+                        best[r["noise_pct"]] = r
+                lrows = [best[k] for k in sorted(best)]
+                lab += " (best depth of 8–10)"
+            good = sorted([r for r in lrows if ok(r)], key=lambda r: r["noise_pct"])
+            for i, (m, _, _) in enumerate(metrics):
+                pts = [(r["noise_pct"], r[m]) for r in good if isinstance(r.get(m), float)]
+                if pts:
+                    axes[i][j].plot([p[0] for p in pts], [max(p[1], 1e-9) for p in pts], color=c, marker=mk,
+                                    label=lab, ms=5)
+        for i, (m, mlabel, scale) in enumerate(metrics):
+            ax = axes[i][j]
+            if scale == "symlog":
+                ax.set_yscale("symlog", linthresh=1)
+            else:
+                ax.set_yscale(scale)
+            ax.set_xticks([0, 0.25, 0.5])
+            ax.set_xlabel("noise σ, % of the diagonal")
+            ax.set_ylabel(mlabel)
+            ax.grid(True, which="both", alpha=0.3)
+            if i == 0:
+                ax.set_title(f"{name}, {int(irows[0]['points']) // 1000}k points", fontsize=10)
+    suptitle(fig, "Noisy samples (true normals): RBF-POU with its defaults (fits smooth by the measured noise) "
+                  "and interpolating, beside Open3D's screened Poisson at its best depth")
+    legend_outside(fig, axes.flat)
+    fig.tight_layout(rect=(0, 0.06, 1, 0.95))
+    path = os.path.join(out, "rbf_noisy.png")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
 def size(rows, out):
     rows = [r for r in rows if r.get("p_sweep") == "size" and r["method"] != "o3d_poisson_trim"]
     if not rows:
@@ -361,7 +417,8 @@ def main():
     if not rows:
         sys.exit("rbf_charts.py: no surface rows in " + " ".join(args.csv))
     written = [p for p in (error_vs_time(rows, "clean", args.out), error_vs_time(rows, "scan", args.out),
-                           robustness(rows, args.out), noise(rows, args.out), size(rows, args.out),
+                           robustness(rows, args.out), noise(rows, args.out), noisy(rows, args.out),
+                           size(rows, args.out),
                            mcrbf(rows, args.out)) if p]
     for p in written:
         print("wrote", p)

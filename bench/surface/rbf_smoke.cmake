@@ -13,3 +13,6 @@ if(HAVE_OPEN3D)
   list(APPEND methods o3d_poisson o3d_poisson_trim)
 endif()
 expect_method_rows("${out}" surface "[^\n]*status=ok[^\n]*,chamfer," "ok (with a chamfer distance)" ${methods})
+# The noisy quick case: the defaults measure the noise and smooth (noise > 0, smoothed fits).
+expect_method_rows("${out}" surface "sweep=quick;cond=noise[^\n]*status=ok[^\n]*,noise,[0-9.e-]*[1-9][^\n]*,smoothed_subdomains,[1-9]"
+                   "smoothing fit on noisy input" rbf)

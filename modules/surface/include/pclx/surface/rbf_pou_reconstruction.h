@@ -58,11 +58,12 @@ public:
     std::size_t band_cells = 0, active_cells = 0, corners = 0, uncovered_corners = 0, waves = 0;
     std::size_t vertices = 0, triangles = 0;
     double mean_spacing = 0, grid_resolution = 0, epsilon = 0;
-    double noise = 0;                      // σ the fits smooth for (0: they interpolate)
-    double noise_ratio = 0;                // estimated σ / point spacing (when estimated)
-    int min_constraints = 0, max_constraints = 0;  // Tmin / Tmax used (grown under noise)
-    std::size_t smoothed_subdomains = 0;   // fits with a smoothing term ρ > 0
-    std::size_t polynomial_subdomains = 0; // of those, fits by the least-squares polynomial alone
+    double noise = 0;                      ///< σ the fits smooth for (0: they interpolate)
+    double noise_ratio = 0;                ///< estimated σ / point spacing (when estimated)
+    int min_constraints = 0;               ///< Tmin used (grown under noise)
+    int max_constraints = 0;               ///< Tmax used (grown under noise)
+    std::size_t smoothed_subdomains = 0;   ///< fits with a smoothing term ρ > 0
+    std::size_t polynomial_subdomains = 0; ///< of those, fits by the least-squares polynomial alone
   };
 
   // An off-surface constraint: position, value (±ε) and the input point that made it
@@ -103,10 +104,16 @@ public:
   double getIsoLevel () const { return iso_; }
   // Initial ε of the off-surface points (> 0). Until set: the mean spacing.
   void setOffSurfaceEpsilon (double eps) { epsilon_ = eps; epsilon_auto_ = false; }
-  // Noise σ of the points along their normals (≥ 0; 0 interpolates every point). Until set:
-  // estimated from the points' offsets to their neighbours' centroids, and 0 when that is
-  // below a tenth of the mean spacing (clean samples, whose offsets are curvature).
+  /** \brief Set the noise of the points along their normals, which the local fits smooth for.
+    * \param[in] sigma standard deviation in the cloud's units (≥ 0, finite); 0 interpolates
+    * every point. Until set, σ is estimated from quadric residuals around a few hundred points
+    * and taken as 0 below a tenth of the mean spacing (clean samples).
+    * \note Carr, Beatson, Cherrie, Mitchell, Fright, McCallum, Evans 2001, "Reconstruction and
+    * representation of 3D objects with radial basis functions" (fitting with spline smoothing); the
+    * estimated value is in getStats ().noise.
+    */
   void setNoiseLevel (double sigma) { noise_ = sigma; noise_auto_ = false; }
+  /** \brief The noise level set with setNoiseLevel (0 until set: see getStats ().noise). */
   double getNoiseLevel () const { return noise_; }
   void setDecay (Decay v) { decay_ = v; }
   Decay getDecay () const { return decay_; }

@@ -537,8 +537,8 @@ RBFPOUReconstruction<PointNT>::estimateNoise (const pcl::KdTree<pcl::PointXYZ>& 
     // Below this share of the spacing the residuals are sampling and shape, not noise.
     stats_.noise = e.ratio () > kCleanNoiseRatio ? e.sigma : 0.0;
   }
-  // Under noise each fit averages more points: its own error falls as 1/√points (see
-  // docs/surface.md for the sweep behind the factor).
+  // Under noise each fit averages more points, so its own error (about σ √(10 / points)) falls;
+  // modules/surface/README.md has the sweep behind the factor.
   // Never beyond what a quarter of the constraints (about 3 per point) could fill.
   const double room = std::max (1.0, 0.75 * double (pts_.size ()) / t_min_);
   const double f = stats_.noise > 0 ? std::clamp (kNoiseSubdomainGrowth * stats_.noise / stats_.mean_spacing, 1.0,
