@@ -38,7 +38,7 @@ main (int argc, char** argv)
 {
   CLI::App app ("Surface reconstruction with RBFPOUReconstruction (RBF partition of unity); PCD/PLY/XYZ in, PLY out");
   std::string input, output, demo, decay = "linear", screenshot;
-  int points = 20000, t_max = 150, t_min = 50, band = 2, threads = 0;
+  int points = 20000, t_max = 150, t_min = 50, band = 3, threads = 0;
   double overlap = 1.5, grid = 0;
   bool orient = false, view = false;
   auto* in_opt = app.add_option ("input,-i,--input", input, "PCD, PLY or XYZ (text) file; normals are used if present");

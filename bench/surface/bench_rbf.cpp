@@ -300,9 +300,9 @@ rbfJob (const std::string& normals, double grid, bool orient, int threads, doubl
 {
   Job j;
   j.method = orient ? "rbf_mst" : "rbf";
-  // A finer grid keeps the band's absolute width (default 2 cells × 1.5 spacings): a band of 2
+  // A finer grid keeps the band's absolute width (default 3 cells × 1.5 spacings): a band of 2
   // cells at h = 1 s already leaves the zero set where it bulges between samples (holes).
-  const int band = grid > 0 ? std::max (2, int (std::ceil (3.0 / grid - 1e-9))) : 2;
+  const int band = grid > 0 ? std::max (3, int (std::ceil (4.5 / grid - 1e-9))) : 3;
   j.params = "normals=" + normals + ";grid=" + (grid > 0 ? fmt (grid) : std::string ("auto")) +
              ";band=" + std::to_string (band) + (interpolate ? ";fit=interpolate" : "");
   j.time_limit = limit;

@@ -13,17 +13,20 @@
 // polynomial, ρ chosen per subdomain so that the residual at the centres matches the noise.
 // The zero set of F − iso is polygonised by marching cubes (PCL's tables) on a sparse grid:
 // only the cells within a band of the input points, so no sheets appear far from the data.
-// F is undefined where no subdomain covers a corner; such cells are skipped.
+// F is undefined where no subdomain covers a point (evaluate () gives NaN); band corners no
+// subdomain covers take the local fit of the nearest subdomain, so the band has no gaps.
 //
 // Bad input and parameters give PCL_ERROR, an empty mesh and getLastError () (no exceptions,
 // as PCL's own reconstructions). NaN / Inf points and zero normals are dropped and counted.
 #include <pcl/kdtree/kdtree.h>
+#include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/point_types.h>
 #include <pcl/surface/reconstruction.h>
 
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -55,6 +58,7 @@ public:
     std::size_t subdomain_centres = 0;  // Σ constraints over subdomains (8 bytes each are kept)
     // band_cells: cells within the band; active_cells: cells visited (all of the band without
     // surface continuation); corners: corners where F was evaluated; waves: continuation steps.
+    // uncovered_corners: corners no subdomain covers, evaluated by the nearest subdomain's fit.
     std::size_t band_cells = 0, active_cells = 0, corners = 0, uncovered_corners = 0, waves = 0;
     std::size_t vertices = 0, triangles = 0;
     double mean_spacing = 0, grid_resolution = 0, epsilon = 0;
@@ -91,7 +95,8 @@ public:
   void setGridResolution (double h) { grid_resolution_ = h; grid_auto_ = false; }
   double getGridResolution () const { return grid_resolution_; }
   // Cells within `cells` (Chebyshev) of a cell holding an input point are polygonised (≥ 1,
-  // default 2).
+  // default 3: random samples leave gaps where the surface runs more than 2 cells from every
+  // point cell, which opened 1M-point meshes).
   void setBandWidth (int cells) { band_ = cells; }
   int getBandWidth () const { return band_; }
   // Surface continuation (default on): F is evaluated at the cells holding a point, then only
@@ -219,8 +224,11 @@ private:
   double local (const Subdomain& s, const Eigen::Vector3d& p) const;
   template <typename F> void forCovering (const Eigen::Vector3d& p, BucketCache& cache, F&& f) const;
   double evaluateCached (const Eigen::Vector3d& p, BucketCache& cache, double* weight_sum = nullptr) const;
+  // The local fit of the subdomain whose box is nearest to p, for band corners no subdomain
+  // covers; `centres` is a kd-tree of the subdomain centres, built on the first call.
+  double nearestLocal (const Eigen::Vector3d& p, std::unique_ptr<pcl::KdTreeFLANN<pcl::PointXYZ>>& centres) const;
 
-  int t_max_ = 150, t_min_ = 50, band_ = 2;
+  int t_max_ = 150, t_min_ = 50, band_ = 3;
   double overlap_ = 1.5, grid_resolution_ = 0, iso_ = 0, epsilon_ = 0, noise_ = 0;
   bool grid_auto_ = true, epsilon_auto_ = true, noise_auto_ = true, orient_normals_ = false, normal_vote_ = true;
   bool continuation_ = true;

@@ -396,6 +396,40 @@ RBFPOUReconstruction<PointNT>::evaluateCached (const Eigen::Vector3d& p, BucketC
 }
 
 template <typename PointNT> double
+RBFPOUReconstruction<PointNT>::nearestLocal (const Eigen::Vector3d& p,
+                                             std::unique_ptr<pcl::KdTreeFLANN<pcl::PointXYZ>>& centres) const
+{
+  if (!centres)
+  {
+    pcl::PointCloud<pcl::PointXYZ>::Ptr c (new pcl::PointCloud<pcl::PointXYZ>);
+    c->resize (subs_.size ());
+    for (std::size_t i = 0; i < subs_.size (); ++i)
+      (*c)[i].getVector3fMap () = subs_[i].centre.template cast<float> ();
+    centres = std::make_unique<pcl::KdTreeFLANN<pcl::PointXYZ>> (false);
+    centres->setInputCloud (c);
+  }
+  // The nearest box among the subdomains of the nearest centres (boxes differ in size).
+  pcl::PointXYZ q;
+  q.getVector3fMap () = p.template cast<float> ();
+  pcl::Indices k;
+  std::vector<float> d;
+  centres->nearestKSearch (q, int (std::min<std::size_t> (8, subs_.size ())), k, d);
+  const Subdomain* best = nullptr;
+  double best_d = std::numeric_limits<double>::infinity ();
+  for (const auto i : k)
+  {
+    const Subdomain& s = subs_[i];
+    const double dist = (p - p.cwiseMax (s.lo).cwiseMin (s.hi)).squaredNorm ();
+    if (dist < best_d)
+    {
+      best_d = dist;
+      best = &s;
+    }
+  }
+  return best ? local (*best, p) : std::numeric_limits<double>::quiet_NaN ();
+}
+
+template <typename PointNT> double
 RBFPOUReconstruction<PointNT>::evaluate (const Eigen::Vector3f& pf, double* weight_sum) const
 {
   BucketCache cache;
@@ -1075,6 +1109,7 @@ RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, 
   std::vector<std::uint64_t> mc_cells;        // cells with a triangle, and their cube index
   std::vector<std::uint8_t> mc_cube;
   std::size_t uncovered = 0;
+  std::unique_ptr<pcl::KdTreeFLANN<pcl::PointXYZ>> nearest;  // subdomain centres, built when first needed
   while (!frontier.empty ())
   {
     ++stats_.waves;
@@ -1087,17 +1122,25 @@ RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, 
       std::set_difference (need.begin (), need.end (), ckeys.begin (), ckeys.end (), std::back_inserter (fresh));
     }
     std::vector<double> fvals (fresh.size ());
-#pragma omp parallel num_threads(nt) reduction(+ : uncovered)
+    // Through float, as evaluate (): F at a vertex's corners is what a user can query.
+    auto corner = [&] (std::uint64_t key) -> Eigen::Vector3d {
+      return position (key).template cast<float> ().template cast<double> ();
+    };
+#pragma omp parallel num_threads(nt)
     {
       BucketCache cache;
 #pragma omp for schedule(dynamic, 256)
       for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (fresh.size ()); ++i)
-      {
-        // Through float, as evaluate (): F at a vertex's corners is what a user can query.
-        fvals[i] = evaluateCached (position (fresh[i]).template cast<float> ().template cast<double> (), cache) - iso_;
-        uncovered += std::isnan (fvals[i]);
-      }
+        fvals[i] = evaluateCached (corner (fresh[i]), cache) - iso_;
     }
+    // Near sharp corners and sparse patches the enlarged octree cells can leave band corners
+    // uncovered; skipping their cells would open the mesh, so they take the nearest fit.
+    for (std::size_t i = 0; i < fresh.size (); ++i)
+      if (std::isnan (fvals[i]))
+      {
+        ++uncovered;
+        fvals[i] = nearestLocal (corner (fresh[i]), nearest) - iso_;
+      }
     {
       std::vector<std::uint64_t> keys (ckeys.size () + fresh.size ());
       std::vector<double> vals (keys.size ());
