@@ -71,22 +71,35 @@ sortUnique (std::vector<std::uint64_t>& v)
   v.erase (std::unique (v.begin (), v.end ()), v.end ());
 }
 
-// Union of `keys` shifted by o·stride for o in [lo, hi] (one axis). A shift keeps a sorted
-// array sorted, so this is a chain of merges: peak memory ~3× the result, not (hi − lo + 1)×.
+// Union of the sorted `keys` shifted by o·stride for o in [lo, hi] (one axis). Each shifted
+// copy is `keys` plus a constant, so one merge reads them in place: a first pass counts the
+// union, a second writes it, and the peak memory is the input plus the result.
 inline void
 dilate (std::vector<std::uint64_t>& keys, int axis, int lo, int hi)
 {
   const std::uint64_t stride = std::uint64_t (1) << (kBits * axis);
-  std::vector<std::uint64_t> out, shifted (keys.size ()), merged;
-  for (int o = lo; o <= hi; ++o)
-  {
-    for (std::size_t i = 0; i < keys.size (); ++i)
-      shifted[i] = keys[i] + std::uint64_t (std::int64_t (o)) * stride;
-    merged.clear ();
-    merged.reserve (out.size () + shifted.size ());
-    std::set_union (out.begin (), out.end (), shifted.begin (), shifted.end (), std::back_inserter (merged));
-    out.swap (merged);
-  }
+  const int copies = hi - lo + 1;
+  auto merge = [&] (std::uint64_t* out) {
+    std::vector<std::size_t> head (copies, 0);
+    std::size_t count = 0;
+    for (;;)
+    {
+      std::uint64_t least = ~std::uint64_t (0);
+      for (int o = 0; o < copies; ++o)
+        if (head[o] < keys.size ())
+          least = std::min (least, keys[head[o]] + std::uint64_t (std::int64_t (lo + o)) * stride);
+      if (least == ~std::uint64_t (0))
+        return count;
+      for (int o = 0; o < copies; ++o)
+        if (head[o] < keys.size () && keys[head[o]] + std::uint64_t (std::int64_t (lo + o)) * stride == least)
+          ++head[o];
+      if (out)
+        out[count] = least;
+      ++count;
+    }
+  };
+  std::vector<std::uint64_t> out (merge (nullptr));
+  merge (out.data ());
   keys.swap (out);
 }
 
@@ -1020,24 +1033,27 @@ RBFPOUReconstruction<PointNT>::build ()
   auto t0 = Clock::now ();
   if (!collectPoints ())
     return false;
-  pcl::PointCloud<pcl::PointXYZ>::Ptr xyz (new pcl::PointCloud<pcl::PointXYZ>);
-  xyz->resize (pts_.size ());
-  for (std::size_t i = 0; i < pts_.size (); ++i)
-    (*xyz)[i].getVector3fMap () = pts_[i];
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree (false);
-  tree.setInputCloud (xyz);
-  std::vector<int> nn;
-  if (!measureSpacing (tree, nn) || (orient_normals_ && !orientNormals (xyz)))
-    return false;
-  estimateNoise (tree);
-  if (normal_vote_ && pts_.size () > std::size_t (kNeighbours))
-    voteNormals (nn);
-  std::vector<int> ().swap (nn);
-  stats_.t_prepare = seconds (t0);
+  {
+    // The points' kd-tree, freed before the octree: the constraints get one of their own.
+    pcl::PointCloud<pcl::PointXYZ>::Ptr xyz (new pcl::PointCloud<pcl::PointXYZ>);
+    xyz->resize (pts_.size ());
+    for (std::size_t i = 0; i < pts_.size (); ++i)
+      (*xyz)[i].getVector3fMap () = pts_[i];
+    pcl::KdTreeFLANN<pcl::PointXYZ> tree (false);
+    tree.setInputCloud (xyz);
+    std::vector<int> nn;
+    if (!measureSpacing (tree, nn) || (orient_normals_ && !orientNormals (xyz)))
+      return false;
+    estimateNoise (tree);
+    if (normal_vote_ && pts_.size () > std::size_t (kNeighbours))
+      voteNormals (nn);
+    std::vector<int> ().swap (nn);
+    stats_.t_prepare = seconds (t0);
 
-  t0 = Clock::now ();
-  placeOffSurfaceConstraints (tree);
-  stats_.t_off_surface = seconds (t0);
+    t0 = Clock::now ();
+    placeOffSurfaceConstraints (tree);
+    stats_.t_off_surface = seconds (t0);
+  }
 
   t0 = Clock::now ();
   std::vector<Leaf> leaves = splitOctree ();
