@@ -107,6 +107,17 @@ def legend_outside(fig, axes):
                fontsize=8, frameon=False)
 
 
+def save_chart(fig, axes, title, out, name, margins, dpi=110):
+    """Title, the legend below the panels, layout (bottom / top margins) and the PNG; returns its path."""
+    suptitle(fig, title)
+    legend_outside(fig, axes.flat)
+    fig.tight_layout(rect=(0, margins[0], 1, margins[1]))
+    path = os.path.join(out, name)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
+
+
 def error_vs_time(rows, cond, out):
     # The full run's main sweep; a --quick run (the demo) has one size per input plus a smaller
     # MarchingCubesRBF case, left out so that one panel compares one cloud.
@@ -158,14 +169,9 @@ def error_vs_time(rows, cond, out):
         ax.grid(True, which="both", alpha=0.3)
     what = "clean samples" if cond == "clean" else \
         "scan-like samples (density 1→0.2, 5 % shadow holes, noise 0.1 % of the diagonal)"
-    suptitle(fig, f"Error against time, {what}: filled = watertight, hollow = open or non-manifold; "
-                 "labels: Poisson depth d, marching-cubes cells r, RBF grid h (× spacing s)")
-    legend_outside(fig, axes.flat)
-    fig.tight_layout(rect=(0, 0.08, 1, 0.93))
-    path = os.path.join(out, f"rbf_error_vs_time_{cond}.png")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_chart(fig, axes, f"Error against time, {what}: filled = watertight, hollow = open or non-manifold; "
+                      "labels: Poisson depth d, marching-cubes cells r, RBF grid h (× spacing s)",
+                      out, f"rbf_error_vs_time_{cond}.png", (0.08, 0.93))
 
 
 def sweep_lines(ax, rows, x, y, xscale=1.0):
@@ -215,14 +221,9 @@ def robustness(rows, out):
                 n = int(prow[0]["points"]) if prow else 0
                 ax.set_title(f"{name}, {n // 1000}k points: {'flipped' if kind == 'flip' else 'perturbed'} normals",
                              fontsize=10)
-    suptitle(fig, "Robustness to bad normals (peers get the same corrupted normals; Poisson depth 8 / 7, "
-                 "Hoppe 96 cells)")
-    legend_outside(fig, axes.flat)
-    fig.tight_layout(rect=(0, 0.05, 1, 0.97))
-    path = os.path.join(out, "rbf_error_vs_bad_normals.png")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_chart(fig, axes, "Robustness to bad normals (peers get the same corrupted normals; Poisson depth 8 / 7, "
+                      "Hoppe 96 cells)",
+                      out, "rbf_error_vs_bad_normals.png", (0.05, 0.97))
 
 
 def noise(rows, out):
@@ -242,14 +243,9 @@ def noise(rows, out):
             ax.grid(True, which="both", alpha=0.3)
             if i == 0:
                 ax.set_title(f"{name}, {int(irows[0]['points']) // 1000}k points", fontsize=10)
-    suptitle(fig, "Error against position noise (true normals of the clean surface, except 'our normals': "
-                 "estimated from the noisy points)")
-    legend_outside(fig, axes.flat)
-    fig.tight_layout(rect=(0, 0.06, 1, 0.96))
-    path = os.path.join(out, "rbf_error_vs_noise.png")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_chart(fig, axes, "Error against position noise (true normals of the clean surface, except 'our normals': "
+                      "estimated from the noisy points)",
+                      out, "rbf_error_vs_noise.png", (0.06, 0.96))
 
 
 def noisy(rows, out):
@@ -293,14 +289,9 @@ def noisy(rows, out):
             ax.grid(True, which="both", alpha=0.3)
             if i == 0:
                 ax.set_title(f"{name}, {int(irows[0]['points']) // 1000}k points", fontsize=10)
-    suptitle(fig, "Noisy samples (true normals): RBF-POU with its defaults (fits smooth by the measured noise) "
-                  "and interpolating, beside Open3D's screened Poisson at its best depth")
-    legend_outside(fig, axes.flat)
-    fig.tight_layout(rect=(0, 0.06, 1, 0.95))
-    path = os.path.join(out, "rbf_noisy.png")
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_chart(fig, axes, "Noisy samples (true normals): RBF-POU with its defaults (fits smooth by the measured noise) "
+                      "and interpolating, beside Open3D's screened Poisson at its best depth",
+                      out, "rbf_noisy.png", (0.06, 0.95), dpi=100)
 
 
 def size(rows, out):
@@ -351,14 +342,9 @@ def size(rows, out):
                 ax.set_title(f"{name}: time against points", fontsize=10)
             else:
                 ax.set_title(f"{name}: peak memory against points", fontsize=10)
-    suptitle(fig, "Cost against size (clean samples; Poisson depth 8 / 9 / 10 by size, crosses: run "
-                 "failed or capped)")
-    legend_outside(fig, axes.flat)
-    fig.tight_layout(rect=(0, 0.07, 1, 0.96))
-    path = os.path.join(out, "rbf_time_memory_vs_points.png")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_chart(fig, axes, "Cost against size (clean samples; Poisson depth 8 / 9 / 10 by size, crosses: run "
+                      "failed or capped)",
+                      out, "rbf_time_memory_vs_points.png", (0.07, 0.96))
 
 
 def mcrbf(rows, out):
@@ -397,14 +383,9 @@ def mcrbf(rows, out):
             ax.set_ylabel(ylab)
             ax.grid(True, which="both", alpha=0.3)
             ax.set_title(f"{name}: {'time' if i == 0 else 'error'} against points (small clouds)", fontsize=10)
-    suptitle(fig, "Where PCL MarchingCubesRBF (dense 2N×2N system, fullPivLu) runs: beside RBF-POU (grid h in "
-                  "spacings s), Open3D Poisson and Hoppe on small clouds; crosses: MarchingCubesRBF failed")
-    legend_outside(fig, axes.flat)
-    fig.tight_layout(rect=(0, 0.08, 1, 0.95))
-    path = os.path.join(out, "rbf_mcrbf.png")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_chart(fig, axes, "Where PCL MarchingCubesRBF (dense 2N×2N system, fullPivLu) runs: beside RBF-POU (grid h in "
+                      "spacings s), Open3D Poisson and Hoppe on small clouds; crosses: MarchingCubesRBF failed",
+                      out, "rbf_mcrbf.png", (0.08, 0.95))
 
 
 def main():
