@@ -192,7 +192,8 @@ private:
   // The stages of build (), in order.
   bool checkParameters ();
   bool collectPoints ();  // finite points with usable normals
-  // Mean spacing and every point's kNeighbours nearest neighbours (−1: fewer found).
+  // Mean spacing, and every point's kNeighbours nearest neighbours for the vote (−1: fewer
+  // found; empty without a vote).
   bool measureSpacing (const pcl::KdTree<pcl::PointXYZ>& tree, std::vector<int>& nn);
   bool orientNormals (const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& xyz);
   // The noise σ, and the subdomain sizes that follow from it.
@@ -207,8 +208,6 @@ private:
   void fitSubdomains (const std::vector<float>& value);
   // One local fit with np polynomial terms (4 or 10); false when it needed least squares.
   bool fitSubdomain (Subdomain& s, const std::vector<float>& value, int np);
-  // The least-squares polynomial alone when its residual at the centres is within `target`.
-  bool fitPolynomial (const Eigen::MatrixXd& p, const Eigen::VectorXd& h, double target, Subdomain& s) const;
   // Constraint c: an input point (c < pts_.size ()) or an off-surface point.
   const Eigen::Vector3f& constraintPosition (std::uint32_t c) const
   {

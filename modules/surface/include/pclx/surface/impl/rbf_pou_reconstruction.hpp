@@ -203,13 +203,20 @@ polynomialBasis (const Eigen::Vector3d& q)
 class ProjectedFit
 {
 public:
-  ProjectedFit (const Eigen::MatrixXd& a, const Eigen::MatrixXd& p, const Eigen::VectorXd& h)
-    : m_ (int (p.rows ())), np_ (int (p.cols ())), qr_ (p)
+  // The QR of P; valid () when P has full column rank (else the centres are (nearly) flat).
+  explicit ProjectedFit (const Eigen::MatrixXd& p) : m_ (int (p.rows ())), np_ (int (p.cols ())), qr_ (p)
   {
     const Eigen::VectorXd r = qr_.matrixQR ().topLeftCorner (np_, np_).diagonal ().cwiseAbs ();
-    valid_ = m_ > np_ && r.minCoeff () > 1e-9 * r.maxCoeff ();  // else (nearly) flat centres
-    if (!valid_)
-      return;
+    valid_ = m_ > np_ && r.minCoeff () > 1e-9 * r.maxCoeff ();
+  }
+
+  bool valid () const { return valid_; }
+  // The limit ρ → ∞: the least-squares polynomial, λ = 0.
+  Eigen::VectorXd leastSquares (const Eigen::VectorXd& h) const { return qr_.solve (h); }
+
+  // Projects A and h for solve (ρ); only for a valid fit.
+  void project (const Eigen::MatrixXd& a, const Eigen::VectorXd& h)
+  {
     // Q = I − V T Vᵀ (LAPACK's larft), so Qᵀ A Q = A − U Vᵀ − V Uᵀ with U = A V T − ½ V M,
     // M = Tᵀ Vᵀ A V T: two rank-np products instead of 2 np rank-1 reflector updates.
     v_ = Eigen::MatrixXd::Zero (m_, np_);
@@ -239,7 +246,6 @@ public:
     g_ = h - v_ * (t_.transpose () * (v_.transpose () * h));  // Qᵀ h
   }
 
-  bool valid () const { return valid_; }
   // Mean diagonal of Q2ᵀ A Q2: the scale of ρ.
   double scale () const { return b_.bottomRightCorner (m_ - np_, m_ - np_).trace () / (m_ - np_); }
 
@@ -531,22 +537,26 @@ RBFPOUReconstruction<PointNT>::measureSpacing (const pcl::KdTree<pcl::PointXYZ>&
   using namespace rbf_pou_detail;
   const std::size_t n = pts_.size ();
   const int nt = threadCount (threads_);
-  // The point itself is its first neighbour: the second gives the spacing.
-  nn.assign (kNeighbours * n, -1);
+  // The point itself is its first neighbour: the second gives the spacing. The vote's
+  // neighbours come from the same search, and only when there is a vote.
+  const bool vote = normal_vote_ && n > std::size_t (kNeighbours);
+  const int kq = vote ? kNeighbours + 1 : 2;
+  nn.assign (vote ? kNeighbours * n : 0, -1);
   double spacing_sum = 0;
 #pragma omp parallel for num_threads(nt) reduction(+ : spacing_sum) schedule(static)
   for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (n); ++i)
   {
-    pcl::Indices k (kNeighbours + 1);
-    std::vector<float> d (kNeighbours + 1);
+    pcl::Indices k (kq);
+    std::vector<float> d (kq);
     pcl::PointXYZ q;
     q.getVector3fMap () = pts_[i];
-    const int found = tree.nearestKSearch (q, kNeighbours + 1, k, d);
+    const int found = tree.nearestKSearch (q, kq, k, d);
     if (found >= 2)
       spacing_sum += std::sqrt (d[1]);
-    for (int j = 0, o = 0; j < found && o < kNeighbours; ++j)
-      if (k[j] != int (i))
-        nn[kNeighbours * i + o++] = k[j];
+    if (vote)
+      for (int j = 0, o = 0; j < found && o < kNeighbours; ++j)
+        if (k[j] != int (i))
+          nn[kNeighbours * i + o++] = k[j];
   }
   stats_.mean_spacing = spacing_sum / double (n);
   if (!(stats_.mean_spacing > 0))
@@ -937,9 +947,24 @@ RBFPOUReconstruction<PointNT>::fitSubdomain (Subdomain& s, const std::vector<flo
     p.row (j) = polynomialBasis (q).head (np).transpose ();
     h[j] = double (value[c]);
   }
+  ProjectedFit fit (p);
+  if (!fit.valid () && np > kLinearTerms)
+    return fitSubdomain (s, value, kLinearTerms);  // centres too flat for a quadric
   const double target = std::sqrt (double (m)) * kNoiseResidual * stats_.noise;
-  if (smooth && fitPolynomial (p, h, target, s))
-    return true;
+  if (smooth && fit.valid ())
+  {
+    // As ρ grows the smoothing spline tends to the least-squares polynomial; when that one's
+    // residual is within the noise already, Morozov's principle takes it and no r³ system is solved.
+    const Eigen::VectorXd c = fit.leastSquares (h);
+    if (c.allFinite () && (p * c - h).norm () <= target)
+    {
+      s.poly.setZero ();
+      s.poly.head (np) = c;
+      s.smoothing = std::numeric_limits<float>::infinity ();
+      s.rbf = false;
+      return true;
+    }
+  }
   Eigen::MatrixXd a (m, m);
   for (int j = 0; j < m; ++j)  // upper triangle by columns, then mirrored
   {
@@ -951,14 +976,12 @@ RBFPOUReconstruction<PointNT>::fitSubdomain (Subdomain& s, const std::vector<flo
   Eigen::VectorXd lambda, poly;
   double rho = 0;
   bool ok = false;
-  ProjectedFit fit (a, p, h);
   if (fit.valid ())
   {
+    fit.project (a, h);
     rho = smooth ? chooseSmoothing (fit, target) : 0.0;
     ok = fit.solve (rho) && fit.get (lambda, poly);
   }
-  else if (np > kLinearTerms)
-    return fitSubdomain (s, value, kLinearTerms);  // centres too flat for a quadric
   // The residual of the full system decides: duplicated centres or too few distinct ones make
   // the projection singular, then an LU and least squares.
   a.diagonal ().array () += rho;
@@ -975,26 +998,6 @@ RBFPOUReconstruction<PointNT>::fitSubdomain (Subdomain& s, const std::vector<flo
   s.smoothing = float (rho);
   s.rbf = true;
   return !fallback;
-}
-
-template <typename PointNT> bool
-RBFPOUReconstruction<PointNT>::fitPolynomial (const Eigen::MatrixXd& p, const Eigen::VectorXd& h, double target,
-                                              Subdomain& s) const
-{
-  // As ρ grows the smoothing spline tends to the least-squares polynomial; when that one's
-  // residual is within the noise already, Morozov's principle takes it and no r³ system is solved.
-  const Eigen::HouseholderQR<Eigen::MatrixXd> qr (p);
-  const Eigen::VectorXd r = qr.matrixQR ().topLeftCorner (p.cols (), p.cols ()).diagonal ().cwiseAbs ();
-  if (p.rows () <= p.cols () || !(r.minCoeff () > 1e-9 * r.maxCoeff ()))
-    return false;
-  const Eigen::VectorXd c = qr.solve (h);
-  if (!c.allFinite () || !((p * c - h).norm () <= target))
-    return false;
-  s.poly.setZero ();
-  s.poly.head (p.cols ()) = c;
-  s.smoothing = std::numeric_limits<float>::infinity ();
-  s.rbf = false;
-  return true;
 }
 
 template <typename PointNT> void
@@ -1045,7 +1048,7 @@ RBFPOUReconstruction<PointNT>::build ()
     if (!measureSpacing (tree, nn) || (orient_normals_ && !orientNormals (xyz)))
       return false;
     estimateNoise (tree);
-    if (normal_vote_ && pts_.size () > std::size_t (kNeighbours))
+    if (!nn.empty ())
       voteNormals (nn);
     std::vector<int> ().swap (nn);
     stats_.t_prepare = seconds (t0);
