@@ -338,8 +338,8 @@ main (int argc, char** argv)
   app.add_option ("--up", o.up, "x y z: the cameras' up direction (default: +y, -y for sensor frames)")->expected (3);
   app.add_flag ("--mesh", o.mesh, "also show the partial view-dependent triangulation");
   app.add_option ("--screenshot", o.screenshot, "render off-screen, save this PNG and exit");
-  app.add_option ("--width", o.width)->capture_default_str ();
-  app.add_option ("--height", o.height)->capture_default_str ();
+  app.add_option ("--width", o.width, "window and screenshot width in pixels")->capture_default_str ();
+  app.add_option ("--height", o.height, "window and screenshot height in pixels")->capture_default_str ();
   app.add_option ("-o,--output", o.output, "save the visible points of the last frame (.pcd)");
   CLI11_PARSE (app, argc, argv);
   pclx::apps::finishSourceOptions (app, o.source);

@@ -52,8 +52,8 @@ run (int argc, char** argv)
   app.add_option ("--cloud", cloud_file, "write a uniformly sampled cloud of the scene (PLY)");
   app.add_option ("--points", points, "points of --cloud")->capture_default_str ();
   app.add_option ("--frames", frames, "number of frames")->capture_default_str ();
-  app.add_option ("--width", width)->capture_default_str ();
-  app.add_option ("--height", height)->capture_default_str ();
+  app.add_option ("--width", width, "rendered frame width in pixels")->capture_default_str ();
+  app.add_option ("--height", height, "rendered frame height in pixels")->capture_default_str ();
   CLI11_PARSE (app, argc, argv);
 
   // A torus around a sphere: self-occlusion and occlusion of one object by another.

@@ -401,8 +401,8 @@ main (int argc, char** argv)
   app.add_option ("-o,--output", o.output, "write the final mesh as binary PLY");
   app.add_option ("--screenshot", o.screenshot, "render the final mesh off-screen to this PNG (no window)");
   app.add_flag ("--no-window", o.no_window, "no VTK window: fuse, report and write --output");
-  app.add_option ("--width", o.width)->capture_default_str ();
-  app.add_option ("--height", o.height)->capture_default_str ();
+  app.add_option ("--width", o.width, "window and screenshot width in pixels")->capture_default_str ();
+  app.add_option ("--height", o.height, "window and screenshot height in pixels")->capture_default_str ();
   CLI11_PARSE (app, argc, argv);
   pclx::apps::finishSourceOptions (app, o.source);
   if (!(o.leaf > 0) || o.epsilon < 0 || o.cell_pixels < 0)

@@ -25,8 +25,8 @@ main (int argc, char** argv)
   app.add_option ("--depth-png-dir", png_dir, "write frames in the 7-Scenes layout");
   app.add_option ("--mesh", mesh_file, "write the ground-truth mesh (PLY)");
   app.add_option ("--frames", frames, "number of frames (>= 1)")->capture_default_str ();
-  app.add_option ("--width", width)->capture_default_str ();
-  app.add_option ("--height", height)->capture_default_str ();
+  app.add_option ("--width", width, "depth frame width in pixels")->capture_default_str ();
+  app.add_option ("--height", height, "depth frame height in pixels")->capture_default_str ();
   CLI11_PARSE (app, argc, argv);
   if (frames < 1 || width < 8 || height < 8)
   {

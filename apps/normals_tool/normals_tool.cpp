@@ -97,11 +97,16 @@ main (int argc, char** argv)
 {
   CLI::App app ("Normals with PlanarOctreeNormalEstimation (seed 002) or PCA; PCD/PLY/XYZ in, PCD out");
   std::string input, output, truth_path, demo, method = "merged", orient = "none", color = "error", screenshot;
-  int k = 18, max_depth = 10, min_points = 10, orient_k = 10, points = 50000, threads = 0;
+  // The library's defaults, so that the app and a PCL user's code give the same normals.
+  const Estimator defaults;
+  int k = Estimator::kDefaultNeighbours, max_depth = defaults.getMaxDepth (),
+      min_points = defaults.getMinPointsPerCell (), orient_k = 10, points = 50000, threads = 0;
   double across_penalty = 0.5;
-  double s_alpha = 0, s_beta = 1.5, border = 0.25, merge_angle = 15, noise = 0, shadow = 0, scale = 0;
-  double validation = 1.0, patch_slope = 2.0;
-  int adaptive_max = 200, patch_size = 4, patch_support = 18;
+  double s_alpha = 0, s_beta = defaults.getSBeta (), border = defaults.getBorderRatio (),
+         merge_angle = defaults.getMergeAngle (), noise = 0, shadow = 0, scale = 0;
+  double validation = defaults.getRegionValidationRatio (), patch_slope = defaults.getMaxPatchSlopeError ();
+  int adaptive_max = defaults.getMaxAdaptiveNeighbours (), patch_size = defaults.getPatchSize (),
+      patch_support = defaults.getPatchSupport ();
   std::vector<float> viewpoint{0, 0, 0};
   bool view = false;
   auto* in_opt = app.add_option ("input,-i,--input", input, "PCD, PLY or XYZ (text) file");

@@ -881,8 +881,8 @@ main (int argc, char** argv)
   app.add_option ("--orbit-seconds", o.orbit_seconds, "seconds per orbit")->capture_default_str ();
   app.add_option ("--view-dir", o.view_dir, "x y z: direction from the cloud's centre to the camera")->expected (3);
   app.add_option ("--up", o.up, "x y z: the camera's up direction")->expected (3);
-  app.add_option ("--width", o.width)->capture_default_str ();
-  app.add_option ("--height", o.height)->capture_default_str ();
+  app.add_option ("--width", o.width, "window and screenshot width in pixels")->capture_default_str ();
+  app.add_option ("--height", o.height, "window and screenshot height in pixels")->capture_default_str ();
   CLI11_PARSE (app, argc, argv);
   if (o.growth_prefix.empty ())
   {

@@ -28,7 +28,7 @@ void
 addSourceOptions (CLI::App& app, SourceOptions& o)
 {
   auto* src = app.add_option_group ("source", "where the points come from (one of)");
-  src->add_option ("-i,--input", o.input, "a .pcd, .ply or .xyz file");
+  src->add_option ("input,-i,--input", o.input, "a .pcd, .ply or .xyz file");
   src->add_option ("--pcd-dir", o.pcd_dir, "recorded frames: a folder of .pcd files, replayed by pcl::PCDGrabber");
   src->add_option ("--image-dir", o.image_dir, "recorded frames for pcl::ImageGrabber (TIFF, or PCLZF with --pclzf)");
   src->add_option ("--depth-dir", o.depth_dir,

@@ -455,3 +455,36 @@ TEST (HPRBadInput, ViewpointInsideTheCloud)
     EXPECT_GT (vis, (m == Filter::Method::EXACT ? 0.97 : 0.6) * cloud->size ()) << int (m);
   }
 }
+
+TEST (HPRGivenRadius, AutoHonoursAGivenRadiusAboveTheExactLimit)
+{
+  // Above kAutoExactLimit, AUTO with a user-set R (or γ) must compute the operator at that R,
+  // as EXACT does, and keep a sphere's far side hidden.
+  const auto cloud = xyz (sampleUniform (makeSphere (1.f, 5), 30000, 43));
+  ASSERT_GT (cloud->size (), Filter::kAutoExactLimit);
+  const Eigen::Vector3f C (0.f, 0.f, 4.f);
+  for (const bool gamma : {false, true})
+  {
+    auto configure = [&] (Filter& f, Filter::Method m) {
+      f.setInputCloud (cloud);
+      f.setViewPoint (C);
+      f.setMethod (m);
+      if (gamma)
+        f.setGamma (2.0);
+      else
+        f.setRadius (500.0);
+    };
+    Filter automatic, exact;
+    configure (automatic, Filter::Method::AUTO);
+    configure (exact, Filter::Method::EXACT);
+    const pcl::Indices a = run (automatic), e = run (exact);
+    EXPECT_EQ (automatic.getMethodUsed (), Filter::Method::EXACT) << (gamma ? "gamma" : "radius");
+    EXPECT_EQ (a, e) << (gamma ? "gamma" : "radius");
+    EXPECT_DOUBLE_EQ (automatic.getRadiusUsed (), exact.getRadiusUsed ());
+    std::size_t far_side = 0;
+    for (const int i : a)
+      far_side += (*cloud)[i].z < -0.1f;
+    EXPECT_EQ (far_side, 0u) << (gamma ? "gamma" : "radius");
+    EXPECT_LT (double (a.size ()), 0.5 * double (cloud->size ()));
+  }
+}

@@ -44,8 +44,9 @@ public:
 
   enum class Method
   {
-    AUTO,          // EXACT for small clouds; ANGULAR_GRID when a view resolution is set
-                   // (only the detail the screen shows); CANDIDATE_HULL otherwise
+    AUTO,          // EXACT for small clouds and whenever R is given (setRadius, setGamma);
+                   // ANGULAR_GRID when a view resolution is set (only the detail the screen
+                   // shows); CANDIDATE_HULL otherwise, which calibrates its own R
     EXACT,         // Katz et al.: Qhull on the flipped cloud (+ an exact interior pre-filter)
     ANGULAR_GRID,  // Machado e Silva et al.: sector candidates + propagation
     CANDIDATE_HULL,  // ours: every point not strictly inside a tetrahedron (C, a, b, c) of
@@ -144,7 +145,7 @@ public:
   // Largest grid the approximate methods accept (also at most 64 sectors per point);
   // larger requests are clamped with a warning.
   static constexpr std::size_t kMaxSectors = hpr::kMaxSectors;
-  // Below this many points, AUTO picks the exact method.
+  // Below this many points, AUTO picks the exact method (above it too when R is given).
   static constexpr std::size_t kAutoExactLimit = 20000;
 
 protected:

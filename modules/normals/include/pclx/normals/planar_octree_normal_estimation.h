@@ -23,8 +23,9 @@
 // Orientation is separate (MSTNormalOrientation, orientNormalsTowardsViewpoint): the
 // output normals here are unoriented (sign of the fitted eigenvector / surface).
 //
-// Every output normal is finite. Invalid input points get a zero normal (status
-// INVALID_POINT); points whose neighbourhood spans no plane get the normal of the
+// Every valid input point gets a finite normal. Invalid input points get NaN normal and
+// curvature, as pcl::NormalEstimation gives them (status INVALID_POINT), so downstream NaN
+// filters drop them; points whose neighbourhood spans no plane get the normal of the
 // smallest enclosing octree cell that does (status NEIGHBOUR_FALLBACK).
 #include <pclx/normals/grid_knn.h>
 #include <pclx/normals/lazy_kd_tree.h>
@@ -62,15 +63,15 @@ public:
     ADOPTED_REGION = 2,      // point of a non-planar cell that lies on an adjacent region (MERGED)
     KNN_PCA = 3,             // kNN PCA (HYBRID borders; MERGED: the ladder's k, getSupportSizes ())
     NEIGHBOUR_FALLBACK = 4,  // degenerate neighbourhood: normal of the enclosing planar-enough cell
-    INVALID_POINT = 5,       // NaN / Inf input point: zero normal, zero curvature
+    INVALID_POINT = 5,       // NaN / Inf input point: NaN normal and curvature
     PATCH_FIT = 6            // MERGED: quadric of the point's patch cell and its ring (fitPatches)
   };
 
-  PlanarOctreeNormalEstimation ()
-  {
-    feature_name_ = "PlanarOctreeNormalEstimation";
-    this->setKSearch (18);  // Hoppe PCA neighbourhood for borders and fallbacks
-  }
+  /** \brief Neighbours of the PCA fits at borders and fallbacks when neither setKSearch ()
+    * nor setRadiusSearch () was called (PCL's defaults leave both unset). */
+  static constexpr int kDefaultNeighbours = 18;
+
+  PlanarOctreeNormalEstimation () { feature_name_ = "PlanarOctreeNormalEstimation"; }
 
   void setMethod (Method m) { method_ = m; }
   Method getMethod () const { return method_; }
@@ -197,9 +198,13 @@ public:
 
 protected:
   bool initCompute () override;
+  bool deinitCompute () override;
   void computeFeature (PointCloudOut& output) override;
 
 private:
+  // The parameter checks and the octree of initCompute ().
+  bool prepare ();
+
   pclx::normals::PlanarOctreeParams params_;
   Method method_ = Method::MERGED;
   double border_ratio_ = 0.25;
@@ -209,6 +214,7 @@ private:
   double residual_split_ratio_ = 5.0;
   bool quadric_ = true;
   bool thresholds_set_ = false;
+  bool default_k_ = false;  // this compute () runs with kDefaultNeighbours
   int growth_passes_ = 32;
   double adoption_angle_deg_ = 15.0;
   double region_validation_ratio_ = 1.0;

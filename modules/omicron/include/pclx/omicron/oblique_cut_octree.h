@@ -186,3 +186,7 @@ private:
 };
 
 }  // namespace pcl
+
+#ifdef PCL_NO_PRECOMPILE
+#include <pclx/omicron/impl/oblique_cut_octree.hpp>
+#endif

@@ -87,3 +87,7 @@ private:
 };
 
 }  // namespace pcl
+
+#ifdef PCL_NO_PRECOMPILE
+#include <pclx/omicron/impl/potree_writer.hpp>
+#endif

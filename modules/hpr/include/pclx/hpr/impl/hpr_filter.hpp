@@ -122,7 +122,9 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   method_used_ = method_;
   if (method_ == Method::AUTO)
   {
-    if (finite.size () <= kAutoExactLimit)
+    // A given R is a request for Katz et al.'s operator at that R, which only EXACT computes.
+    const bool radius_given = radius_mode_ != RadiusMode::AUTO && view_pixels_ <= 0;
+    if (finite.size () <= kAutoExactLimit || radius_given)
       method_used_ = Method::EXACT;
     else
       method_used_ = view_pixels_ > 0 ? Method::ANGULAR_GRID : Method::CANDIDATE_HULL;

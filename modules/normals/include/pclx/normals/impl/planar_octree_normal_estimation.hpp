@@ -70,6 +70,29 @@ planeOfPositions (const Eigen::Vector3f& x, const std::uint64_t* keys, int k, co
 template <typename PointInT, typename PointOutT> bool
 PlanarOctreeNormalEstimation<PointInT, PointOutT>::initCompute ()
 {
+  // Neither k nor a radius set: this call searches kDefaultNeighbours, and the user's
+  // settings are given back unchanged afterwards.
+  default_k_ = this->getKSearch () == 0 && this->getRadiusSearch () == 0;
+  if (default_k_)
+    this->setKSearch (kDefaultNeighbours);
+  if (prepare ())
+    return true;
+  deinitCompute ();
+  return false;
+}
+
+template <typename PointInT, typename PointOutT> bool
+PlanarOctreeNormalEstimation<PointInT, PointOutT>::deinitCompute ()
+{
+  if (default_k_)
+    this->setKSearch (0);
+  default_k_ = false;
+  return Feature<PointInT, PointOutT>::deinitCompute ();
+}
+
+template <typename PointInT, typename PointOutT> bool
+PlanarOctreeNormalEstimation<PointInT, PointOutT>::prepare ()
+{
   const char* name = "PlanarOctreeNormalEstimation::initCompute";
   // Parameters first: a bad threshold is an error, never a silently odd octree.
   if (growth_passes_ < 0)
@@ -801,8 +824,7 @@ PlanarOctreeNormalEstimation<PointInT, PointOutT>::computeFeature (PointCloudOut
       const PointInT& p = (*input_)[index];
       if (!isFinite (p))
       {
-        out.normal_x = out.normal_y = out.normal_z = 0.f;
-        out.curvature = 0.f;
+        out.normal_x = out.normal_y = out.normal_z = out.curvature = std::numeric_limits<float>::quiet_NaN ();
         dense = false;
         continue;
       }
