@@ -39,7 +39,7 @@ main (int argc, char** argv)
   CLI::App app ("Surface reconstruction with RBFPOUReconstruction (RBF partition of unity); PCD/PLY/XYZ in, PLY out");
   std::string input, output, demo, decay = "linear", screenshot;
   int points = 20000, t_max = 150, t_min = 50, band = 3, threads = 0;
-  double overlap = 1.5, grid = 0;
+  double overlap = 1.5, grid = 0, max_hole = -1;
   bool orient = false, view = false;
   auto* in_opt = app.add_option ("input,-i,--input", input, "PCD, PLY or XYZ (text) file; normals are used if present");
   app.add_option ("--demo", demo, "instead of a file: a sampled shape with exact normals")
@@ -52,6 +52,8 @@ main (int argc, char** argv)
   app.add_option ("--overlap", overlap, "subdomain overlap factor d (> 1)")->capture_default_str ();
   app.add_option ("--grid", grid, "marching-cubes cell size (0: 1.5 x mean point spacing)")->capture_default_str ();
   app.add_option ("--band", band, "polygonised cells around the points (>= 1)")->capture_default_str ();
+  app.add_option ("--max-hole", max_hole,
+                  "close holes up to this size (0: none; default: scans only, up to 1/4 of the bounding-box diagonal)");
   app.add_option ("--decay", decay, "weight decay: linear (seed) or cubic (Tobor et al., smooth)")
       ->check (CLI::IsMember ({"linear", "cubic"}))
       ->capture_default_str ();
@@ -165,6 +167,8 @@ main (int argc, char** argv)
   if (grid > 0)
     rbf.setGridResolution (grid);
   rbf.setBandWidth (band);
+  if (max_hole >= 0)
+    rbf.setMaxHoleSize (max_hole);
   rbf.setDecay (decay == "cubic" ? pcl::RBFPOUReconstruction<pcl::PointNormal>::Decay::CUBIC
                                  : pcl::RBFPOUReconstruction<pcl::PointNormal>::Decay::LINEAR);
   rbf.setOrientNormals (orient);
@@ -194,6 +198,8 @@ main (int argc, char** argv)
                s.fit_fallbacks);
   std::printf ("grid: %zu active cells, %zu corners (%zu uncovered)\n", s.active_cells, s.corners,
                s.uncovered_corners);
+  std::printf ("holes: density spread %.2f, %zu of %zu closed (up to %.4g across), %zu triangles added\n",
+               s.density_spread, s.holes_filled, s.holes, s.max_hole_size, s.hole_triangles);
   std::size_t boundary = 0, non_manifold = 0;
   pclx::apps::countOpenEdges (mesh, boundary, non_manifold);
   std::printf ("mesh: %zu vertices, %zu triangles; %zu edges used once, %zu used > 2 times%s\n", s.vertices,

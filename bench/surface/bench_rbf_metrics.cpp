@@ -137,18 +137,21 @@ topology (const TriangleMesh& mesh)
 
 Error
 meshError (const TriangleMesh& output, const pclx::testing::MeshDistance& truth,
-           const std::vector<Eigen::Vector3f>& truth_samples, std::size_t samples)
+           const std::vector<Eigen::Vector3f>& truth_samples, std::size_t samples, double far)
 {
   Error e;
   const auto out_samples = pclx::testing::sampleUniform (output, samples, 7);
   double sum = 0;
+  std::size_t far_count = 0;
   for (const auto& p : out_samples.cloud)
   {
     const double d = truth.distance (p.getVector3fMap ());
     sum += d;
+    far_count += d > far;
     e.out_to_truth_max = std::max (e.out_to_truth_max, d);
   }
   e.out_to_truth_mean = sum / std::max<std::size_t> (1, out_samples.cloud.size ());
+  e.far_share = double (far_count) / double (std::max<std::size_t> (1, out_samples.cloud.size ()));
   const pclx::testing::MeshDistance to_output (output);
   sum = 0;
   for (const auto& p : truth_samples)

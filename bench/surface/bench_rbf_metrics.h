@@ -1,4 +1,5 @@
 #pragma once
+#include <cmath>
 // Quality of a reconstructed mesh against the true surface (bench_rbf): two-sided sampled
 // distances and topology (boundary / non-manifold edges, Euler characteristic, components).
 #include <pclx/testing/mesh_distance.h>
@@ -29,13 +30,15 @@ struct Error
 {
   double out_to_truth_mean = 0, out_to_truth_max = 0;  // samples of the output, distance to the truth
   double truth_to_out_mean = 0, truth_to_out_max = 0;  // samples of the truth, distance to the output
+  // Share of the output's area (its samples) farther than `far` from the truth: invented surface.
+  double far_share = 0;
   double chamfer () const { return 0.5 * (out_to_truth_mean + truth_to_out_mean); }
   double hausdorff () const { return std::max (out_to_truth_max, truth_to_out_max); }
 };
 // `truth_samples` are area-uniform samples of the truth; the output is sampled with `samples`
 // area-uniform points and measured against `truth` (CGAL AABB tree, built once per input).
 Error meshError (const pclx::testing::TriangleMesh& output, const pclx::testing::MeshDistance& truth,
-                 const std::vector<Eigen::Vector3f>& truth_samples, std::size_t samples);
+                 const std::vector<Eigen::Vector3f>& truth_samples, std::size_t samples, double far = HUGE_VAL);
 
 // Removes the vertices whose density is below the q-quantile (and their triangles), as
 // Open3D users do after CreateFromPointCloudPoisson.

@@ -1,5 +1,6 @@
 #include "bench_rbf_open3d.h"
 
+#include <open3d/geometry/KDTreeSearchParam.h>
 #include <open3d/geometry/PointCloud.h>
 #include <open3d/geometry/TriangleMesh.h>
 #include <open3d/utility/Logging.h>
@@ -7,6 +8,18 @@
 #include <chrono>
 
 namespace rbf_open3d {
+
+std::vector<Eigen::Vector3d>
+estimateNormals (const std::vector<Eigen::Vector3d>& points, int k, double& seconds)
+{
+  open3d::utility::SetVerbosityLevel (open3d::utility::VerbosityLevel::Error);
+  open3d::geometry::PointCloud pc (points);
+  const auto t0 = std::chrono::steady_clock::now ();
+  pc.EstimateNormals (open3d::geometry::KDTreeSearchParamKNN (k));
+  pc.OrientNormalsConsistentTangentPlane (std::size_t (k));
+  seconds = std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count ();
+  return pc.normals_;
+}
 
 Result
 poisson (const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector3d>& normals, int depth,

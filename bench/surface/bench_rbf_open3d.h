@@ -14,6 +14,10 @@ struct Result
   double seconds = 0;           // CreateFromPointCloudPoisson only (not the copies)
 };
 
+// Open3D's normals as its users get them: EstimateNormals (k nearest) and then
+// OrientNormalsConsistentTangentPlane (k); `seconds` is the time of both.
+std::vector<Eigen::Vector3d> estimateNormals (const std::vector<Eigen::Vector3d>& points, int k, double& seconds);
+
 // Oriented normals in, mesh out; threads < 1: Open3D's default.
 Result poisson (const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector3d>& normals,
                 int depth, int threads);

@@ -10,6 +10,8 @@ Reads rows with bench/plot.py's reader and draws
   rbf_error_vs_noise.png                    error against position noise
   rbf_noisy.png                             every shape at 100k points, clean and noisy: Chamfer,
                                             connected components and time against the noise
+  rbf_error_vs_triangles.png                clean 100k: Chamfer against triangles, our grid sweep
+                                            beside Open3D's depths
   rbf_time_memory_vs_points.png             time and peak memory against points (log-log)
   rbf_mcrbf.png                             small clouds: where MarchingCubesRBF runs, and stops
 Rows whose run failed (status=oom / timeout / crash / empty) are drawn as crosses on the x axis,
@@ -249,7 +251,7 @@ def noise(rows, out):
 
 
 def noisy(rows, out):
-    rows = [r for r in rows if r.get("p_sweep") == "noisy"]
+    rows = [r for r in rows if r.get("p_sweep") == "noisy" and r.get("p_grid", "auto") == "auto"]
     if not rows:
         return None
     for r in rows:
@@ -292,6 +294,45 @@ def noisy(rows, out):
     return save_chart(fig, axes, "Noisy samples (true normals): RBF-POU with its defaults (fits smooth by the measured noise) "
                       "and interpolating, beside Open3D's screened Poisson at its best depth",
                       out, "rbf_noisy.png", (0.06, 0.95), dpi=100)
+
+
+def grid_factor(r):
+    """Our grid h in mean spacings (auto = 1.5)."""
+    return 1.5 if r.get("p_grid") == "auto" else float(r["p_grid"])
+
+
+def error_vs_triangles(rows, out):
+    rows = [r for r in rows if r.get("p_sweep") == "noisy" and r.get("p_cond") == "clean" and ok(r)]
+    if not rows:
+        return None
+    inputs = list(collections.OrderedDict.fromkeys(r["input"] for r in rows))
+    cols = min(3, len(inputs))
+    nrows = (len(inputs) + cols - 1) // cols
+    fig, axes = plt.subplots(nrows, cols, figsize=(4.6 * cols, 3.8 * nrows + 1.0), squeeze=False)
+    for j, name in enumerate(inputs):
+        ax = axes[j // cols][j % cols]
+        irows = [r for r in rows if r["input"] == name]
+        for lab, lrows in by_label(irows):
+            c, mk = STYLE.get(lab, ("k", "o"))
+            key = grid_factor if lab.startswith("RBF") else (lambda r: -r["p_depth"])
+            lrows = sorted(lrows, key=key)
+            ax.plot([r["triangles"] for r in lrows], [r["chamfer_rel"] for r in lrows], color=c, marker=mk, ms=5,
+                    label=lab + (" (h = 1.5 … 4.5 spacings)" if lab.startswith("RBF") else " (depths 8–10)"))
+            for r in lrows:
+                tag = f"h={grid_factor(r):g}" if lab.startswith("RBF") else f"d{int(r['p_depth'])}"
+                ax.annotate(tag, (r["triangles"], r["chamfer_rel"]), fontsize=7, xytext=(3, 3),
+                            textcoords="offset points")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("triangles")
+        ax.set_ylabel("Chamfer / diagonal")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.set_title(f"{name}, {int(irows[0]['points']) // 1000}k points, clean", fontsize=10)
+    for j in range(len(inputs), nrows * cols):
+        axes[j // cols][j % cols].set_visible(False)
+    return save_chart(fig, axes, "Chamfer error against triangles (true normals): RBF-POU over its grid (h in mean "
+                      "spacings; default 1.5) beside Open3D's screened Poisson at depths 8–10, same run",
+                      out, "rbf_error_vs_triangles.png", (0.08, 0.94), dpi=100)
 
 
 def size(rows, out):
@@ -399,6 +440,7 @@ def main():
         sys.exit("rbf_charts.py: no surface rows in " + " ".join(args.csv))
     written = [p for p in (error_vs_time(rows, "clean", args.out), error_vs_time(rows, "scan", args.out),
                            robustness(rows, args.out), noise(rows, args.out), noisy(rows, args.out),
+                           error_vs_triangles(rows, args.out),
                            size(rows, args.out),
                            mcrbf(rows, args.out)) if p]
     for p in written:

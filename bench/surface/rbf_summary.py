@@ -91,7 +91,8 @@ def noisy_section(rows, w):
     for inp in list(collections.OrderedDict.fromkeys(r["input"] for r in rows)):
         for sigma in sorted({r.get("p_noise", 0.0) for r in rows}):
             g = [r for r in rows if r["input"] == inp and r.get("p_noise", 0.0) == sigma]
-            ours = next((r for r in g if r["method"] == "rbf" and r.get("p_fit") != "interpolate"), None)
+            ours = next((r for r in g if r["method"] == "rbf" and r.get("p_fit") != "interpolate"
+                         and r.get("p_grid") == "auto"), None)
             interp = next((r for r in g if r["method"] == "rbf" and r.get("p_fit") == "interpolate"), None)
             o3d = {int(r["p_depth"]): r for r in g if r["method"] == "o3d_poisson"}
             if not ours:
@@ -109,6 +110,81 @@ def noisy_section(rows, w):
               f"| {' / '.join(cell(o3d.get(d), 'chamfer_rel') for d in (8, 9, 10))} "
               f"| {int(d9.get('components', 0)) if d9 else '–'} | {int(d9.get('triangles', 0)) if d9 else '–'} "
               f"| {t(d9['seconds']) if d9 else '–'} | {verdict} |")
+    w("")
+
+
+def grid_factor(r):
+    return 1.5 if r.get("p_grid") == "auto" else float(r["p_grid"])
+
+
+def triangles_section(rows, w):
+    """Clean rows of the noisy sweep: our triangles at the Chamfer of Open3D's best depth."""
+    clean = [r for r in rows if r.get("p_sweep") == "noisy" and r.get("p_cond") == "clean"]
+    if not any(r["method"] == "rbf" and r.get("p_grid") != "auto" for r in clean):
+        return
+    w("## Triangles at equal Chamfer: clean samples, our grid sweep against Open3D's depths\n")
+    w("Open3D's best: the lowest Chamfer of depths 8–10, untrimmed or with its 5 % low-density trim, "
+      "with its triangles. Ours at equal Chamfer: the coarsest grid h (in mean "
+      "spacings) whose Chamfer is at most that, and its triangles; 'ratio' = ours / Open3D's triangles.\n")
+    w("| input | ours, default h = 1.5: Chamfer / triangles | Open3D best: depth, Chamfer / triangles "
+      "| ours at equal Chamfer: h, Chamfer / triangles, open / nm | ratio |")
+    w("| --- | --- | --- | --- | --- |")
+    ratios = []
+    for inp in list(collections.OrderedDict.fromkeys(r["input"] for r in clean)):
+        g = [r for r in clean if r["input"] == inp and ok(r)]
+        ours = sorted([r for r in g if r["method"] == "rbf"], key=grid_factor)
+        peer = best(g, lambda r: r["method"] in ("o3d_poisson", "o3d_poisson_trim"))
+        if not ours or not peer:
+            continue
+        default = next((r for r in ours if r.get("p_grid") == "auto"), ours[0])
+        eq = [r for r in ours if r["chamfer_rel"] <= peer["chamfer_rel"]]
+        at = eq[-1] if eq else None
+        cell = "none reaches it"
+        ratio = "–"
+        if at:
+            ratio_v = at["triangles"] / peer["triangles"]
+            ratios.append(ratio_v)
+            ratio = f"{ratio_v:.2f}"
+            cell = (f"{grid_factor(at):g}, {e(at['chamfer_rel'])} / {int(at['triangles'])}, "
+                    f"{int(at.get('boundary_edges', 0))} / {int(at.get('nonmanifold_edges', 0))}")
+        trim = " trimmed" if peer["method"] == "o3d_poisson_trim" else ""
+        w(f"| {inp} | {e(default['chamfer_rel'])} / {int(default['triangles'])} | {int(peer['p_depth'])}{trim}, "
+          f"{e(peer['chamfer_rel'])} / {int(peer['triangles'])} | {cell} | {ratio} |")
+    w("")
+    if ratios:
+        w(f"Ours / Open3D's triangles at equal Chamfer: {spread(ratios)}.\n")
+
+
+def scanest_section(rows, w):
+    """Scan-like samples with estimated normals: ours (+ MST) against Open3D's estimate + orientation."""
+    scan = [r for r in rows if r.get("p_sweep") == "scanest"]
+    if not scan:
+        return
+    w("## Scan-like samples with estimated normals\n")
+    w("Density gradient 1 → 0.2, 5 % shadow holes, noise 0.1 % of the diagonal. Ours: "
+      "PlanarOctreeNormalEstimation + MSTNormalOrientation, then RBF-POU (defaults). Open3D: "
+      "EstimateNormals (16 nearest) + OrientNormalsConsistentTangentPlane (16), its global sign taken "
+      "from the true normals, then Poisson at depths 8–10; times include the normals. True-normal rows "
+      "for reference.\n")
+    w("| input | ours (est.): Chamfer / Hausdorff, open / nm, comp., s | Open3D (est.) d8 / d9 / d10: Chamfer "
+      "| Open3D d9 (est.): open / nm, comp., s | ours (true) / Open3D d9 (true): Chamfer | ours ≤ d9 (est.) |")
+    w("| --- | --- | --- | --- | --- | --- |")
+    for inp in list(collections.OrderedDict.fromkeys(r["input"] for r in scan)):
+        g = [r for r in scan if r["input"] == inp]
+        ours = next((r for r in g if r["method"] == "rbf" and r.get("p_normals") == "ours"), None)
+        ours_t = next((r for r in g if r["method"] == "rbf" and r.get("p_normals") == "true"), None)
+        est = {int(r["p_depth"]): r for r in g if r["method"] == "o3d_poisson" and r.get("p_normals") == "o3d"}
+        tru = next((r for r in g if r["method"] == "o3d_poisson" and r.get("p_normals") == "true"), None)
+        cell = lambda r, k: e(r[k]) if r and ok(r) else (r.get("p_status") if r else "–")  # noqa: E731
+        edges = lambda r: (f"{int(r.get('boundary_edges', 0))} / {int(r.get('nonmanifold_edges', 0))}, "  # noqa: E731
+                           f"{int(r.get('components', 0))}, {t(r['seconds'])}") if r and ok(r) else "–"
+        d9 = est.get(9)
+        verdict = "–"
+        if ours and ok(ours) and d9 and ok(d9):
+            verdict = "yes" if ours["chamfer_rel"] <= d9["chamfer_rel"] else "**no**"
+        w(f"| {inp} | {cell(ours, 'chamfer_rel')} / {cell(ours, 'hausdorff_rel')}, {edges(ours)} "
+          f"| {' / '.join(cell(est.get(d), 'chamfer_rel') for d in (8, 9, 10))} | {edges(d9)} "
+          f"| {cell(ours_t, 'chamfer_rel')} / {cell(tru, 'chamfer_rel')} | {verdict} |")
     w("")
 
 
@@ -140,8 +216,10 @@ def main():
     w("")
 
     noisy_rows = [r for r in rows if r.get("p_sweep") == "noisy"]
-    if noisy_rows and len(noisy_rows) == len(rows):  # a run of the noisy sweep alone
+    if all(r.get("p_sweep") in ("noisy", "scanest") for r in rows):  # a run of these sweeps alone
         noisy_section(noisy_rows, w)
+        triangles_section(noisy_rows, w)
+        scanest_section(rows, w)
         print("\n".join(out))
         return
     main_rows = [r for r in rows if r.get("p_sweep") == "main"]
@@ -402,6 +480,8 @@ def main():
 
     if noisy_rows:
         noisy_section(noisy_rows, w)
+        triangles_section(noisy_rows, w)
+    scanest_section(rows, w)
 
     failed = [r for r in rows if r.get("p_status") != "ok"]
     if failed:

@@ -11,9 +11,11 @@
 #include <pcl/conversions.h>
 #include <pcl/features/normal_3d.h>
 #include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/search/kdtree.h>
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -655,4 +657,42 @@ TEST (RBFPOUReconstruction, SamplingGapWithinTheBandCloses)
   const auto closed = inspect (run (standard, holed), &sphereMesh ());
   EXPECT_GT (open.boundary_edges, 0u) << "a band of 2 cells should not reach across this gap";
   expectClosed (closed, 2, "sphere with a gap");
+}
+
+// A search object counting its queries, as a user's own search method would be.
+class CountingKdTree : public pcl::search::KdTree<pcl::PointNormal>
+{
+public:
+  int
+  nearestKSearch (const pcl::PointNormal& p, int k, pcl::Indices& indices, std::vector<float>& d2) const override
+  {
+    ++queries;
+    return pcl::search::KdTree<pcl::PointNormal>::nearestKSearch (p, k, indices, d2);
+  }
+  mutable std::atomic<std::size_t> queries{0};
+};
+
+// setSearchMethod () is honoured: the point searches go to the given search, and a kd-tree gives
+// the mesh of the class's own, also with invalid points and a subset of indices.
+TEST (RBFPOUReconstruction, SetSearchMethodIsUsed)
+{
+  auto cloud = sample (sphereMesh (), 6000);
+  (*cloud)[7].x = std::numeric_limits<float>::quiet_NaN ();
+  (*cloud)[9].getNormalVector3fMap ().setZero ();
+  cloud->is_dense = false;
+  pcl::IndicesPtr subset (new pcl::Indices);
+  for (int i = 0; i < int (cloud->size ()); ++i)
+    if (i % 10 != 3)
+      subset->push_back (i);
+  Recon own, given;
+  own.setIndices (subset);
+  given.setIndices (subset);
+  auto search = std::make_shared<CountingKdTree> ();
+  given.setSearchMethod (search);
+  const pcl::PolygonMesh a = run (own, cloud), b = run (given, cloud);
+  EXPECT_GT (search->queries.load (), subset->size ());
+  ASSERT_FALSE (a.polygons.empty ());
+  ASSERT_EQ (a.polygons.size (), b.polygons.size ());
+  EXPECT_EQ (a.cloud.data, b.cloud.data);
+  EXPECT_DOUBLE_EQ (own.getStats ().mean_spacing, given.getStats ().mean_spacing);
 }

@@ -32,6 +32,10 @@
 
 namespace pcl {
 
+namespace rbf_pou_detail {
+template <typename PointNT> class SearchOverValidPoints;
+}  // namespace rbf_pou_detail
+
 template <typename PointNT>
 class RBFPOUReconstruction : public SurfaceReconstruction<PointNT>
 {
@@ -41,6 +45,7 @@ public:
   using SurfaceReconstruction<PointNT>::input_;
   using SurfaceReconstruction<PointNT>::indices_;
   using SurfaceReconstruction<PointNT>::check_tree_;
+  using SurfaceReconstruction<PointNT>::tree_;
 
   // Decay V of Eq. 4.6: LINEAR is the seed's V(d) = 1 − d (W continuous, not smooth at
   // a subdomain border); CUBIC is Tobor et al.'s 2d³ − 3d² + 1 (W smooth).
@@ -68,6 +73,12 @@ public:
     int max_constraints = 0;               ///< Tmax used (grown under noise)
     std::size_t smoothed_subdomains = 0;   ///< fits with a smoothing term ρ > 0
     std::size_t polynomial_subdomains = 0; ///< of those, fits by the least-squares polynomial alone
+    double density_spread = 0;   ///< 90th / 10th percentile of the 16th-neighbour distance
+    double max_hole_size = 0;    ///< the largest hole closed (0: none)
+    std::size_t holes = 0, holes_filled = 0;  ///< boundary loops of the mesh, and those closed
+    std::size_t hole_triangles = 0;           ///< triangles the closed holes added
+    double hole_area = 0;                     ///< area of those triangles
+    double t_holes = 0;                       ///< seconds of the hole filling (in t_extraction)
   };
 
   // An off-surface constraint: position, value (±ε) and the input point that made it
@@ -79,7 +90,9 @@ public:
     int origin;
   };
 
-  RBFPOUReconstruction () { check_tree_ = false; }  // own kd-tree over the valid points
+  // The neighbour searches over the input points use the search of setSearchMethod () when one
+  // is set, and otherwise a kd-tree of the class's own over the valid points.
+  RBFPOUReconstruction () { check_tree_ = false; }
 
   // Tmax / Tmin: constraints (input and off-surface points) per subdomain. Tmin ≥ 10,
   // Tmin ≤ Tmax. Defaults 150 / 50 (≈ 50 / 17 input points): systems of ≤ 154 unknowns.
@@ -120,6 +133,25 @@ public:
   void setNoiseLevel (double sigma) { noise_ = sigma; noise_auto_ = false; }
   /** \brief The noise level set with setNoiseLevel (0 until set: see getStats ().noise). */
   double getNoiseLevel () const { return noise_; }
+  /** \brief Close the holes of the mesh up to a size: scans leave holes where no view saw the
+    * surface, and a hole closed smoothly is usually nearer the truth than a boundary.
+    * \param[in] diameter the largest hole closed (the diagonal of its boundary's bounding box),
+    * in the cloud's units; 0 leaves every hole open. Until set, holes up to
+    * kAutoHoleFraction × the points' bounding-box diagonal are closed when the point density is
+    * uneven, as in scans (getStats ().density_spread above kScanDensitySpread), and none
+    * otherwise.
+    * \note Each hole becomes a patch triangulated, refined and faired to meet the surface
+    * (Liepa 2003, "Filling holes in meshes", in CGAL); the closed area is in getStats ().
+    */
+  void setMaxHoleSize (double diameter) { max_hole_ = diameter; hole_auto_ = false; }
+  /** \brief The size set with setMaxHoleSize (0 until set: see getStats ().max_hole_size). */
+  double getMaxHoleSize () const { return hole_auto_ ? 0.0 : max_hole_; }
+  /** \brief Automatic hole filling: the largest hole closed, as a share of the points'
+    * bounding-box diagonal (occlusions scale with the object, not with the sampling). */
+  static constexpr double kAutoHoleFraction = 0.25;
+  /** \brief Automatic hole filling: density spread (the 90th / 10th percentile of the distance
+    * to the 16th nearest neighbour) above which the input counts as a scan. */
+  static constexpr double kScanDensitySpread = 1.55;
   void setDecay (Decay v) { decay_ = v; }
   Decay getDecay () const { return decay_; }
   // Orient the normals with pclx::normals' MSTNormalOrientation first (default off): for
@@ -192,6 +224,12 @@ private:
   // The stages of build (), in order.
   bool checkParameters ();
   bool collectPoints ();  // finite points with usable normals
+  // The density spread of the points, and from it the largest hole to close.
+  void measureDensitySpread (const pcl::KdTree<pcl::PointXYZ>& tree);
+  // Closes the mesh's holes up to stats_.max_hole_size (a stage of extract ()).
+  void closeHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Vertices>& polygons);
+  // The search of setSearchMethod () over the input, answering for the valid points.
+  std::unique_ptr<rbf_pou_detail::SearchOverValidPoints<PointNT>> searchOverValidPoints ();
   // Mean spacing, and every point's kNeighbours nearest neighbours for the vote (−1: fewer
   // found; empty without a vote).
   bool measureSpacing (const pcl::KdTree<pcl::PointXYZ>& tree, std::vector<int>& nn);
@@ -230,7 +268,8 @@ private:
   int t_max_ = 150, t_min_ = 50, band_ = 3;
   double overlap_ = 1.5, grid_resolution_ = 0, iso_ = 0, epsilon_ = 0, noise_ = 0;
   bool grid_auto_ = true, epsilon_auto_ = true, noise_auto_ = true, orient_normals_ = false, normal_vote_ = true;
-  bool continuation_ = true;
+  bool continuation_ = true, hole_auto_ = true;
+  double max_hole_ = 0;
   Decay decay_ = Decay::LINEAR;
   unsigned int threads_ = 0;
 

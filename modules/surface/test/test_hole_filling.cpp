@@ -1,0 +1,186 @@
+// pclx::surface::fillSmallHoles, and RBFPOUReconstruction's hole filling on scan-like input.
+#include <pclx/surface/hole_filling.h>
+#include <pclx/surface/rbf_pou_reconstruction.h>
+#include <pclx/testing/degradation.h>
+#include <pclx/testing/mesh_sampling.h>
+#include <pclx/testing/shapes.h>
+
+#include <pcl/conversions.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <utility>
+
+namespace {
+
+using pclx::surface::fillSmallHoles;
+using pclx::surface::HoleFillingStats;
+
+struct Mesh
+{
+  std::vector<Eigen::Vector3f> vertices;
+  std::vector<pcl::Vertices> triangles;
+};
+
+// The unit icosphere without the triangles whose centroid lies within a hole's radius of the
+// hole's point on the sphere: one round hole per (direction, radius).
+Mesh
+sphereWithHoles (const std::vector<std::pair<Eigen::Vector3f, float>>& holes)
+{
+  const auto sphere = pclx::testing::makeSphere (1.f, 4);
+  Mesh m;
+  m.vertices = sphere.vertices;
+  for (const auto& f : sphere.faces)
+  {
+    const Eigen::Vector3f c = (sphere.vertices[f[0]] + sphere.vertices[f[1]] + sphere.vertices[f[2]]) / 3.f;
+    const bool cut = std::any_of (holes.begin (), holes.end (), [&] (const auto& h) {
+      return (c - h.first.normalized ()).norm () < h.second;
+    });
+    if (cut)
+      continue;
+    pcl::Vertices t;
+    t.vertices = {f[0], f[1], f[2]};
+    m.triangles.push_back (t);
+  }
+  return m;
+}
+
+std::size_t
+boundaryEdges (const std::vector<pcl::Vertices>& triangles)
+{
+  std::map<std::pair<int, int>, int> uses;
+  for (const auto& t : triangles)
+    for (int j = 0; j < 3; ++j)
+    {
+      const int a = t.vertices[j], b = t.vertices[(j + 1) % 3];
+      ++uses[{std::min (a, b), std::max (a, b)}];
+    }
+  std::size_t open = 0;
+  for (const auto& [e, n] : uses)
+    open += n == 1;
+  return open;
+}
+
+// A scan-like sample of the unit sphere: density falling 5× along x, 5 % of it in 5 holes.
+pcl::PointCloud<pcl::PointNormal>::Ptr
+scanLikeSphere (std::size_t n)
+{
+  auto s = pclx::testing::sampleDensityGradient (pclx::testing::makeSphere (1.f, 5), n, 0, 0.2f, 3);
+  pclx::testing::applyShadowHoles (s, 0.05f, 5);
+  return s.cloud.makeShared ();
+}
+
+}  // namespace
+
+TEST (HoleFilling, ClosesTheHolesUpToTheLimitNearTheSurface)
+{
+  // Holes about 0.3 across at ±x, one about 1.0 across at +y; a limit of 0.6 closes the two.
+  const std::pair<Eigen::Vector3f, float> small_x{Eigen::Vector3f::UnitX (), 0.15f},
+      small_mx{-Eigen::Vector3f::UnitX (), 0.15f}, wide{Eigen::Vector3f::UnitY (), 0.5f};
+  Mesh m = sphereWithHoles ({small_x, small_mx, wide});
+  const Mesh before = m;
+  HoleFillingStats stats;
+  ASSERT_TRUE (fillSmallHoles (m.vertices, m.triangles, 0.6, stats));
+  EXPECT_EQ (stats.holes, 3u);
+  EXPECT_EQ (stats.filled, 2u);
+  EXPECT_EQ (stats.too_large, 1u);
+  EXPECT_EQ (stats.failed, 0u);
+  EXPECT_EQ (stats.added_triangles, m.triangles.size () - before.triangles.size ());
+  EXPECT_EQ (stats.added_vertices, m.vertices.size () - before.vertices.size ());
+  // The input is kept as it was, and only the wide hole stays open.
+  for (std::size_t i = 0; i < before.triangles.size (); ++i)
+    ASSERT_EQ (m.triangles[i].vertices, before.triangles[i].vertices);
+  for (std::size_t v = 0; v < before.vertices.size (); ++v)
+    ASSERT_EQ (m.vertices[v], before.vertices[v]);
+  EXPECT_EQ (boundaryEdges (m.triangles), boundaryEdges (sphereWithHoles ({wide}).triangles));
+  // The faired patches stay near the sphere they close.
+  double worst = 0;
+  for (std::size_t v = before.vertices.size (); v < m.vertices.size (); ++v)
+    worst = std::max (worst, std::abs (double (m.vertices[v].norm ()) - 1.0));
+  EXPECT_GT (m.vertices.size (), before.vertices.size ());
+  EXPECT_LT (worst, 0.01);
+  EXPECT_GT (stats.filled_area, 0.0);
+}
+
+TEST (HoleFilling, BadInputLeavesTheMeshUnchanged)
+{
+  Mesh m = sphereWithHoles ({{Eigen::Vector3f::UnitX (), 0.15f}});
+  HoleFillingStats stats;
+  const Mesh before = m;
+  for (const double bad : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN ()})
+  {
+    EXPECT_FALSE (fillSmallHoles (m.vertices, m.triangles, bad, stats)) << bad;
+    EXPECT_EQ (m.triangles.size (), before.triangles.size ());
+  }
+  // Three triangles on one edge: not a 2-manifold.
+  Mesh fan;
+  fan.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}};
+  for (const std::uint32_t apex : {2u, 3u, 4u})
+  {
+    pcl::Vertices t;
+    t.vertices = {0, 1, int (apex)};
+    fan.triangles.push_back (t);
+  }
+  const Mesh fan_before = fan;
+  EXPECT_FALSE (fillSmallHoles (fan.vertices, fan.triangles, 10.0, stats));
+  EXPECT_EQ (fan.triangles.size (), fan_before.triangles.size ());
+  EXPECT_EQ (fan.vertices.size (), fan_before.vertices.size ());
+  // A closed mesh has nothing to fill.
+  Mesh closed = sphereWithHoles ({});
+  ASSERT_TRUE (fillSmallHoles (closed.vertices, closed.triangles, 1.0, stats));
+  EXPECT_EQ (stats.holes, 0u);
+}
+
+TEST (RBFPOUReconstruction, ScanLikeInputHasItsHolesClosed)
+{
+  // Uneven density reads as a scan, so the holes are closed by default; setMaxHoleSize (0)
+  // leaves them open, and uniform samples are never filled.
+  const auto scan = scanLikeSphere (30000);
+  pcl::RBFPOUReconstruction<pcl::PointNormal> filled, open;
+  filled.setInputCloud (scan);
+  open.setInputCloud (scan);
+  open.setMaxHoleSize (0);
+  pcl::PolygonMesh a, b;
+  filled.reconstruct (a);
+  open.reconstruct (b);
+  ASSERT_FALSE (a.polygons.empty ());
+  ASSERT_FALSE (b.polygons.empty ());
+  const auto& s = filled.getStats ();
+  EXPECT_GT (s.density_spread, filled.kScanDensitySpread);
+  EXPECT_GT (s.holes_filled, 0u);
+  EXPECT_GT (boundaryEdges (b.polygons), 0u);
+  EXPECT_EQ (boundaryEdges (a.polygons), 0u) << s.holes_filled << " of " << s.holes << " holes closed, up to "
+                                             << s.max_hole_size << " (spacing " << s.mean_spacing << ")";
+  EXPECT_EQ (open.getStats ().holes_filled, 0u);
+  pcl::PointCloud<pcl::PointXYZ> v;
+  pcl::fromPCLPointCloud2 (a.cloud, v);
+  double worst = 0;
+  for (const auto& p : v)
+    worst = std::max (worst, std::abs (double (p.getVector3fMap ().norm ()) - 1.0));
+  EXPECT_LT (worst, 0.02);
+
+  auto uniform = pclx::testing::sampleUniform (pclx::testing::makeSphere (1.f, 5), 30000, 4).cloud.makeShared ();
+  pcl::RBFPOUReconstruction<pcl::PointNormal> plain;
+  plain.setInputCloud (uniform);
+  pcl::PolygonMesh c;
+  plain.reconstruct (c);
+  EXPECT_LT (plain.getStats ().density_spread, plain.kScanDensitySpread);
+  EXPECT_EQ (plain.getStats ().max_hole_size, 0.0);
+}
+
+TEST (RBFPOUReconstruction, BadHoleSizeIsRefused)
+{
+  const auto scan = scanLikeSphere (3000);
+  for (const double bad : {-1.0, std::numeric_limits<double>::infinity ()})
+  {
+    pcl::RBFPOUReconstruction<pcl::PointNormal> rbf;
+    rbf.setInputCloud (scan);
+    rbf.setMaxHoleSize (bad);
+    pcl::PolygonMesh mesh;
+    rbf.reconstruct (mesh);
+    EXPECT_TRUE (mesh.polygons.empty ()) << bad;
+    EXPECT_NE (rbf.getLastError ().find ("hole"), std::string::npos) << rbf.getLastError ();
+  }
+}
