@@ -17,6 +17,7 @@
 //   omicron,<method>,sweep=..;ratio=..;collapse=..;worklist=..;chunks=..;front=..,<input>,<n>,<s>,metric,value,...
 #include "bench_csv.h"
 
+#include <pclx/omicron/camera.h>
 #include <pclx/omicron/oblique_cut_octree.h>
 #include <pclx/testing/shapes.h>
 #include <pclx/testing/triangle_mesh.h>
@@ -286,29 +287,6 @@ struct Config
   }
 };
 
-Eigen::Matrix4f
-viewProjection (const Eigen::Vector3f& eye, const Eigen::Vector3f& target, float near, float far, float aspect)
-{
-  const Eigen::Vector3f f = (target - eye).normalized ();
-  const Eigen::Vector3f s = f.cross (Eigen::Vector3f::UnitZ ()).normalized ();
-  const Eigen::Vector3f u = s.cross (f);
-  Eigen::Matrix4f view = Eigen::Matrix4f::Identity ();
-  view.block<1, 3> (0, 0) = s.transpose ();
-  view.block<1, 3> (1, 0) = u.transpose ();
-  view.block<1, 3> (2, 0) = -f.transpose ();
-  view (0, 3) = -s.dot (eye);
-  view (1, 3) = -u.dot (eye);
-  view (2, 3) = f.dot (eye);
-  const float t = std::tan (float (M_PI) / 6.f);  // 60° vertical field of view
-  Eigen::Matrix4f proj = Eigen::Matrix4f::Zero ();
-  proj (0, 0) = 1.f / (aspect * t);
-  proj (1, 1) = 1.f / t;
-  proj (2, 2) = -(far + near) / (far - near);
-  proj (2, 3) = -2.f * far * near / (far - near);
-  proj (3, 2) = -1.f;
-  return proj * view;
-}
-
 // An orbit around the root cube, one turn per 4 s, close enough that the front branches deep.
 Octree::Camera
 orbitCamera (const Octree& octree, double t)
@@ -322,7 +300,7 @@ orbitCamera (const Octree& octree, double t)
   Octree::Camera cam;
   cam.width = 1920;
   cam.height = 1080;
-  cam.view_projection = viewProjection (eye, c, 0.01f * edge, 10.f * edge, 16.f / 9.f);
+  cam.view_projection = pcl::omicron::perspectiveLookAt (eye, c, float (M_PI) / 3.f, 16.f / 9.f, 0.01f * edge, 10.f * edge);
   return cam;
 }
 

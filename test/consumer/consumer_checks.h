@@ -103,30 +103,6 @@ sphereFrame (const Eigen::Isometry3d& camera_to_world, int width, int height, do
   return frame;
 }
 
-// OpenGL world-to-clip matrix of a camera at `eye` looking at the origin (60° vertical view).
-inline Eigen::Matrix4f
-viewProjection (const Eigen::Vector3f& eye, int width, int height)
-{
-  const Eigen::Vector3f f = -eye.normalized ();
-  const Eigen::Vector3f up = std::abs (f.y ()) > 0.9f ? Eigen::Vector3f::UnitZ () : Eigen::Vector3f::UnitY ();
-  const Eigen::Vector3f s = f.cross (up).normalized (), u = s.cross (f);
-  Eigen::Matrix4f view = Eigen::Matrix4f::Identity ();
-  view.block<1, 3> (0, 0) = s.transpose ();
-  view.block<1, 3> (1, 0) = u.transpose ();
-  view.block<1, 3> (2, 0) = -f.transpose ();
-  view (0, 3) = -s.dot (eye);
-  view (1, 3) = -u.dot (eye);
-  view (2, 3) = f.dot (eye);
-  const float near = 0.1f, far = 100.f, t = 1.f / std::tan (float (M_PI) / 6.f), aspect = float (width) / height;
-  Eigen::Matrix4f proj = Eigen::Matrix4f::Zero ();
-  proj (0, 0) = t / aspect;
-  proj (1, 1) = t;
-  proj (2, 2) = (far + near) / (near - far);
-  proj (2, 3) = 2.f * far * near / (near - far);
-  proj (3, 2) = -1.f;
-  return proj * view;
-}
-
 // Mean angle in degrees between the (unoriented) normals and a sphere's radial directions.
 template <typename IndicesT> double
 meanAngleDeg (const pcl::PointCloud<pcl::PointXYZ>& cloud, const IndicesT& indices,

@@ -5,6 +5,7 @@
 #include <pclx/hpr/hpr_filter.h>
 #include <pclx/normals/mst_normal_orientation.h>
 #include <pclx/normals/planar_octree_normal_estimation.h>
+#include <pclx/omicron/camera.h>
 #include <pclx/omicron/oblique_cut_octree.h>
 #include <pclx/surface/incremental_dual_contouring.h>
 #include <pclx/surface/rbf_pou_reconstruction.h>
@@ -247,7 +248,8 @@ obliqueCutFront ()
   octree.setMaxDepth (6);
   const bool built = octree.build ();
   pcl::ObliqueCutOctree<pcl::PointXYZ>::Camera camera;
-  camera.view_projection = consumer::viewProjection (Eigen::Vector3f (0, 0, 4), 640, 480);
+  camera.view_projection = pcl::omicron::perspectiveLookAt (Eigen::Vector3f (0, 0, 4), Eigen::Vector3f::Zero (),
+                                                            float (M_PI) / 3.f, 640.f / 480.f, 0.1f, 100.f);
   camera.width = 640;
   camera.height = 480;
   std::vector<pcl::ObliqueCutOctree<pcl::PointXYZ>::Item> items;

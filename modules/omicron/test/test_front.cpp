@@ -2,6 +2,7 @@
 // is being fixed, and what the front converges to once the hierarchy is complete.
 #include "omicron_test_util.h"
 
+#include <pclx/omicron/camera.h>
 #include <pclx/omicron/morton_sorter.h>
 #include <pclx/omicron/oblique_cut.h>
 #include <pclx/omicron/oblique_cut_front.h>
@@ -16,26 +17,8 @@ namespace {
 Front::Camera
 lookAt (const Eigen::Vector3f& eye, const Eigen::Vector3f& target, float fov_deg = 60.f)
 {
-  const Eigen::Vector3f f = (target - eye).normalized ();
-  Eigen::Vector3f up = std::abs (f.z ()) > 0.9f ? Eigen::Vector3f::UnitY () : Eigen::Vector3f::UnitZ ();
-  const Eigen::Vector3f s = f.cross (up).normalized ();
-  up = s.cross (f);
-  Eigen::Matrix4f view = Eigen::Matrix4f::Identity ();
-  view.block<1, 3> (0, 0) = s.transpose ();
-  view.block<1, 3> (1, 0) = up.transpose ();
-  view.block<1, 3> (2, 0) = -f.transpose ();
-  view (0, 3) = -s.dot (eye);
-  view (1, 3) = -up.dot (eye);
-  view (2, 3) = f.dot (eye);
-  const float n = 0.01f, fa = 1e5f, t = 1.f / std::tan (fov_deg * float (M_PI) / 360.f);
-  Eigen::Matrix4f proj = Eigen::Matrix4f::Zero ();
-  proj (0, 0) = t;
-  proj (1, 1) = t;
-  proj (2, 2) = -(fa + n) / (fa - n);
-  proj (2, 3) = -2.f * fa * n / (fa - n);
-  proj (3, 2) = -1.f;
   Front::Camera c;
-  c.view_projection = proj * view;
+  c.view_projection = pcl::omicron::perspectiveLookAt (eye, target, fov_deg * float (M_PI) / 180.f, 1.f, 0.01f, 1e5f);
   c.width = 640;
   c.height = 480;
   return c;

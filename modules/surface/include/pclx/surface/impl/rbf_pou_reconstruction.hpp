@@ -20,6 +20,7 @@
 #include <memory>
 #include <new>
 #include <type_traits>
+#include <utility>
 #include <numeric>
 
 #ifdef _OPENMP
@@ -33,6 +34,19 @@ namespace pcl {
 namespace rbf_pou_detail {
 
 using Clock = std::chrono::steady_clock;
+// Axis-aligned bounds of a non-empty point list.
+inline std::pair<Eigen::Vector3f, Eigen::Vector3f>
+bounds (const std::vector<Eigen::Vector3f>& points)
+{
+  Eigen::Vector3f lo = points[0], hi = points[0];
+  for (const auto& p : points)
+  {
+    lo = lo.cwiseMin (p);
+    hi = hi.cwiseMax (p);
+  }
+  return {lo, hi};
+}
+
 inline double
 seconds (Clock::time_point t0)
 {
@@ -688,8 +702,8 @@ template <typename PointNT> void
 RBFPOUReconstruction<PointNT>::measureDensitySpread (const pcl::KdTree<pcl::PointXYZ>& tree)
 {
   // The 16th neighbour's distance at up to 2000 points spread over the cloud: uniform samples of
-  // a surface spread it by about 1.4× (90th / 10th percentile), a scan's falloff with range and
-  // angle by more.
+  // a surface spread it little, a scan's falloff with range and angle more (the threshold's
+  // measurements are in modules/surface/README.md).
   constexpr int kSamples = 2000, kNeighbour = 16;
   const std::size_t n = pts_.size ();
   std::vector<double> r;
@@ -710,12 +724,7 @@ RBFPOUReconstruction<PointNT>::measureDensitySpread (const pcl::KdTree<pcl::Poin
     stats_.density_spread = low > 0 ? high / low : 0;
   }
   const bool scan = stats_.density_spread > kScanDensitySpread;
-  Eigen::Vector3f lo = pts_[0], hi = pts_[0];
-  for (const auto& p : pts_)
-  {
-    lo = lo.cwiseMin (p);
-    hi = hi.cwiseMax (p);
-  }
+  const auto [lo, hi] = rbf_pou_detail::bounds (pts_);
   const double diagonal = double ((hi - lo).norm ());
   stats_.max_hole_size = hole_auto_ ? (scan ? kAutoHoleFraction * diagonal : 0.0) : max_hole_;
 }
@@ -1218,12 +1227,7 @@ RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, 
   const auto t0 = Clock::now ();
   const int nt = threadCount (threads_);
   const double h = stats_.grid_resolution;
-  Eigen::Vector3f bmin = pts_[0], bmax = pts_[0];
-  for (const auto& p : pts_)
-  {
-    bmin = bmin.cwiseMin (p);
-    bmax = bmax.cwiseMax (p);
-  }
+  const auto [bmin, bmax] = bounds (pts_);
   const Eigen::Vector3d origin = bmin.cast<double> ().array () - (band_ + 2) * h;
   const Eigen::Vector3d extent = (bmax.cast<double> () - origin).array () / h + band_ + 3;
   if (extent.maxCoeff () >= double (kMaxIndex))
