@@ -4,6 +4,7 @@
 
 #include <pcl/console/print.h>
 
+#include <CGAL/Polygon_mesh_processing/border.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/Surface_mesh.h>
@@ -69,25 +70,21 @@ toMesh (const std::vector<Eigen::Vector3f>& vertices, const std::vector<pcl::Ver
 
 // One halfedge per boundary loop, with the diagonal of the loop's bounding box.
 std::vector<std::pair<Halfedge, double>>
-boundaryLoops (const Mesh& mesh)
+boundaryLoops (Mesh& mesh)
 {
+  std::vector<Halfedge> cycles;
+  CGAL::Polygon_mesh_processing::extract_boundary_cycles (mesh, std::back_inserter (cycles));
   std::vector<std::pair<Halfedge, double>> loops;
-  std::vector<char> seen (mesh.number_of_halfedges (), 0);
-  for (const Halfedge h : mesh.halfedges ())
+  for (const Halfedge h : cycles)
   {
-    if (!mesh.is_border (h) || seen[h])
-      continue;
     Eigen::Vector3d lo = Eigen::Vector3d::Constant (HUGE_VAL), hi = -lo;
-    Halfedge e = h;
-    do
+    for (const Halfedge e : CGAL::halfedges_around_face (h, mesh))
     {
-      seen[e] = 1;
       const auto& p = mesh.point (mesh.target (e));
       const Eigen::Vector3d q (p.x (), p.y (), p.z ());
       lo = lo.cwiseMin (q);
       hi = hi.cwiseMax (q);
-      e = mesh.next (e);
-    } while (e != h);
+    }
     loops.emplace_back (h, (hi - lo).norm ());
   }
   return loops;
