@@ -85,16 +85,25 @@ writeHierarchy (const std::string& path, const std::vector<NodeRecord>& records,
                                       [&] (std::uint32_t a, std::uint64_t v) { return records[a].code.bits () < v; });
     return it != order.end () && records[*it].code == c ? static_cast<long> (*it) : -1;
   };
+  // Child masks bottom-up, so a node whose whole subtree stores no point is left out (an
+  // empty leaf, or an inner node above empty leaves only).
+  std::vector<std::uint32_t> by_level (order);
+  std::stable_sort (by_level.begin (), by_level.end (), [&] (std::uint32_t a, std::uint32_t b) {
+    return records[a].code.level () > records[b].code.level ();
+  });
   std::vector<std::uint8_t> mask (records.size (), 0);
   int depth = 0;
-  for (const NodeRecord& r : records)
+  for (const std::uint32_t i : by_level)
   {
-    depth = std::max (depth, r.code.level ());
+    const NodeRecord& r = records[i];
     if (r.code.level () == 0)
       continue;
     const long p = find (r.code.parent ());
     if (p < 0)
       fail ("PotreeWriter: node " + nodeName (r.code) + " has no parent in the output");
+    if (r.num_points == 0 && mask[i] == 0)
+      continue;
+    depth = std::max (depth, r.code.level ());
     mask[p] |= static_cast<std::uint8_t> (1u << r.code.childIndex ());
   }
   const long root = find (MortonCode::root ());

@@ -188,6 +188,7 @@ TEST (ObliqueCutOctree, NonFinitePointsAreDroppedAndCounted)
   Octree o;
   o.setInputCloud (cloud);
   o.setMaxDepth (5);
+  o.setLeafCollapse (false);
   ASSERT_TRUE (o.build ());
   const auto st = o.getStatistics ();
   EXPECT_EQ (st.dropped_invalid, 4u);
@@ -227,6 +228,7 @@ TEST (ObliqueCutOctree, UserRootCubeDropsOutsidePointsAndClampsTheMaxFace)
   Octree o;
   o.setInputCloud (c);
   o.setMaxDepth (3);
+  o.setLeafCollapse (false);
   o.setRootCube (Eigen::Vector3d::Zero (), 1.0);
   ASSERT_TRUE (o.build ());
   const auto st = o.getStatistics ();
@@ -234,6 +236,17 @@ TEST (ObliqueCutOctree, UserRootCubeDropsOutsidePointsAndClampsTheMaxFace)
   EXPECT_EQ (st.kept_points, 3u);
   EXPECT_EQ (st.leaves_per_level[3], 3u);
   EXPECT_EQ (o.getSortedPoints ().back ().x, 1.f);
+}
+
+TEST (ObliqueCutOctree, DefaultsAreTheViewersAndTheReadmes)
+{
+  // A user who only sets the input gets the hierarchy omicron_viewer and the README build:
+  // leaf collapse on, one worker per core.
+  Octree o;
+  EXPECT_TRUE (o.getLeafCollapse ());
+  EXPECT_EQ (o.getThreads (), std::max (1, static_cast<int> (std::thread::hardware_concurrency ())));
+  EXPECT_EQ (o.getMaxDepth (), 7);
+  EXPECT_FLOAT_EQ (o.getParentPointRatio (), 0.2f);
 }
 
 TEST (ObliqueCutOctree, RejectsBadParameters)
@@ -284,6 +297,7 @@ TEST (ObliqueCutOctree, OtherPointTypesBuild)
   pcl::ObliqueCutOctree<pcl::PointXYZRGB> o;
   o.setInputCloud (c);
   o.setMaxDepth (4);
+  o.setLeafCollapse (false);
   ASSERT_TRUE (o.build ());
   EXPECT_EQ (o.getStatistics ().leaves_per_level[4], 1000u);
   EXPECT_EQ (o.getRoot ()->points[0].b, 255);

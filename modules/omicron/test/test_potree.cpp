@@ -8,6 +8,7 @@
 
 #include <pcl/exceptions.h>
 
+#include <array>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -59,47 +60,77 @@ slurp (const fs::path& p)
   return std::vector<std::uint8_t> ((std::istreambuf_iterator<char> (in)), std::istreambuf_iterator<char> ());
 }
 
-// Every node of the in-memory tree is in the file with the same points (within the scale).
-template <typename PointT> void
-expectSameHierarchy (const pcl::omicron::Node<PointT>& root, const pcl::PotreeReader& reader)
+// The subtree of `n` as Potree stores it (additive LOD): each node holds its points minus
+// those its parent took, and a node whose subtree holds none is not written. Checks every
+// written node's count, child mask, type and points (within the scale); returns the points
+// the subtree stores and counts its written nodes.
+template <typename PointT> std::size_t
+expectAdditiveSubtree (const pcl::omicron::Node<PointT>& n, float ratio, const pcl::PotreeReader& reader,
+                       std::size_t& written)
 {
-  const double tol = 0.5 * reader.getMetadata ().scale.x () + 1e-6;
-  std::size_t count = 0;
-  std::vector<const pcl::omicron::Node<PointT>*> stack{&root};
-  pcl::PointCloud<pcl::PointXYZRGB> pts;
-  while (!stack.empty ())
+  std::size_t below = 0;
+  std::uint8_t mask = 0;
+  for (int c = 0; c < n.num_children; ++c)
+    if (const std::size_t k = expectAdditiveSubtree (n.children[c], ratio, reader, written))
+    {
+      below += k;
+      mask |= static_cast<std::uint8_t> (1u << n.children[c].code.childIndex ());
+    }
+  const std::uint32_t taken = n.code.level () > 0 ? pcl::omicron::parentSampleCount (n.num_points, ratio) : 0;
+  const std::size_t own = n.num_points - taken;
+  const long i = reader.find (n.code);
+  if (own + below == 0)
   {
-    const auto* n = stack.back ();
-    stack.pop_back ();
-    ++count;
-    const long i = reader.find (n->code);
-    ASSERT_GE (i, 0) << "node " << n->code << " missing";
-    const auto& info = reader.getNodes ()[i];
-    ASSERT_EQ (info.num_points, n->num_points) << info.name;
-    std::uint8_t mask = 0;
-    for (int c = 0; c < n->num_children; ++c)
-    {
-      mask |= static_cast<std::uint8_t> (1u << n->children[c].code.childIndex ());
-      stack.push_back (n->children + c);
-    }
-    ASSERT_EQ (info.child_mask, mask) << info.name;
-    ASSERT_EQ (info.type, mask ? pcl::omicron::potree::kNormal : pcl::omicron::potree::kLeaf) << info.name;
-    reader.readNode (static_cast<std::size_t> (i), pts);
-    ASSERT_EQ (pts.size (), n->num_points);
-    for (std::uint32_t k = 0; k < n->num_points; ++k)
-    {
-      ASSERT_NEAR (pts[k].x, n->points[k].x, tol) << info.name << " point " << k;
-      ASSERT_NEAR (pts[k].y, n->points[k].y, tol);
-      ASSERT_NEAR (pts[k].z, n->points[k].z, tol);
-      if constexpr (pcl::traits::has_color_v<PointT>)
-      {
-        ASSERT_EQ (pts[k].r, n->points[k].r);
-        ASSERT_EQ (pts[k].g, n->points[k].g);
-        ASSERT_EQ (pts[k].b, n->points[k].b);
-      }
-    }
+    EXPECT_LT (i, 0) << "node " << n.code << " stores nothing but was written";
+    return 0;
   }
-  EXPECT_EQ (count, reader.getNodes ().size ());
+  ++written;
+  EXPECT_GE (i, 0) << "node " << n.code << " missing";
+  if (i < 0)
+    return own + below;
+  const auto& info = reader.getNodes ()[i];
+  EXPECT_EQ (info.num_points, own) << info.name;
+  EXPECT_EQ (info.child_mask, mask) << info.name;
+  EXPECT_EQ (info.type, mask ? pcl::omicron::potree::kNormal : pcl::omicron::potree::kLeaf) << info.name;
+  pcl::PointCloud<pcl::PointXYZRGB> pts;
+  reader.readNode (static_cast<std::size_t> (i), pts);
+  if (pts.size () != own)
+  {
+    ADD_FAILURE () << info.name << " read " << pts.size () << " points";
+    return own + below;
+  }
+  const double tol = 0.5 * reader.getMetadata ().scale.x () + 1e-6;
+  std::size_t k = 0;
+  for (std::uint32_t j = 0, t = 0; j < n.num_points; ++j)
+  {
+    if (t < taken && j == pcl::omicron::parentSampleIndex (t, taken, n.num_points))
+    {
+      ++t;
+      continue;
+    }
+    const PointT& p = n.points[j];
+    const bool same = std::abs (pts[k].x - p.x) <= tol && std::abs (pts[k].y - p.y) <= tol &&
+                      std::abs (pts[k].z - p.z) <= tol;
+    EXPECT_TRUE (same) << info.name << " point " << k;
+    if constexpr (pcl::traits::has_color_v<PointT>)
+      EXPECT_TRUE (pts[k].r == p.r && pts[k].g == p.g && pts[k].b == p.b) << info.name << " colour " << k;
+    if (!same)
+      break;
+    ++k;
+  }
+  return own + below;
+}
+
+// The whole written octree against the in-memory one; every kept point is stored once.
+template <typename PointT> void
+expectSameHierarchy (const pcl::ObliqueCutOctree<PointT>& octree, const pcl::PotreeReader& reader)
+{
+  std::size_t written = 0;
+  const std::size_t stored =
+      expectAdditiveSubtree (*octree.getRoot (), octree.getParentPointRatio (), reader, written);
+  EXPECT_EQ (stored, octree.getStatistics ().kept_points);
+  EXPECT_EQ (reader.getStoredPoints (), stored);
+  EXPECT_EQ (written, reader.getNodes ().size ());
 }
 }  // namespace
 
@@ -135,17 +166,10 @@ TEST (PotreeWriter, WrittenOctreeReadsBackAsTheInMemoryHierarchy)
     EXPECT_EQ (m.points, cloud->size ());
     EXPECT_TRUE (m.rgb);
     EXPECT_EQ (m.step_size, c.step);
-    const auto st = o.getStatistics ();
     int depth = 0;
-    std::size_t nodes = 0;
-    for (std::size_t l = 0; l < st.nodes_per_level.size (); ++l)
-    {
-      nodes += st.nodes_per_level[l];
-      if (st.nodes_per_level[l])
-        depth = static_cast<int> (l);
-    }
+    for (const auto& n : r.getNodes ())
+      depth = std::max (depth, n.code.level ());
     EXPECT_EQ (m.depth, depth);
-    EXPECT_EQ (r.getNodes ().size (), nodes);
     // Bounds: the root cube, as PotreeConverter writes it; positions within it.
     EXPECT_TRUE (m.box_min.isApprox (o.getRootOrigin ()));
     EXPECT_NEAR (m.box_max.x () - m.box_min.x (), o.getRootEdge (), 1e-9);
@@ -153,10 +177,11 @@ TEST (PotreeWriter, WrittenOctreeReadsBackAsTheInMemoryHierarchy)
     EXPECT_TRUE ((m.position_max.array () <= m.box_max.array () + 1e-6).all ());
     // The root chunk holds the nodes of levels 0..step.
     std::size_t first = 0;
-    for (int l = 0; l <= std::min (c.step, depth); ++l)
-      first += st.nodes_per_level[l];
+    for (const auto& n : r.getNodes ())
+      first += n.code.level () <= c.step ? 1 : 0;
     EXPECT_EQ (m.first_chunk_size, 22 * first);
-    expectSameHierarchy (*o.getRoot (), r);
+    expectSameHierarchy (o, r);
+    const std::size_t nodes = r.getNodes ().size ();
     // hierarchy.bin holds each node once, plus one proxy record per chunk below the root.
     std::size_t proxies = 0;
     for (const auto& n : r.getNodes ())
@@ -169,14 +194,17 @@ TEST (PotreeWriter, WrittenOctreeReadsBackAsTheInMemoryHierarchy)
 
 TEST (PotreeWriter, BytesFollowPotreeConverterLayout)
 {
-  // Two points at opposite corners, depth 1: root (2 samples) + two leaves.
+  // Two points near each of two opposite corners, depth 1, ratio 0.5: the root takes one
+  // point of each leaf and each leaf keeps the other (additive: 4 points stored in all).
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
   cloud->push_back (pcl::PointXYZ (0.f, 0.f, 0.f));
   cloud->push_back (pcl::PointXYZ (2.f, 3.f, 4.f));
+  cloud->push_back (pcl::PointXYZ (0.5f, 0.5f, 0.5f));
+  cloud->push_back (pcl::PointXYZ (2.5f, 2.5f, 3.5f));
   pcl::ObliqueCutOctree<pcl::PointXYZ> o;
   o.setInputCloud (cloud);
   o.setMaxDepth (1);
-  o.setParentPointRatio (1.f);
+  o.setParentPointRatio (0.5f);
   ASSERT_TRUE (o.build ());
   TempDir dir;
   pcl::PotreeWriter<pcl::PointXYZ> w;
@@ -186,30 +214,37 @@ TEST (PotreeWriter, BytesFollowPotreeConverterLayout)
   ASSERT_EQ (h.size (), 3u * 22u);
   const auto u32 = [&] (std::size_t at) { std::uint32_t v; std::memcpy (&v, h.data () + at, 4); return v; };
   const auto u64 = [&] (std::size_t at) { std::uint64_t v; std::memcpy (&v, h.data () + at, 8); return v; };
-  // Root: NORMAL, children 0 (x−y−z−) and 7 (x+y+z+); 2 points of 12 bytes.
+  // Root: NORMAL, children 0 (x−y−z−) and 7 (x+y+z+); 2 points of 12 bytes at offset 0.
   EXPECT_EQ (h[0], 0);
   EXPECT_EQ (h[1], (1u << 0) | (1u << 7));
   EXPECT_EQ (u32 (2), 2u);
   EXPECT_EQ (u64 (14), 24u);
-  // Leaves r0 then r7, breadth-first in child order.
+  // Leaves r0 then r7, breadth-first in child order, one point each.
   EXPECT_EQ (h[22], 1);
   EXPECT_EQ (h[23], 0);
   EXPECT_EQ (u32 (24), 1u);
   EXPECT_EQ (u64 (36), 12u);
   EXPECT_EQ (h[44], 1);
+  EXPECT_EQ (u32 (46), 1u);
   const auto oct = slurp (dir.path / "octree.bin");
   ASSERT_EQ (oct.size (), 48u);
-  // r7 holds (2, 3, 4): int32 (x − offset) / 0.001 with offset = the cube's min corner (0, 0, 0).
-  std::int32_t q[3];
-  std::memcpy (q, oct.data () + u64 (44 + 6), 12);
-  EXPECT_EQ (q[0], 2000);
-  EXPECT_EQ (q[1], 3000);
-  EXPECT_EQ (q[2], 4000);
+  // int32 (x − offset) / 0.001 with offset = the cube's min corner (0, 0, 0). The root and r7
+  // together hold both points near (2, 3, 4), each once.
+  const auto at = [&] (std::uint64_t offset) {
+    std::int32_t q[3];
+    std::memcpy (q, oct.data () + offset, 12);
+    return std::array<std::int32_t, 3>{q[0], q[1], q[2]};
+  };
+  const std::array<std::int32_t, 3> a{2000, 3000, 4000}, b{2500, 2500, 3500};
+  const auto leaf7 = at (u64 (44 + 6));
+  EXPECT_TRUE (leaf7 == a || leaf7 == b);
+  const auto other = leaf7 == a ? b : a;
+  EXPECT_TRUE (at (0) == other || at (12) == other);
   // metadata.json: the fields potree's loader reads.
   std::ifstream in (dir.path / "metadata.json");
   const std::string js ((std::istreambuf_iterator<char> (in)), std::istreambuf_iterator<char> ());
   for (const char* key : {"\"version\": \"2.0\"", "\"firstChunkSize\": 66", "\"stepSize\": 4", "\"depth\": 1",
-                          "\"encoding\": \"DEFAULT\"", "\"name\": \"position\"", "\"type\": \"int32\"", "\"points\": 2"})
+                          "\"encoding\": \"DEFAULT\"", "\"name\": \"position\"", "\"type\": \"int32\"", "\"points\": 4"})
     EXPECT_NE (js.find (key), std::string::npos) << key << " in\n" << js;
   EXPECT_EQ (js.find ("rgb"), std::string::npos);
 }
@@ -327,7 +362,7 @@ TEST (PotreeWriter, StreamedLatticeAndMillionsOfDuplicatesEndToEnd)
     pcl::PotreeReader r;
     r.open (out);
     EXPECT_EQ (r.getMetadata ().points, c.n);
-    expectSameHierarchy (*a.getRoot (), r);
+    expectSameHierarchy (a, r);
     if (c.shape == Shape::DUPLICATES)
     {
       // Three distinct positions: three leaves hold every point.

@@ -33,6 +33,7 @@
 
 #include <pcl/point_cloud.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <memory>
@@ -110,10 +111,13 @@ public:
   void setMaxDepth (int depth);                  // 1..21, default 7 (the paper's)
   int getMaxDepth () const { return params_.max_depth; }
   void setParentPointRatio (float ratio);        // (0, 1], default 0.2
-  void setLeafCollapse (bool on) { checkIdle (); params_.leaf_collapse = on; }
+  float getParentPointRatio () const { return params_.parent_ratio; }
+  void setLeafCollapse (bool on) { checkIdle (); params_.leaf_collapse = on; }  // default on
+  bool getLeafCollapse () const { return params_.leaf_collapse; }
   void setWorklistSize (std::size_t nodes);      // >= 1, default 32
   void setSortChunks (std::size_t chunks);       // >= 1, default 16
-  void setThreads (int threads);                 // fix workers and read passes, >= 1
+  void setThreads (int threads);                 // fix workers and read passes, >= 1; default all cores
+  int getThreads () const { return params_.threads; }
   void setRootCube (const Eigen::Vector3d& origin, double edge);
   void clearRootCube ();
   // Leaf splat radius (world units); <= 0: the leaf cell edge / sqrt (mean points per
@@ -148,6 +152,15 @@ public:
   const ObliqueCut<PointT>* getCut () const { return cut_.get (); }
 
 private:
+  // The cut's parameters with the octree's defaults: leaf collapse on, one worker per core.
+  static typename ObliqueCut<PointT>::Parameters
+  defaultParameters ()
+  {
+    typename ObliqueCut<PointT>::Parameters p;
+    p.leaf_collapse = true;
+    p.threads = std::max (1, static_cast<int> (std::thread::hardware_concurrency ()));
+    return p;
+  }
   bool run ();
   bool runBudgeted (std::chrono::steady_clock::time_point t0);
   void startCut (const std::vector<MortonCode>& first_chunk_codes, const Eigen::Vector3d& origin, double edge);
@@ -164,7 +177,7 @@ private:
   std::size_t budget_ = 0;
   std::string output_dir_, used_output_dir_, temp_output_dir_, last_error_;
   std::atomic<int> spill_level_{-1};
-  typename ObliqueCut<PointT>::Parameters params_;
+  typename ObliqueCut<PointT>::Parameters params_ = defaultParameters ();
   std::size_t chunks_ = 16;
   bool user_cube_ = false;
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero ();

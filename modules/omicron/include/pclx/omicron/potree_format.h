@@ -63,7 +63,8 @@ std::string nodeName (MortonCode code);
 MortonCode codeFromName (const std::string& name);
 
 // Writes hierarchy.bin for `records` (any order; every node's parent must be present) and
-// returns firstChunkSize and depth through `meta`. Throws pcl::IOException.
+// returns firstChunkSize and depth through `meta`. Nodes whose subtree holds no point are
+// left out. Throws pcl::IOException.
 void writeHierarchy (const std::string& path, const std::vector<NodeRecord>& records, Metadata& meta);
 void writeMetadata (const std::string& path, const Metadata& meta);
 

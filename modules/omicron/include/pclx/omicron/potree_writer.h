@@ -13,9 +13,13 @@
 //   writer.close (point_count);
 //
 // Positions are stored as int32 (x − offset) / scale with offset = the root cube's min
-// corner; colour (PointT with rgb) as uint16 × 3 (8-bit value × 257, LAS style). Each node
-// stores its own points: Potree draws a node together with its ancestors, so OMiCroN's
-// parent samples (copies of child points) are drawn twice where both levels are shown.
+// corner; colour (PointT with rgb) as uint16 × 3 (8-bit value × 257, LAS style).
+//
+// Potree's LOD is additive: a node is drawn together with its ancestors. OMiCroN's parents
+// hold copies of points sampled from their children, so a node is written without the
+// points its parent took (PotreeConverter 2 likewise moves sampled points up): every input
+// point is stored exactly once. Inner nodes left empty are written with no points, as
+// PotreeConverter does; subtrees left empty are dropped.
 // Errors (unwritable folder, failed write, inconsistent hierarchy) throw pcl::IOException.
 #include <pclx/omicron/octree_node.h>
 #include <pclx/omicron/potree_format.h>
@@ -52,6 +56,10 @@ public:
   void setHierarchyStepSize (int step);
   // Write the rgb attribute; default: when PointT has colour.
   void setWriteColors (bool on) { colors_ = on; }
+  // The parent point ratio of the octree whose nodes are appended (which points a parent took
+  // from each child). write () takes it from the octree; default 0.2, the octree's default.
+  void setParentPointRatio (float ratio);
+  float getParentPointRatio () const { return parent_ratio_; }
 
   // Writes a built octree (throws pcl::IOException; std::logic_error when it is not built).
   void write (const ObliqueCutOctree<PointT>& octree, const std::string& directory);
@@ -60,8 +68,12 @@ public:
   // may be called from several threads; close () writes hierarchy.bin and metadata.json with
   // `points` as the metadata point count (the input points the hierarchy holds).
   void open (const std::string& directory, const Eigen::Vector3d& origin, double edge);
-  void appendNode (MortonCode code, const PointT* points, std::uint32_t n);
+  // A node of an octree: its points minus those its parent took (all of them at the root).
+  void appendNode (const Node& node);
+  // Every node of the subtree, as appendNode (const Node&).
   void appendSubtree (const Node& node);
+  // Exactly the given points under `code` (for hierarchies of another origin).
+  void appendNode (MortonCode code, const PointT* points, std::uint32_t n);
   void close (std::uint64_t points);
   // Reserves the node records (32 B each) so they never reallocate (memory budgets).
   void reserveNodes (std::size_t nodes);
@@ -72,11 +84,15 @@ public:
   const omicron::potree::Metadata& getMetadata () const { return meta_; }
 
 private:
-  void encode (const PointT* points, std::uint32_t n, std::vector<std::uint8_t>& out) const;
+  // Writes points [0, n) except the `taken` picks of omicron::parentSampleIndex.
+  void append (MortonCode code, const PointT* points, std::uint32_t n, std::uint32_t taken);
+  void encode (const PointT* points, std::uint32_t n, std::uint32_t taken, std::vector<std::uint8_t>& out,
+               Eigen::Vector3d& lo, Eigen::Vector3d& hi) const;
   void abandon ();
 
   omicron::potree::Metadata meta_;
   double scale_ = 0;
+  float parent_ratio_ = 0.2f;
   bool colors_;
   std::string directory_;
   std::FILE* file_ = nullptr;

@@ -336,6 +336,7 @@ pcl::ObliqueCutOctree<PointT>::runBudgeted (std::chrono::steady_clock::time_poin
 
   // The Potree output; its records are reserved once (plan.node_bound) so they never move.
   PotreeWriter<PointT> writer;
+  writer.setParentPointRatio (params_.parent_ratio);
   writer.open (dir, origin, edge);
   writer.reserveNodes (plan.node_bound);
   ledger.set (Ledger::kHierarchyRecords, plan.node_bound * sizeof (omicron::potree::NodeRecord));
@@ -348,14 +349,14 @@ pcl::ObliqueCutOctree<PointT>::runBudgeted (std::chrono::steady_clock::time_poin
   std::array<std::atomic<std::size_t>, MortonCode::kMaxDepth + 1> sp_nodes{}, sp_points{}, sp_leaves{};
   std::atomic<std::size_t> write_now{0}, write_peak{0};
   const auto writeNode = [&] (const Node& n) {
-    // Encode buffer in flight (PotreeWriter::appendNode encodes the node whole).
+    // Encode buffer in flight (at most the node's points: PotreeWriter::appendNode encodes it whole).
     const std::size_t wb = n.num_points * bpp;
     const std::size_t now = write_now.fetch_add (wb) + wb;
     std::size_t peak = write_peak.load ();
     while (now > peak && !write_peak.compare_exchange_weak (peak, now))
     {
     }
-    writer.appendNode (n.code, n.points, n.num_points);
+    writer.appendNode (n);
     write_now.fetch_sub (wb);
   };
   const auto sink = [&] (const Node& root) {

@@ -71,49 +71,79 @@ pcl::PotreeWriter<PointT>::open (const std::string& directory, const Eigen::Vect
 }
 
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::encode (const PointT* points, std::uint32_t n, std::vector<std::uint8_t>& out) const
+pcl::PotreeWriter<PointT>::setParentPointRatio (float ratio)
+{
+  if (!(ratio > 0.f && ratio <= 1.f))
+    throw std::invalid_argument ("PotreeWriter: the parent point ratio must be in (0, 1]");
+  parent_ratio_ = ratio;
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::encode (const PointT* points, std::uint32_t n, std::uint32_t taken,
+                                   std::vector<std::uint8_t>& out, Eigen::Vector3d& lo, Eigen::Vector3d& hi) const
 {
   const std::size_t bpp = meta_.bytesPerPoint ();
-  out.resize (bpp * n);
+  out.resize (bpp * (n - taken));
   const double inv = 1.0 / meta_.scale.x ();
+  std::uint8_t* dst = out.data ();
+  std::uint32_t t = 0;
+  std::uint32_t next = taken > 0 ? omicron::parentSampleIndex (0, taken, n) : n;
   for (std::uint32_t i = 0; i < n; ++i)
   {
+    if (i == next)
+    {
+      ++t;
+      next = t < taken ? omicron::parentSampleIndex (t, taken, n) : n;
+      continue;
+    }
     const PointT& p = points[i];
+    const Eigen::Vector3d v = p.getVector3fMap ().template cast<double> ();
+    lo = lo.cwiseMin (v);
+    hi = hi.cwiseMax (v);
     std::int32_t q[3];
     for (int a = 0; a < 3; ++a)
-      q[a] = static_cast<std::int32_t> (std::llround ((static_cast<double> (p.data[a]) - meta_.offset[a]) * inv));
-    std::memcpy (out.data () + i * bpp, q, 12);
+      q[a] = static_cast<std::int32_t> (std::llround ((v[a] - meta_.offset[a]) * inv));
+    std::memcpy (dst, q, 12);
     if constexpr (pcl::traits::has_color_v<PointT>)
       if (meta_.rgb)
       {
         const std::uint16_t c[3] = {static_cast<std::uint16_t> (p.r * 257u), static_cast<std::uint16_t> (p.g * 257u),
                                     static_cast<std::uint16_t> (p.b * 257u)};
-        std::memcpy (out.data () + i * bpp + 12, c, 6);
+        std::memcpy (dst + 12, c, 6);
       }
+    dst += bpp;
   }
 }
 
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::appendNode (MortonCode code, const PointT* points, std::uint32_t n)
+pcl::PotreeWriter<PointT>::append (MortonCode code, const PointT* points, std::uint32_t n, std::uint32_t taken)
 {
   std::vector<std::uint8_t> buf;
-  encode (points, n, buf);  // outside the lock: workers encode in parallel
   Eigen::Vector3d lo = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ()), hi = -lo;
-  for (std::uint32_t i = 0; i < n; ++i)
-  {
-    lo = lo.cwiseMin (points[i].getVector3fMap ().template cast<double> ());
-    hi = hi.cwiseMax (points[i].getVector3fMap ().template cast<double> ());
-  }
+  encode (points, n, taken, buf, lo, hi);  // outside the lock: workers encode in parallel
   std::lock_guard<std::mutex> g (mutex_);
   if (!file_)
     throw std::logic_error ("PotreeWriter: appendNode before open");
   if (!buf.empty () && std::fwrite (buf.data (), 1, buf.size (), file_) != buf.size ())
     throw pcl::IOException ("PotreeWriter: writing '" + directory_ + "/octree.bin' failed (disk full?)", __FILE__,
                             __func__, __LINE__);
-  records_.push_back ({code, n, offset_, buf.size ()});
+  records_.push_back ({code, n - taken, offset_, buf.size ()});
   offset_ += buf.size ();
   lo_ = lo_.cwiseMin (lo);
   hi_ = hi_.cwiseMax (hi);
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::appendNode (MortonCode code, const PointT* points, std::uint32_t n)
+{
+  append (code, points, n, 0);
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::appendNode (const Node& node)
+{
+  const std::uint32_t taken = node.level > 0 ? omicron::parentSampleCount (node.num_points, parent_ratio_) : 0;
+  append (node.code, node.points, node.num_points, taken);
 }
 
 template <typename PointT> void
@@ -124,7 +154,7 @@ pcl::PotreeWriter<PointT>::appendSubtree (const Node& node)
   {
     const Node* n = stack.back ();
     stack.pop_back ();
-    appendNode (n->code, n->points, n->num_points);
+    appendNode (*n);
     for (int c = n->num_children - 1; c >= 0; --c)
       stack.push_back (n->children + c);
   }
@@ -190,6 +220,7 @@ pcl::PotreeWriter<PointT>::write (const ObliqueCutOctree<PointT>& octree, const 
   if (octree.getSpillLevel () >= 0)
     throw std::logic_error ("PotreeWriter: a budgeted build keeps only its upper tree; it already wrote the whole "
                             "hierarchy to getOutputDirectory ()");
+  setParentPointRatio (octree.getParentPointRatio ());
   open (directory, octree.getRootOrigin (), octree.getRootEdge ());
   try
   {
