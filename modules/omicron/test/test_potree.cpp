@@ -9,6 +9,7 @@
 #include <pcl/exceptions.h>
 
 #include <array>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -60,26 +61,55 @@ slurp (const fs::path& p)
   return std::vector<std::uint8_t> ((std::istreambuf_iterator<char> (in)), std::istreambuf_iterator<char> ());
 }
 
-// The subtree of `n` as Potree stores it (additive LOD): each node holds its points minus
-// those its parent took, and a node whose subtree holds none is not written. Checks every
-// written node's count, child mask, type and points (within the scale); returns the points
-// the subtree stores and counts its written nodes.
-template <typename PointT> std::size_t
-expectAdditiveSubtree (const pcl::omicron::Node<PointT>& n, float ratio, const pcl::PotreeReader& reader,
-                       std::size_t& written)
+// The points node `n` stores (additive LOD: its own minus those its parent took), appended.
+template <typename PointT> void
+keptPoints (const pcl::omicron::Node<PointT>& n, float ratio, std::vector<PointT>& out)
 {
+  const std::uint32_t taken = n.code.level () > 0 ? pcl::omicron::parentSampleCount (n.num_points, ratio) : 0;
+  for (std::uint32_t j = 0, t = 0; j < n.num_points; ++j)
+    if (t < taken && j == pcl::omicron::parentSampleIndex (t, taken, n.num_points))
+      ++t;
+    else
+      out.push_back (n.points[j]);
+}
+
+template <typename PointT> void
+subtreeKeptPoints (const pcl::omicron::Node<PointT>& n, float ratio, std::vector<PointT>& out)
+{
+  keptPoints (n, ratio, out);
+  for (int c = 0; c < n.num_children; ++c)
+    subtreeKeptPoints (n.children[c], ratio, out);
+}
+
+// The subtree of `n` as Potree stores it: each node holds its kept points, a node whose
+// subtree keeps none is not written, and a subtree keeping at most `limit` points (> 0) is one
+// leaf with them in depth-first order. Checks every written node's count, child mask, type
+// and points (within the scale); returns the points the subtree stores, counts written nodes.
+template <typename PointT> std::size_t
+expectAdditiveSubtree (const pcl::omicron::Node<PointT>& n, float ratio, std::uint32_t limit,
+                       const pcl::PotreeReader& reader, std::size_t& written)
+{
+  std::vector<PointT> expected;
+  subtreeKeptPoints (n, ratio, expected);
+  const bool merged = limit > 0 && expected.size () <= limit;
   std::size_t below = 0;
   std::uint8_t mask = 0;
-  for (int c = 0; c < n.num_children; ++c)
-    if (const std::size_t k = expectAdditiveSubtree (n.children[c], ratio, reader, written))
-    {
-      below += k;
-      mask |= static_cast<std::uint8_t> (1u << n.children[c].code.childIndex ());
-    }
-  const std::uint32_t taken = n.code.level () > 0 ? pcl::omicron::parentSampleCount (n.num_points, ratio) : 0;
-  const std::size_t own = n.num_points - taken;
+  if (merged)
+    below = expected.size ();
+  else
+  {
+    expected.clear ();
+    keptPoints (n, ratio, expected);
+    for (int c = 0; c < n.num_children; ++c)
+      if (const std::size_t k = expectAdditiveSubtree (n.children[c], ratio, limit, reader, written))
+      {
+        below += k;
+        mask |= static_cast<std::uint8_t> (1u << n.children[c].code.childIndex ());
+      }
+    below += expected.size ();
+  }
   const long i = reader.find (n.code);
-  if (own + below == 0)
+  if (below == 0)
   {
     EXPECT_LT (i, 0) << "node " << n.code << " stores nothing but was written";
     return 0;
@@ -87,28 +117,22 @@ expectAdditiveSubtree (const pcl::omicron::Node<PointT>& n, float ratio, const p
   ++written;
   EXPECT_GE (i, 0) << "node " << n.code << " missing";
   if (i < 0)
-    return own + below;
+    return below;
   const auto& info = reader.getNodes ()[i];
-  EXPECT_EQ (info.num_points, own) << info.name;
+  EXPECT_EQ (info.num_points, expected.size ()) << info.name;
   EXPECT_EQ (info.child_mask, mask) << info.name;
   EXPECT_EQ (info.type, mask ? pcl::omicron::potree::kNormal : pcl::omicron::potree::kLeaf) << info.name;
   pcl::PointCloud<pcl::PointXYZRGB> pts;
   reader.readNode (static_cast<std::size_t> (i), pts);
-  if (pts.size () != own)
+  if (pts.size () != expected.size ())
   {
     ADD_FAILURE () << info.name << " read " << pts.size () << " points";
-    return own + below;
+    return below;
   }
   const double tol = 0.5 * reader.getMetadata ().scale.x () + 1e-6;
-  std::size_t k = 0;
-  for (std::uint32_t j = 0, t = 0; j < n.num_points; ++j)
+  for (std::size_t k = 0; k < expected.size (); ++k)
   {
-    if (t < taken && j == pcl::omicron::parentSampleIndex (t, taken, n.num_points))
-    {
-      ++t;
-      continue;
-    }
-    const PointT& p = n.points[j];
+    const PointT& p = expected[k];
     const bool same = std::abs (pts[k].x - p.x) <= tol && std::abs (pts[k].y - p.y) <= tol &&
                       std::abs (pts[k].z - p.z) <= tol;
     EXPECT_TRUE (same) << info.name << " point " << k;
@@ -116,18 +140,17 @@ expectAdditiveSubtree (const pcl::omicron::Node<PointT>& n, float ratio, const p
       EXPECT_TRUE (pts[k].r == p.r && pts[k].g == p.g && pts[k].b == p.b) << info.name << " colour " << k;
     if (!same)
       break;
-    ++k;
   }
-  return own + below;
+  return below;
 }
 
 // The whole written octree against the in-memory one; every kept point is stored once.
 template <typename PointT> void
-expectSameHierarchy (const pcl::ObliqueCutOctree<PointT>& octree, const pcl::PotreeReader& reader)
+expectSameHierarchy (const pcl::ObliqueCutOctree<PointT>& octree, const pcl::PotreeReader& reader, std::uint32_t limit)
 {
   std::size_t written = 0;
   const std::size_t stored =
-      expectAdditiveSubtree (*octree.getRoot (), octree.getParentPointRatio (), reader, written);
+      expectAdditiveSubtree (*octree.getRoot (), octree.getParentPointRatio (), limit, reader, written);
   EXPECT_EQ (stored, octree.getStatistics ().kept_points);
   EXPECT_EQ (reader.getStoredPoints (), stored);
   EXPECT_EQ (written, reader.getNodes ().size ());
@@ -141,13 +164,15 @@ TEST (PotreeWriter, WrittenOctreeReadsBackAsTheInMemoryHierarchy)
     Shape shape;
     int depth, step;
     bool collapse;
+    std::uint32_t limit;
   };
-  for (const Case& c : {Case{Shape::CLUSTERED, 6, 4, true}, Case{Shape::UNIFORM, 7, 2, false},
-                        Case{Shape::LATTICE, 5, 1, true}, Case{Shape::IDENTICAL, 3, 4, false},
-                        Case{Shape::UNIFORM, 9, 3, true}})
+  for (const Case& c : {Case{Shape::CLUSTERED, 6, 4, true, 0}, Case{Shape::UNIFORM, 7, 2, false, 0},
+                        Case{Shape::LATTICE, 5, 1, true, 0}, Case{Shape::IDENTICAL, 3, 4, false, 0},
+                        Case{Shape::UNIFORM, 9, 3, true, 0}, Case{Shape::CLUSTERED, 8, 2, true, 1000},
+                        Case{Shape::UNIFORM, 7, 4, true, 20000}, Case{Shape::UNIFORM, 5, 4, true, 40000}})
   {
     SCOPED_TRACE (std::string (omitest::shapeName (c.shape)) + " depth " + std::to_string (c.depth) + " step " +
-                  std::to_string (c.step));
+                  std::to_string (c.step) + " leaf limit " + std::to_string (c.limit));
     const auto cloud = colouredCloud (c.shape, 30000, 5 + c.depth);
     pcl::ObliqueCutOctree<pcl::PointXYZRGB> o;
     o.setInputCloud (cloud);
@@ -159,6 +184,7 @@ TEST (PotreeWriter, WrittenOctreeReadsBackAsTheInMemoryHierarchy)
     pcl::PotreeWriter<pcl::PointXYZRGB> w;
     w.setHierarchyStepSize (c.step);
     w.setName ("test");
+    w.setLeafPointLimit (c.limit);
     w.write (o, dir.path.string ());
     pcl::PotreeReader r;
     r.open (dir.path.string ());
@@ -180,7 +206,7 @@ TEST (PotreeWriter, WrittenOctreeReadsBackAsTheInMemoryHierarchy)
     for (const auto& n : r.getNodes ())
       first += n.code.level () <= c.step ? 1 : 0;
     EXPECT_EQ (m.first_chunk_size, 22 * first);
-    expectSameHierarchy (o, r);
+    expectSameHierarchy (o, r, c.limit);
     const std::size_t nodes = r.getNodes ().size ();
     // hierarchy.bin holds each node once, plus one proxy record per chunk below the root.
     std::size_t proxies = 0;
@@ -209,6 +235,7 @@ TEST (PotreeWriter, BytesFollowPotreeConverterLayout)
   TempDir dir;
   pcl::PotreeWriter<pcl::PointXYZ> w;
   w.setScale (0.001);
+  w.setLeafPointLimit (0);  // every node of the octree
   w.write (o, dir.path.string ());
   const auto h = slurp (dir.path / "hierarchy.bin");
   ASSERT_EQ (h.size (), 3u * 22u);
@@ -249,6 +276,44 @@ TEST (PotreeWriter, BytesFollowPotreeConverterLayout)
   EXPECT_EQ (js.find ("rgb"), std::string::npos);
 }
 
+TEST (PotreeWriter, SpacingIsTheRootsPointSpacing)
+{
+  // A 200 × 200 lattice of spacing 0.01 on a plane: the root keeps a sparse sample, its nearest
+  // neighbours lie several lattice steps apart, and metadata.json says so (loaders size points
+  // from it). The median nearest-neighbour distance of a lattice is its step.
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
+  for (int i = 0; i < 200; ++i)
+    for (int j = 0; j < 200; ++j)
+      cloud->push_back (pcl::PointXYZ (0.01f * i, 0.01f * j, 0.5f));
+  pcl::ObliqueCutOctree<pcl::PointXYZ> o;
+  o.setInputCloud (cloud);
+  o.setMaxDepth (6);
+  ASSERT_TRUE (o.build ());
+  TempDir dir;
+  pcl::PotreeWriter<pcl::PointXYZ> w;
+  w.setLeafPointLimit (0);
+  w.write (o, dir.path.string ());
+  pcl::PotreeReader r;
+  r.open (dir.path.string ());
+  pcl::PointCloud<pcl::PointXYZRGB> root;
+  r.readNode (static_cast<std::size_t> (r.find (pcl::MortonCode::root ())), root);
+  ASSERT_GE (root.size (), 8u);
+  // Points in the root cover the 2 × 2 square, so their spacing is about 2 / sqrt (n).
+  const double expected = 1.99 / std::sqrt (static_cast<double> (root.size ()));
+  EXPECT_GT (r.getMetadata ().spacing, 0.5 * expected);
+  EXPECT_LT (r.getMetadata ().spacing, 2.0 * expected);
+  EXPECT_GT (r.getMetadata ().spacing, 0.05);  // far above the lattice step and edge / 128
+  // Everything in one leaf: the root's spacing is the lattice's.
+  TempDir one;
+  pcl::PotreeWriter<pcl::PointXYZ> w1;
+  w1.setLeafPointLimit (50000);
+  w1.write (o, one.path.string ());
+  pcl::PotreeReader r1;
+  r1.open (one.path.string ());
+  EXPECT_EQ (r1.getNodes ().size (), 1u);
+  EXPECT_NEAR (r1.getMetadata ().spacing, 0.01, 1e-4);
+}
+
 TEST (PotreeWriter, UnwritableFolderIsAClearError)
 {
   const auto cloud = omitest::makeCloud (Shape::UNIFORM, 1000, 3);
@@ -285,6 +350,7 @@ TEST (PotreeReader, CorruptFilesAreClearErrors)
   TempDir dir;
   pcl::PotreeWriter<pcl::PointXYZ> w;
   w.setHierarchyStepSize (2);
+  w.setLeafPointLimit (0);  // deep enough for proxy chunks
   w.write (o, dir.path.string ());
   pcl::PotreeReader r;
   EXPECT_NO_THROW (r.open (dir.path.string ()));
@@ -362,7 +428,7 @@ TEST (PotreeWriter, StreamedLatticeAndMillionsOfDuplicatesEndToEnd)
     pcl::PotreeReader r;
     r.open (out);
     EXPECT_EQ (r.getMetadata ().points, c.n);
-    expectSameHierarchy (a, r);
+    expectSameHierarchy (a, r, w.getLeafPointLimit ());
     if (c.shape == Shape::DUPLICATES)
     {
       // Three distinct positions: three leaves hold every point.

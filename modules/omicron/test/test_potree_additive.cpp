@@ -113,8 +113,9 @@ TEST (PotreeAdditive, FoldersForTheIndependentChecker)
   const std::size_t rows = writeInput (root / "input.xyz", n, invalid, 17);
   ASSERT_EQ (rows, n + invalid);
 
-  // In memory at the library's defaults (leaf collapse, all cores) but depth 5, so a quarter
-  // of this small input's footprint still holds a budgeted build's retained tree.
+  // In memory at the library's defaults (leaf collapse, all cores, subtrees of up to 20k
+  // points as one leaf) but depth 5, so half of this small input's footprint still holds a
+  // budgeted build's retained tree.
   Octree mem;
   mem.setInputFile ((root / "input.xyz").string ());
   mem.setMaxDepth (5);
@@ -141,13 +142,15 @@ TEST (PotreeAdditive, FoldersForTheIndependentChecker)
   EXPECT_EQ (sb.points, n);
   EXPECT_EQ (sb.nodes, sm.nodes);
 
-  // Deep and without leaf collapse: about one point per leaf, so parents take whole nodes and
-  // the output has empty nodes to drop (leaves) or keep (inner nodes above stored points).
+  // Deep, without leaf collapse and with every node written: about one point per leaf, so
+  // parents take whole nodes and the output has empty nodes to drop (leaves) or keep (inner
+  // nodes above stored points).
   Octree deep;
   deep.setInputFile ((root / "input.xyz").string ());
   deep.setMaxDepth (10);
   deep.setLeafCollapse (false);
   ASSERT_TRUE (deep.build ()) << deep.getLastError ();
+  writer.setLeafPointLimit (0);  // every node, not subtrees merged into leaves
   writer.write (deep, (root / "deep").string ());
   const Stored sd = stored ((root / "deep").string ());
   EXPECT_EQ (sd.points, n);

@@ -75,15 +75,15 @@ public:
   // group up to m now (e.g. at the end of a chunk of whole cells). False (PCL_ERROR) otherwise.
   bool advanceBoundary (MortonCode m);
 
-  // Out-of-core build. When a node X at `level` is created its subtree is complete: each
-  // child subtree of X is handed to `sink` (which writes it somewhere; it is called from the
-  // fix workers, concurrently, and must not throw), then X loses its children and is flagged
+  // Out-of-core build. When a node X at `level` is created its subtree is complete: X is
+  // handed to `sink` with its children (which writes their subtrees somewhere; it is called
+  // from the fix workers, concurrently, and must not throw), then X loses its children and is flagged
   // omicron::kSpilled, so it is drawn as a leaf from its own sample. Nodes and samples below
   // `level` live in scratch arenas that releaseScratch () frees. The front receives
   // placeholders at `level` (not l_max) and no node below it. 1 <= level < l_max (< l_max − 1
   // with leaf collapse, so no leaf is at or above it); every leaf must be deeper than `level`.
   // Call before the first concatenate. Throws std::invalid_argument.
-  using SpillSink = std::function<void (const Node& subtree_root)>;
+  using SpillSink = std::function<void (const Node& spilled)>;
   void setSpill (int level, SpillSink sink);
   int getSpillLevel () const { return spill_level_; }
   // Frees the scratch arenas. Only between fix passes, when L_C holds no root below the spill

@@ -68,6 +68,11 @@ MortonCode codeFromName (const std::string& name);
 void writeHierarchy (const std::string& path, const std::vector<NodeRecord>& records, Metadata& meta);
 void writeMetadata (const std::string& path, const Metadata& meta);
 
+// Median distance from up to `queries` of the points (evenly strided) to their nearest
+// other point, as Potree's `spacing` of the root node (loaders halve it per level for
+// adaptive point sizes); 0 for fewer than two distinct points.
+double medianNeighbourDistance (const std::vector<Eigen::Vector3f>& points, std::size_t queries = 1000);
+
 // Throws pcl::IOException with the reason on anything malformed.
 Metadata readMetadata (const std::string& path);
 

@@ -20,6 +20,11 @@
 // points its parent took (PotreeConverter 2 likewise moves sampled points up): every input
 // point is stored exactly once. Inner nodes left empty are written with no points, as
 // PotreeConverter does; subtrees left empty are dropped.
+//
+// Node size: a subtree that stores at most getLeafPointLimit () points is written as one
+// leaf holding all of them (PotreeConverter's nodes hold up to about 20k points). Potree
+// loads a node at a time, so OMiCroN's deep leaves of a few points each would otherwise make
+// tens of thousands of requests and show a fraction of a percent of the cloud.
 // Errors (unwritable folder, failed write, inconsistent hierarchy) throw pcl::IOException.
 #include <pclx/omicron/octree_node.h>
 #include <pclx/omicron/potree_format.h>
@@ -27,6 +32,8 @@
 #include <pcl/point_cloud.h>
 
 #include <cstdio>
+#include <limits>
+#include <map>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -60,6 +67,11 @@ public:
   // from each child). write () takes it from the octree; default 0.2, the octree's default.
   void setParentPointRatio (float ratio);
   float getParentPointRatio () const { return parent_ratio_; }
+  // Subtrees storing at most this many points are written as one leaf; 0 writes every node
+  // of the octree. Default kDefaultLeafPointLimit.
+  void setLeafPointLimit (std::uint32_t points) { leaf_limit_ = points; }
+  std::uint32_t getLeafPointLimit () const { return leaf_limit_; }
+  static constexpr std::uint32_t kDefaultLeafPointLimit = 20000;
 
   // Writes a built octree (throws pcl::IOException; std::logic_error when it is not built).
   void write (const ObliqueCutOctree<PointT>& octree, const std::string& directory);
@@ -70,8 +82,14 @@ public:
   void open (const std::string& directory, const Eigen::Vector3d& origin, double edge);
   // A node of an octree: its points minus those its parent took (all of them at the root).
   void appendNode (const Node& node);
-  // Every node of the subtree, as appendNode (const Node&).
+  // The subtree: one leaf when it stores at most the leaf point limit, else each node as
+  // appendNode (const Node&) and each child's subtree the same way. Nodes flagged
+  // omicron::kSpilled stand for the subtrees appendSpilled () received.
   void appendSubtree (const Node& node);
+  // Out-of-core builds: `node` with its complete children, before they are dropped. Writes
+  // the children's subtrees, or, when the whole subtree fits one leaf, keeps it aside until
+  // appendSubtree () reaches `node` (an ancestor may take it into a larger leaf).
+  void appendSpilled (const Node& node);
   // Exactly the given points under `code` (for hierarchies of another origin).
   void appendNode (MortonCode code, const PointT* points, std::uint32_t n);
   void close (std::uint64_t points);
@@ -84,18 +102,43 @@ public:
   const omicron::potree::Metadata& getMetadata () const { return meta_; }
 
 private:
-  // Writes points [0, n) except the `taken` picks of omicron::parentSampleIndex.
-  void append (MortonCode code, const PointT* points, std::uint32_t n, std::uint32_t taken);
-  void encode (const PointT* points, std::uint32_t n, std::uint32_t taken, std::vector<std::uint8_t>& out,
-               Eigen::Vector3d& lo, Eigen::Vector3d& hi) const;
+  // Encoded points with their bounds.
+  struct Encoded
+  {
+    std::vector<std::uint8_t> bytes;
+    std::uint64_t points = 0;
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ());
+    Eigen::Vector3d hi = Eigen::Vector3d::Constant (-std::numeric_limits<double>::max ());
+  };
+  // A subtree appendSpilled () kept aside (in the pending file) or wrote out.
+  struct Spilled
+  {
+    std::uint64_t points = 0;  // stored by the whole subtree
+    bool pending = false, written = false;
+    std::uint64_t offset = 0;  // in the pending file
+    Eigen::Vector3d lo = Eigen::Vector3d::Zero (), hi = Eigen::Vector3d::Zero ();
+  };
+  std::uint32_t storedPoints (const Node& node) const;
+  std::uint64_t subtreePoints (const Node& node) const;
+  // Appends points [0, n) except the `taken` picks of omicron::parentSampleIndex.
+  void encode (const PointT* points, std::uint32_t n, std::uint32_t taken, Encoded& out) const;
+  // Appends the stored points of the subtree in depth-first order.
+  void encodeSubtree (const Node& node, Encoded& out);
+  void record (MortonCode code, const Encoded& data);
+  void measureSpacing (const Encoded& root);
+  void closePending ();
   void abandon ();
 
   omicron::potree::Metadata meta_;
   double scale_ = 0;
   float parent_ratio_ = 0.2f;
+  std::uint32_t leaf_limit_ = kDefaultLeafPointLimit;
   bool colors_;
   std::string directory_;
   std::FILE* file_ = nullptr;
+  std::FILE* pending_ = nullptr;  // octree.pending.bin: subtrees appendSpilled () kept aside
+  std::uint64_t pending_bytes_ = 0;
+  std::map<std::uint64_t, Spilled> spilled_;  // by MortonCode::bits ()
   mutable std::mutex mutex_;
   std::uint64_t offset_ = 0;
   std::vector<omicron::potree::NodeRecord> records_;

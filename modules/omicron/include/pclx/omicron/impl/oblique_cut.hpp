@@ -232,10 +232,17 @@ pcl::ObliqueCut<PointT>::createParent (const CutNode* group, std::size_t k, Slot
   }
   if (spill && l - 1 == spill_level_)
   {
-    // The subtree of pa is complete: its children's subtrees go to the sink and are cut off.
+    // The subtree of pa is complete: the sink receives pa with its children, which are cut off.
     // pa keeps its sample (retained arena) and is drawn as a leaf.
-    for (std::size_t i = 0; i < k; ++i)
-      sink_ (block[i]);
+    Node view;
+    view.code = pa.code;
+    view.points = pa.points;
+    view.num_points = pa.num_points;
+    view.level = pa.level;
+    view.num_children = pa.num_children;
+    view.flags = pa.flags;
+    view.children = pa.children;
+    sink_ (view);
     pa.children = nullptr;
     pa.num_children = 0;
     pa.flags |= omicron::kSpilled;

@@ -348,28 +348,35 @@ pcl::ObliqueCutOctree<PointT>::runBudgeted (std::chrono::steady_clock::time_poin
   std::atomic<bool> sink_failed{false};
   std::array<std::atomic<std::size_t>, MortonCode::kMaxDepth + 1> sp_nodes{}, sp_points{}, sp_leaves{};
   std::atomic<std::size_t> write_now{0}, write_peak{0};
-  const auto writeNode = [&] (const Node& n) {
-    // Encode buffer in flight (at most the node's points: PotreeWriter::appendNode encodes it whole).
-    const std::size_t wb = n.num_points * bpp;
+  // Encode buffers in flight: a call writes one record at a time, at most the larger of the
+  // leaf point limit and its largest node.
+  const auto accountWrite = [&] (std::size_t largest_node, std::size_t subtree_points) {
+    const std::size_t wb = bpp * std::min<std::size_t> (subtree_points, std::max<std::size_t> (
+                                                                           largest_node, writer.getLeafPointLimit ()));
     const std::size_t now = write_now.fetch_add (wb) + wb;
     std::size_t peak = write_peak.load ();
     while (now > peak && !write_peak.compare_exchange_weak (peak, now))
     {
     }
-    writer.appendNode (n);
-    write_now.fetch_sub (wb);
+    return wb;
   };
-  const auto sink = [&] (const Node& root) {
+  // The spill sink, called by the fix workers with a spill-level node and its children:
+  // counts the subtrees and writes them.
+  const auto sink = [&] (const Node& spilled) {
     if (sink_failed)
       return;
     try
     {
-      std::vector<const Node*> stack{&root};
+      std::size_t largest = spilled.num_points, points = spilled.num_points;
+      std::vector<const Node*> stack;
+      for (int c = spilled.num_children - 1; c >= 0; --c)
+        stack.push_back (spilled.children + c);
       while (!stack.empty ())
       {
         const Node* n = stack.back ();
         stack.pop_back ();
-        writeNode (*n);
+        largest = std::max<std::size_t> (largest, n->num_points);
+        points += n->num_points;
         sp_nodes[n->level].fetch_add (1, std::memory_order_relaxed);
         sp_points[n->level].fetch_add (n->num_points, std::memory_order_relaxed);
         if (n->isLeaf ())
@@ -377,6 +384,9 @@ pcl::ObliqueCutOctree<PointT>::runBudgeted (std::chrono::steady_clock::time_poin
         for (int c = n->num_children - 1; c >= 0; --c)
           stack.push_back (n->children + c);
       }
+      const std::size_t wb = accountWrite (largest, points);
+      writer.appendSpilled (spilled);
+      write_now.fetch_sub (wb);
     }
     catch (const std::exception& e)
     {
@@ -461,17 +471,22 @@ pcl::ObliqueCutOctree<PointT>::runBudgeted (std::chrono::steady_clock::time_poin
   ledger.set (Ledger::kRetainedTree, cut_->memoryBytes ());
   ledger.set (Ledger::kFront, front_.entryCount () * entry_bytes);
 
-  // The retained tree goes to the same folder (spilled nodes have no children left), then
-  // hierarchy.bin and metadata.json.
+  // The retained tree goes to the same folder (a spilled node stands for what the sink wrote
+  // or kept aside), then hierarchy.bin and metadata.json.
+  std::size_t largest = 0, retained_points = 0;
   std::vector<const Node*> stack{cut_->getRoot ()};
   while (!stack.empty ())
   {
     const Node* n = stack.back ();
     stack.pop_back ();
-    writeNode (*n);
+    largest = std::max<std::size_t> (largest, n->num_points);
+    retained_points += n->num_points;
     for (std::uint8_t j = 0; j < n->num_children; ++j)
       stack.push_back (n->children + j);
   }
+  write_peak = 0;
+  accountWrite (largest, std::max<std::size_t> (retained_points, writer.getLeafPointLimit ()));
+  writer.appendSubtree (*cut_->getRoot ());
   ledger.set (Ledger::kWriteBuffers, write_peak.load ());
   ledger.set (Ledger::kWriteBuffers, 0);
   ledger.set (Ledger::kHierarchyRecords, plan.node_bound * sizeof (omicron::potree::NodeRecord) +

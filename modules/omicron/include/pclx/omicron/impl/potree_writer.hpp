@@ -20,8 +20,7 @@ pcl::PotreeWriter<PointT>::PotreeWriter () : colors_ (pcl::traits::has_color_v<P
 template <typename PointT>
 pcl::PotreeWriter<PointT>::~PotreeWriter ()
 {
-  if (file_)
-    std::fclose (file_);
+  abandon ();
 }
 
 template <typename PointT> void
@@ -52,6 +51,8 @@ pcl::PotreeWriter<PointT>::open (const std::string& directory, const Eigen::Vect
   directory_ = directory;
   offset_ = 0;
   records_.clear ();
+  spilled_.clear ();
+  pending_bytes_ = 0;
   double scale = scale_;
   if (!(scale > 0))
     scale = std::pow (10.0, std::ceil (std::log10 (edge / 1073741824.0)));
@@ -64,7 +65,7 @@ pcl::PotreeWriter<PointT>::open (const std::string& directory, const Eigen::Vect
   meta_.offset = origin;
   meta_.box_min = origin;
   meta_.box_max = origin + Eigen::Vector3d::Constant (edge);
-  meta_.spacing = edge / 128.0;  // PotreeConverter's root spacing
+  meta_.spacing = edge / 128.0;  // PotreeConverter's root spacing, until the root is written
   meta_.rgb = colors_;
   lo_ = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ());
   hi_ = -lo_;
@@ -79,13 +80,14 @@ pcl::PotreeWriter<PointT>::setParentPointRatio (float ratio)
 }
 
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::encode (const PointT* points, std::uint32_t n, std::uint32_t taken,
-                                   std::vector<std::uint8_t>& out, Eigen::Vector3d& lo, Eigen::Vector3d& hi) const
+pcl::PotreeWriter<PointT>::encode (const PointT* points, std::uint32_t n, std::uint32_t taken, Encoded& out) const
 {
   const std::size_t bpp = meta_.bytesPerPoint ();
-  out.resize (bpp * (n - taken));
+  const std::size_t first = out.bytes.size ();
+  out.bytes.resize (first + bpp * (n - taken));
+  out.points += n - taken;
   const double inv = 1.0 / meta_.scale.x ();
-  std::uint8_t* dst = out.data ();
+  std::uint8_t* dst = out.bytes.data () + first;
   std::uint32_t t = 0;
   std::uint32_t next = taken > 0 ? omicron::parentSampleIndex (0, taken, n) : n;
   for (std::uint32_t i = 0; i < n; ++i)
@@ -98,8 +100,8 @@ pcl::PotreeWriter<PointT>::encode (const PointT* points, std::uint32_t n, std::u
     }
     const PointT& p = points[i];
     const Eigen::Vector3d v = p.getVector3fMap ().template cast<double> ();
-    lo = lo.cwiseMin (v);
-    hi = hi.cwiseMax (v);
+    out.lo = out.lo.cwiseMin (v);
+    out.hi = out.hi.cwiseMax (v);
     std::int32_t q[3];
     for (int a = 0; a < 3; ++a)
       q[a] = static_cast<std::int32_t> (std::llround ((v[a] - meta_.offset[a]) * inv));
@@ -116,48 +118,159 @@ pcl::PotreeWriter<PointT>::encode (const PointT* points, std::uint32_t n, std::u
 }
 
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::append (MortonCode code, const PointT* points, std::uint32_t n, std::uint32_t taken)
+pcl::PotreeWriter<PointT>::record (MortonCode code, const Encoded& data)
 {
-  std::vector<std::uint8_t> buf;
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ()), hi = -lo;
-  encode (points, n, taken, buf, lo, hi);  // outside the lock: workers encode in parallel
   std::lock_guard<std::mutex> g (mutex_);
   if (!file_)
     throw std::logic_error ("PotreeWriter: appendNode before open");
-  if (!buf.empty () && std::fwrite (buf.data (), 1, buf.size (), file_) != buf.size ())
+  if (!data.bytes.empty () && std::fwrite (data.bytes.data (), 1, data.bytes.size (), file_) != data.bytes.size ())
     throw pcl::IOException ("PotreeWriter: writing '" + directory_ + "/octree.bin' failed (disk full?)", __FILE__,
                             __func__, __LINE__);
-  records_.push_back ({code, n - taken, offset_, buf.size ()});
-  offset_ += buf.size ();
-  lo_ = lo_.cwiseMin (lo);
-  hi_ = hi_.cwiseMax (hi);
+  if (code.level () == 0)
+    measureSpacing (data);
+  records_.push_back ({code, static_cast<std::uint32_t> (data.points), offset_, data.bytes.size ()});
+  offset_ += data.bytes.size ();
+  lo_ = lo_.cwiseMin (data.lo);
+  hi_ = hi_.cwiseMax (data.hi);
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::measureSpacing (const Encoded& root)
+{
+  // The loaders take `spacing` as the root's point spacing and halve it per level; the root
+  // holds the sparsest sample, so its nearest-neighbour distance is that spacing.
+  const std::size_t bpp = meta_.bytesPerPoint ();
+  std::vector<Eigen::Vector3f> pts (root.points);
+  for (std::size_t i = 0; i < pts.size (); ++i)
+  {
+    std::int32_t q[3];
+    std::memcpy (q, root.bytes.data () + i * bpp, 12);
+    pts[i] = (Eigen::Vector3d (q[0], q[1], q[2]).cwiseProduct (meta_.scale)).template cast<float> ();
+  }
+  const double spacing = omicron::potree::medianNeighbourDistance (pts);
+  if (spacing > 0)
+    meta_.spacing = spacing;
 }
 
 template <typename PointT> void
 pcl::PotreeWriter<PointT>::appendNode (MortonCode code, const PointT* points, std::uint32_t n)
 {
-  append (code, points, n, 0);
+  Encoded e;
+  encode (points, n, 0, e);  // outside the lock: workers encode in parallel
+  record (code, e);
+}
+
+template <typename PointT> std::uint32_t
+pcl::PotreeWriter<PointT>::storedPoints (const Node& node) const
+{
+  return node.num_points - (node.level > 0 ? omicron::parentSampleCount (node.num_points, parent_ratio_) : 0);
 }
 
 template <typename PointT> void
 pcl::PotreeWriter<PointT>::appendNode (const Node& node)
 {
-  const std::uint32_t taken = node.level > 0 ? omicron::parentSampleCount (node.num_points, parent_ratio_) : 0;
-  append (node.code, node.points, node.num_points, taken);
+  Encoded e;
+  encode (node.points, node.num_points, node.num_points - storedPoints (node), e);
+  record (node.code, e);
+}
+
+template <typename PointT> std::uint64_t
+pcl::PotreeWriter<PointT>::subtreePoints (const Node& node) const
+{
+  if (node.flags & omicron::kSpilled)
+  {
+    std::lock_guard<std::mutex> g (mutex_);
+    const auto it = spilled_.find (node.code.bits ());
+    if (it == spilled_.end ())
+      throw std::logic_error ("PotreeWriter: a spilled node that appendSpilled never received");
+    return it->second.points;
+  }
+  std::uint64_t n = storedPoints (node);
+  for (std::uint8_t c = 0; c < node.num_children; ++c)
+    n += subtreePoints (node.children[c]);
+  return n;
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::encodeSubtree (const Node& node, Encoded& out)
+{
+  if (!(node.flags & omicron::kSpilled))
+  {
+    encode (node.points, node.num_points, node.num_points - storedPoints (node), out);
+    for (std::uint8_t c = 0; c < node.num_children; ++c)
+      encodeSubtree (node.children[c], out);
+    return;
+  }
+  // A subtree appendSpilled () kept aside: its bytes, already in depth-first order.
+  std::lock_guard<std::mutex> g (mutex_);
+  const auto it = spilled_.find (node.code.bits ());
+  if (it != spilled_.end () && it->second.points == 0)
+    return;
+  if (it == spilled_.end () || !it->second.pending || !pending_)
+    throw std::logic_error ("PotreeWriter: a spilled subtree within the leaf limit was not kept aside");
+  Spilled& sp = it->second;
+  sp.written = true;
+  const std::size_t first = out.bytes.size (), size = sp.points * meta_.bytesPerPoint ();
+  out.bytes.resize (first + size);
+  if (std::fflush (pending_) != 0 || fseeko (pending_, static_cast<off_t> (sp.offset), SEEK_SET) != 0 ||
+      std::fread (out.bytes.data () + first, 1, size, pending_) != size || fseeko (pending_, 0, SEEK_END) != 0)
+    throw pcl::IOException ("PotreeWriter: reading back '" + directory_ + "/octree.pending.bin' failed", __FILE__,
+                            __func__, __LINE__);
+  out.points += sp.points;
+  out.lo = out.lo.cwiseMin (sp.lo);
+  out.hi = out.hi.cwiseMax (sp.hi);
 }
 
 template <typename PointT> void
 pcl::PotreeWriter<PointT>::appendSubtree (const Node& node)
 {
-  std::vector<const Node*> stack{&node};
-  while (!stack.empty ())
+  const std::uint64_t total = subtreePoints (node);
+  if (total == 0)
+    return;
+  if (leaf_limit_ > 0 && total <= leaf_limit_)
   {
-    const Node* n = stack.back ();
-    stack.pop_back ();
-    appendNode (*n);
-    for (int c = n->num_children - 1; c >= 0; --c)
-      stack.push_back (n->children + c);
+    Encoded e;
+    encodeSubtree (node, e);
+    record (node.code, e);
+    return;
   }
+  appendNode (node);
+  for (std::uint8_t c = 0; c < node.num_children; ++c)
+    appendSubtree (node.children[c]);
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::appendSpilled (const Node& node)
+{
+  Spilled sp;
+  sp.points = subtreePoints (node);
+  if (leaf_limit_ == 0 || sp.points > leaf_limit_ || sp.points == 0)
+  {
+    {
+      std::lock_guard<std::mutex> g (mutex_);
+      spilled_[node.code.bits ()] = sp;
+    }
+    for (std::uint8_t c = 0; c < node.num_children; ++c)
+      appendSubtree (node.children[c]);
+    return;
+  }
+  Encoded e;
+  encodeSubtree (node, e);
+  std::lock_guard<std::mutex> g (mutex_);
+  if (!file_)
+    throw std::logic_error ("PotreeWriter: appendSpilled before open");
+  const std::string path = directory_ + "/octree.pending.bin";
+  if (!pending_ && !(pending_ = std::fopen (path.c_str (), "w+b")))
+    throw pcl::IOException ("PotreeWriter: cannot write '" + path + "': " + std::strerror (errno), __FILE__, __func__,
+                            __LINE__);
+  if (!e.bytes.empty () && std::fwrite (e.bytes.data (), 1, e.bytes.size (), pending_) != e.bytes.size ())
+    throw pcl::IOException ("PotreeWriter: writing '" + path + "' failed (disk full?)", __FILE__, __func__, __LINE__);
+  sp.pending = true;
+  sp.offset = pending_bytes_;
+  sp.lo = e.lo;
+  sp.hi = e.hi;
+  pending_bytes_ += e.bytes.size ();
+  spilled_[node.code.bits ()] = sp;
 }
 
 template <typename PointT> void
@@ -182,11 +295,23 @@ pcl::PotreeWriter<PointT>::nodesWritten () const
 }
 
 template <typename PointT> void
+pcl::PotreeWriter<PointT>::closePending ()
+{
+  if (!pending_)
+    return;
+  std::fclose (pending_);
+  pending_ = nullptr;
+  std::error_code ec;
+  std::filesystem::remove (directory_ + "/octree.pending.bin", ec);
+}
+
+template <typename PointT> void
 pcl::PotreeWriter<PointT>::abandon ()
 {
   if (file_)
     std::fclose (file_);
   file_ = nullptr;
+  closePending ();
 }
 
 template <typename PointT> void
@@ -198,6 +323,11 @@ pcl::PotreeWriter<PointT>::close (std::uint64_t points)
   const bool flushed = std::fflush (file_) == 0 && !std::ferror (file_);
   const bool closed = std::fclose (file_) == 0;
   file_ = nullptr;
+  closePending ();
+  for (const auto& sp : spilled_)
+    if (sp.second.pending && !sp.second.written)
+      throw std::logic_error ("PotreeWriter: a subtree appendSpilled () kept aside was never written (close before "
+                              "appendSubtree reached its node)");
   if (!flushed || !closed)
     throw pcl::IOException ("PotreeWriter: writing '" + directory_ + "/octree.bin' failed (disk full?)", __FILE__,
                             __func__, __LINE__);
