@@ -10,7 +10,10 @@ PKGS=(
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   libopen3d-dev nlohmann-json3-dev
   xvfb xauth gnuplot-nox python3-matplotlib python3-numpy time
+  chromium nodejs
 )
+# npm ships inside NodeSource's nodejs; Debian's nodejs needs its npm package.
+command -v npm > /dev/null 2>&1 || PKGS+=(npm)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

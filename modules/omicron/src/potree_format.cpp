@@ -1,8 +1,6 @@
 #include <pclx/omicron/potree_format.h>
 
 #include <pcl/exceptions.h>
-#include <pcl/kdtree/kdtree_flann.h>
-#include <pcl/point_types.h>
 
 #include <nlohmann/json.hpp>
 
@@ -233,37 +231,24 @@ writeMetadata (const std::string& path, const Metadata& meta)
 }
 
 double
-medianNeighbourDistance (const std::vector<Eigen::Vector3f>& points, std::size_t queries)
+spacingForNodes (const std::vector<NodeRecord>& records, double edge)
 {
-  if (points.size () < 2 || queries == 0)
-    return 0;
-  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
-  cloud->resize (points.size ());
-  for (std::size_t i = 0; i < points.size (); ++i)
-    (*cloud)[i].getVector3fMap () = points[i];
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
-  tree.setInputCloud (cloud);
-  const std::size_t q = std::min (queries, points.size ());
-  std::vector<float> nearest;
-  nearest.reserve (q);
-  pcl::Indices idx;
-  std::vector<float> d2;
-  for (std::size_t t = 0; t < q; ++t)
-  {
-    // Up to 8 neighbours, so exact duplicates do not make the spacing zero.
-    const std::size_t i = (2 * t + 1) * points.size () / (2 * q);
-    tree.nearestKSearch ((*cloud)[i], 8, idx, d2);
-    for (const float d : d2)
-      if (d > 0.f)
-      {
-        nearest.push_back (std::sqrt (d));
-        break;
-      }
-  }
-  if (nearest.empty ())
-    return 0;
-  std::nth_element (nearest.begin (), nearest.begin () + nearest.size () / 2, nearest.end ());
-  return nearest[nearest.size () / 2];
+  std::vector<std::pair<double, std::uint64_t>> spacing;  // (edge / sqrt (n), n)
+  std::uint64_t total = 0;
+  for (const NodeRecord& r : records)
+    if (r.num_points > 0)
+    {
+      spacing.emplace_back (edge / std::sqrt (static_cast<double> (r.num_points)), r.num_points);
+      total += r.num_points;
+    }
+  if (spacing.empty ())
+    return edge / 128.0;
+  std::sort (spacing.begin (), spacing.end ());
+  std::uint64_t seen = 0;
+  for (const auto& s : spacing)
+    if ((seen += s.second) * 2 >= total)
+      return s.first;
+  return spacing.back ().first;
 }
 
 Metadata

@@ -276,11 +276,11 @@ TEST (PotreeWriter, BytesFollowPotreeConverterLayout)
   EXPECT_EQ (js.find ("rgb"), std::string::npos);
 }
 
-TEST (PotreeWriter, SpacingIsTheRootsPointSpacing)
+TEST (PotreeWriter, SpacingHalvedPerLevelIsTheNodesPointSpacing)
 {
-  // A 200 × 200 lattice of spacing 0.01 on a plane: the root keeps a sparse sample, its nearest
-  // neighbours lie several lattice steps apart, and metadata.json says so (loaders size points
-  // from it). The median nearest-neighbour distance of a lattice is its step.
+  // A 200 × 200 lattice of step 0.01 on a plane. Loaders size points by metadata spacing
+  // / 2^level: with every node written most points are in depth-6 leaves, so spacing / 64
+  // should be the lattice step; with everything in one leaf, spacing itself should.
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
   for (int i = 0; i < 200; ++i)
     for (int j = 0; j < 200; ++j)
@@ -289,29 +289,24 @@ TEST (PotreeWriter, SpacingIsTheRootsPointSpacing)
   o.setInputCloud (cloud);
   o.setMaxDepth (6);
   ASSERT_TRUE (o.build ());
-  TempDir dir;
-  pcl::PotreeWriter<pcl::PointXYZ> w;
-  w.setLeafPointLimit (0);
-  w.write (o, dir.path.string ());
-  pcl::PotreeReader r;
-  r.open (dir.path.string ());
-  pcl::PointCloud<pcl::PointXYZRGB> root;
-  r.readNode (static_cast<std::size_t> (r.find (pcl::MortonCode::root ())), root);
-  ASSERT_GE (root.size (), 8u);
-  // Points in the root cover the 2 × 2 square, so their spacing is about 2 / sqrt (n).
-  const double expected = 1.99 / std::sqrt (static_cast<double> (root.size ()));
-  EXPECT_GT (r.getMetadata ().spacing, 0.5 * expected);
-  EXPECT_LT (r.getMetadata ().spacing, 2.0 * expected);
-  EXPECT_GT (r.getMetadata ().spacing, 0.05);  // far above the lattice step and edge / 128
-  // Everything in one leaf: the root's spacing is the lattice's.
-  TempDir one;
-  pcl::PotreeWriter<pcl::PointXYZ> w1;
-  w1.setLeafPointLimit (50000);
-  w1.write (o, one.path.string ());
-  pcl::PotreeReader r1;
-  r1.open (one.path.string ());
-  EXPECT_EQ (r1.getNodes ().size (), 1u);
-  EXPECT_NEAR (r1.getMetadata ().spacing, 0.01, 1e-4);
+  const auto spacing = [&] (std::uint32_t limit, std::size_t& nodes) {
+    TempDir dir;
+    pcl::PotreeWriter<pcl::PointXYZ> w;
+    w.setLeafPointLimit (limit);
+    w.write (o, dir.path.string ());
+    pcl::PotreeReader r;
+    r.open (dir.path.string ());
+    nodes = r.getNodes ().size ();
+    return r.getMetadata ().spacing;
+  };
+  std::size_t nodes = 0;
+  const double every = spacing (0, nodes);
+  EXPECT_GT (nodes, 1000u);
+  EXPECT_GT (every / 64, 0.006);
+  EXPECT_LT (every / 64, 0.012);
+  const double one = spacing (50000, nodes);
+  EXPECT_EQ (nodes, 1u);
+  EXPECT_NEAR (one, 0.01, 2e-4);
 }
 
 TEST (PotreeWriter, UnwritableFolderIsAClearError)

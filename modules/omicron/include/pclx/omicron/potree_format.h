@@ -68,10 +68,14 @@ MortonCode codeFromName (const std::string& name);
 void writeHierarchy (const std::string& path, const std::vector<NodeRecord>& records, Metadata& meta);
 void writeMetadata (const std::string& path, const Metadata& meta);
 
-// Median distance from up to `queries` of the points (evenly strided) to their nearest
-// other point, as Potree's `spacing` of the root node (loaders halve it per level for
-// adaptive point sizes); 0 for fewer than two distinct points.
-double medianNeighbourDistance (const std::vector<Eigen::Vector3f>& points, std::size_t queries = 1000);
+
+// Potree's `spacing` (the root's point spacing; loaders halve it per level for adaptive point
+// sizes) for nodes of these sizes in a root cube of edge `edge`: a node of n points whose
+// surface crosses its cube once has spacing edge_l / sqrt (n), i.e. edge / (2^l sqrt (n)) at
+// level l, so edge / sqrt (n) at the root. Returns the median of edge / sqrt (n) over the
+// stored points (each node weighted by its points); edge / 128 (PotreeConverter's) when no
+// node stores a point.
+double spacingForNodes (const std::vector<NodeRecord>& records, double edge);
 
 // Throws pcl::IOException with the reason on anything malformed.
 Metadata readMetadata (const std::string& path);

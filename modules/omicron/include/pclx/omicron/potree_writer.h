@@ -125,7 +125,6 @@ private:
   // Appends the stored points of the subtree in depth-first order.
   void encodeSubtree (const Node& node, Encoded& out);
   void record (MortonCode code, const Encoded& data);
-  void measureSpacing (const Encoded& root);
   void closePending ();
   void abandon ();
 

@@ -65,7 +65,7 @@ pcl::PotreeWriter<PointT>::open (const std::string& directory, const Eigen::Vect
   meta_.offset = origin;
   meta_.box_min = origin;
   meta_.box_max = origin + Eigen::Vector3d::Constant (edge);
-  meta_.spacing = edge / 128.0;  // PotreeConverter's root spacing, until the root is written
+  meta_.spacing = edge / 128.0;  // PotreeConverter's root spacing, until close () measures ours
   meta_.rgb = colors_;
   lo_ = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ());
   hi_ = -lo_;
@@ -126,30 +126,10 @@ pcl::PotreeWriter<PointT>::record (MortonCode code, const Encoded& data)
   if (!data.bytes.empty () && std::fwrite (data.bytes.data (), 1, data.bytes.size (), file_) != data.bytes.size ())
     throw pcl::IOException ("PotreeWriter: writing '" + directory_ + "/octree.bin' failed (disk full?)", __FILE__,
                             __func__, __LINE__);
-  if (code.level () == 0)
-    measureSpacing (data);
   records_.push_back ({code, static_cast<std::uint32_t> (data.points), offset_, data.bytes.size ()});
   offset_ += data.bytes.size ();
   lo_ = lo_.cwiseMin (data.lo);
   hi_ = hi_.cwiseMax (data.hi);
-}
-
-template <typename PointT> void
-pcl::PotreeWriter<PointT>::measureSpacing (const Encoded& root)
-{
-  // The loaders take `spacing` as the root's point spacing and halve it per level; the root
-  // holds the sparsest sample, so its nearest-neighbour distance is that spacing.
-  const std::size_t bpp = meta_.bytesPerPoint ();
-  std::vector<Eigen::Vector3f> pts (root.points);
-  for (std::size_t i = 0; i < pts.size (); ++i)
-  {
-    std::int32_t q[3];
-    std::memcpy (q, root.bytes.data () + i * bpp, 12);
-    pts[i] = (Eigen::Vector3d (q[0], q[1], q[2]).cwiseProduct (meta_.scale)).template cast<float> ();
-  }
-  const double spacing = omicron::potree::medianNeighbourDistance (pts);
-  if (spacing > 0)
-    meta_.spacing = spacing;
 }
 
 template <typename PointT> void
@@ -332,6 +312,7 @@ pcl::PotreeWriter<PointT>::close (std::uint64_t points)
     throw pcl::IOException ("PotreeWriter: writing '" + directory_ + "/octree.bin' failed (disk full?)", __FILE__,
                             __func__, __LINE__);
   meta_.points = points;
+  meta_.spacing = omicron::potree::spacingForNodes (records_, meta_.box_max.x () - meta_.box_min.x ());
   if (lo_.x () <= hi_.x ())
   {
     meta_.position_min = lo_;
