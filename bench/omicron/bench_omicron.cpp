@@ -19,6 +19,8 @@
 
 #include <pclx/omicron/camera.h>
 #include <pclx/omicron/oblique_cut_octree.h>
+#include <pclx/omicron/potree_reader.h>
+#include <pclx/omicron/potree_writer.h>
 #include <pclx/testing/shapes.h>
 #include <pclx/testing/triangle_mesh.h>
 
@@ -270,6 +272,7 @@ struct Config
   std::string curve;        // completion curve label
   std::string file, out_dir;  // budgeted builds read the PCD and write Potree output here
   bool from_file = false;     // in-memory build from the file path (setInputFile, no budget)
+  std::string potree_dir;     // in-memory builds: also write the Potree folder here (file to Potree)
 
   std::string
   params () const
@@ -452,8 +455,33 @@ runOurs (const Cloud::ConstPtr& cloud, const Config& c, std::size_t rss0)
                          {"front_items_mean", evaluations ? front_items_mean / evaluations : 0},
                          {"front_items_last", double (last_items)}});
   }
+  const auto potreeMetrics = [&] (const std::string& dir) {
+    // What a Potree loader gets: points stored (each input point once), nodes and their sizes.
+    pcl::PotreeReader reader;
+    reader.open (dir);
+    std::vector<double> sizes;
+    for (const auto& node : reader.getNodes ())
+      sizes.push_back (node.num_points);
+    m.insert (m.end (), {{"potree_stored", double (reader.getStoredPoints ())},
+                         {"potree_stored_over_kept", double (reader.getStoredPoints ()) / double (st.kept_points)},
+                         {"potree_nodes", double (sizes.size ())},
+                         {"potree_node_points_p50", percentile (sizes, 0.5)},
+                         {"potree_node_points_p95", percentile (sizes, 0.95)},
+                         {"potree_spacing_over_edge", reader.getMetadata ().spacing / octree.getRootEdge ()}});
+  };
+  if (!c.potree_dir.empty ())
+  {
+    const auto tw = Clock::now ();
+    pcl::PotreeWriter<pcl::PointXYZ> writer;
+    writer.write (octree, c.potree_dir);
+    const double write_s = since (tw);
+    m.insert (m.end (), {{"potree_write_s", write_s}, {"file_to_potree_s", total + write_s}});
+    potreeMetrics (c.potree_dir);
+    fs::remove_all (c.potree_dir);
+  }
   if (c.budget)
   {
+    potreeMetrics (c.out_dir);
     m.insert (m.end (), {{"budget_mb", c.budget / 1048576.0},
                          {"peak_over_budget", double (hwm > rss0 ? hwm - rss0 : 0) / double (c.budget)},
                          {"accounted_peak_mb", st.accounted_peak_bytes / 1048576.0},
@@ -907,6 +935,8 @@ main (int argc, char** argv)
         ff.from_file = true;
         ff.file = path;
         ff.front = front;
+        if (!front)
+          ff.potree_dir = work + "/potree_" + name + "_" + label;
         ours (ff);
       }
       for (bool collapse : {false, true})
