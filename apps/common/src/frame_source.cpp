@@ -176,7 +176,16 @@ struct FrameSource<PointT>::Impl
       const auto t0 = Clock::now ();
       try
       {
-        deliverAs<pcl::PointXYZ> (depth->load (i));
+        // The camera-to-world pose, when the folder has one, as the frame's sensor pose (PCD's
+        // VIEWPOINT), the way recorded PCD frames carry it.
+        const auto frame = depth->load (i);
+        Eigen::Matrix4f pose;
+        if (depth->pose (i, pose))
+        {
+          frame->sensor_origin_ = pose.col (3);
+          frame->sensor_orientation_ = Eigen::Quaternionf (Eigen::Matrix3f (pose.topLeftCorner<3, 3> ()));
+        }
+        deliverAs<pcl::PointXYZ> (frame);
       }
       catch (const std::exception& e)
       {
