@@ -4,7 +4,8 @@
 # cloud, on recorded frames (PCD through pcl::PCDGrabber, 16-bit PNG depth) and live from the
 # virtual camera through pcl::io::OpenNI2Grabber; normals_tool; rbf_reconstruct (normals, MST,
 # RBF partition of unity, mesh); idc_scan (posed depth frames fused into an adaptive mesh by
-# incremental dual contouring); omicron_viewer growing an LOD
+# incremental dual contouring); pclx_pipeline (every module on the virtual camera's frames);
+# omicron_viewer growing an LOD
 # octree (growth pictures, Potree output); the benchmarks in their quick
 # mode (peers in the same run) and their charts. Everything lands in ${PCLX_DEMO_OUT:-demo_output}/,
 # listed at the end and on one page in index.html.
@@ -48,6 +49,10 @@ rm -rf "$OUT/idc_frames"
 ./build/apps/idc_scan/make_idc_frames --depth-png-dir "$OUT/idc_frames" --frames 24 --width 640 --height 480 > /dev/null
 xvfb-run -a ./build/apps/idc_scan/idc_scan --depth-dir "$OUT/idc_frames" --leaf 0.01 --epsilon 0.001 \
   --output "$OUT/idc_mesh.ply" --screenshot "$OUT/idc_scan.png"
+
+echo "== pclx_pipeline (off-screen): the virtual camera through filters, HPR, normals, IDC and OMiCroN"
+env -u PCLX_VIRTUAL_CAMERA_DIR xvfb-run -a ./build/apps/pclx_pipeline/pclx_pipeline --device "" --frames 8 \
+  --screenshot "$OUT/pipeline_device.png" --timings "$OUT/pipeline_timings.csv" | tail -7
 
 echo "== omicron_viewer (off-screen): a 2M-point cloud drawn while its LOD octree is built"
 rm -rf "$OUT/omicron_growth" "$OUT/omicron_potree" && mkdir -p "$OUT/omicron_growth"

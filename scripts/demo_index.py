@@ -30,6 +30,10 @@ CAPTIONS = {
     "idc_frames": "24 posed 16-bit PNG depth frames (7-Scenes layout) of the generated object, idc_scan's input",
     "surface": "surface benchmark rows (quick mode): RBF-POU against PCL/Open3D Poisson, MarchingCubesHoppe/RBF "
                "(rbf.csv); incremental dual contouring against Open3D's TSDF (idc.csv, idc_frames.csv)",
+    "pipeline_device.png": "pclx_pipeline live from the virtual OpenNI2 camera: the frame, PassThrough + "
+                           "VoxelGrid + HPRFilter, normals with MST orientation, IncrementalDualContouring "
+                           "across frames, the OMiCroN front over the accumulated map, and the stage timings",
+    "pipeline_timings.csv": "pclx_pipeline's milliseconds per stage and frame on the virtual camera",
     "omicron_growth": "omicron_viewer growth pictures: the front every 2 rendered frames while the octree is built",
     "omicron_final.png": "omicron_viewer: the OMiCroN front drawn as splats once the octree is built "
                          "(2M points, coloured by normal)",

@@ -68,7 +68,7 @@ struct Options
   float z_min = 0.1f, z_max = 6.f, voxel = 0.02f;
   std::vector<float> hpr_offset{0.f, 0.f, 0.f};  // a second viewpoint, in the camera frame
   double idc_leaf = 0.02;
-  int keyframe = 10, octree_every = 5, frames = 0, width = 1500, height = 900;
+  int keyframe = 0, octree_every = 5, frames = 0, width = 1500, height = 900;  // keyframe 0: IDC 1, RBF 10
   float map_voxel = 0.01f;
   std::string screenshot, output, timings;
 };
@@ -232,7 +232,7 @@ private:
       pcl::copyPointCloud (*input, finite, *sparse);
       return organized;
     }
-    pcl::PassThrough<Point> pass;
+    pcl::PassThrough<Point> pass (true);  // removed indices kept, as an organized result needs
     pass.setInputCloud (input);
     pass.setFilterFieldName ("z");
     pass.setFilterLimits (opt_.z_min, opt_.z_max);
@@ -293,10 +293,14 @@ private:
     return out;
   }
 
-  // IDC fuses every frame; RBF-POU reconstructs the oriented visible points every keyframe.
+  // On keyframes only (every frame for IDC by default, every 10th for RBF-POU): IDC fuses the
+  // organized frame and remeshes, RBF-POU reconstructs the oriented visible points.
   pcl::PolygonMesh::Ptr
   surfaceStage (const FrameResult& r, std::size_t index)
   {
+    const std::size_t every = opt_.keyframe > 0 ? opt_.keyframe : (opt_.surface == "rbf" ? 10 : 1);
+    if (index % every != 0)
+      return mesh_;
     if (opt_.surface == "idc" && r.filtered->isOrganized ())
     {
       if (!idc_.addFrame (*r.filtered, r.pose))
@@ -304,7 +308,7 @@ private:
       mesh_.reset (new pcl::PolygonMesh);
       idc_.reconstruct (*mesh_);
     }
-    else if (opt_.surface == "rbf" && r.oriented && index % static_cast<std::size_t> (opt_.keyframe) == 0)
+    else if (opt_.surface == "rbf" && r.oriented)
     {
       pcl::PointCloud<pcl::PointNormal>::Ptr world (new pcl::PointCloud<pcl::PointNormal>);
       pcl::transformPointCloudWithNormals (*r.oriented, *world, r.pose.cast<float> ());
@@ -566,7 +570,9 @@ main (int argc, char** argv)
   app.add_option ("--voxel", o.voxel, "VoxelGrid leaf before HPR and normals (m)")->capture_default_str ();
   app.add_option ("--hpr-viewpoint", o.hpr_offset, "HPR viewpoint in the camera frame (x y z)")->expected (3);
   app.add_option ("--idc-leaf", o.idc_leaf, "IDC leaf size (m)")->capture_default_str ();
-  app.add_option ("--keyframe", o.keyframe, "RBF-POU every N frames")->check (CLI::PositiveNumber)->capture_default_str ();
+  app.add_option ("--keyframe", o.keyframe, "the surface stage on every N-th frame (0: IDC every frame, RBF-POU every 10th)")
+      ->check (CLI::NonNegativeNumber)
+      ->capture_default_str ();
   app.add_option ("--octree-every", o.octree_every, "rebuild the octree every N frames")
       ->check (CLI::PositiveNumber)
       ->capture_default_str ();

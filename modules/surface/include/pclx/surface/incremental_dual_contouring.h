@@ -95,6 +95,10 @@ public:
   // §3.2–3.3 settings.
   CoupledSimplification& getSimplification () { return simplification_; }
 
+  // The pose of every addFrame is camera-to-world: it maps camera coordinates (x right, y down,
+  // z forward) to the world, so its last column is the camera's position. Its inverse
+  // (world-to-camera, as some SLAM tools export) is a rigid motion too and cannot be told
+  // apart from one frame: the frame is fused in the wrong place.
   // An organized cloud in the camera frame (NaN = no data).
   bool addFrame (const pcl::PointCloud<PointT>& organized_camera_frame_cloud,
                  const Eigen::Matrix4d& camera_to_world);
