@@ -2,14 +2,7 @@
 # the screenshot and the visible-point output; then the same frames as 7-Scenes depth PNGs.
 file(REMOVE_RECURSE ${WORK_DIR})
 file(MAKE_DIRECTORY ${WORK_DIR}/frames)
-function(run)
-  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 240)
-  message(STATUS "${out}${err}")
-  if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "failed (${rc}): ${ARGN}")
-  endif()
-  set(LAST_OUT "${out}" PARENT_SCOPE)
-endfunction()
+include(${CMAKE_CURRENT_LIST_DIR}/../common/check_helpers.cmake)
 run(${MAKE_FRAMES} --dir ${WORK_DIR}/frames --frames 3)
 run(${XVFB_RUN} -a ${VIEWER} --pcd-dir ${WORK_DIR}/frames --fps 10 --frames 3
     --screenshot ${WORK_DIR}/frames.png --output ${WORK_DIR}/visible.pcd --mesh)

@@ -111,12 +111,15 @@ public:
   void setMaxDepth (int depth);                  // 1..21, default 7 (the paper's)
   int getMaxDepth () const { return params_.max_depth; }
   void setParentPointRatio (float ratio);        // (0, 1], default 0.2
+  /** \brief The parent point ratio (points a parent keeps per child point). */
   float getParentPointRatio () const { return params_.parent_ratio; }
   void setLeafCollapse (bool on) { checkIdle (); params_.leaf_collapse = on; }  // default on
+  /** \brief Whether an only child at the deepest level is folded into its parent (default on). */
   bool getLeafCollapse () const { return params_.leaf_collapse; }
   void setWorklistSize (std::size_t nodes);      // >= 1, default 32
   void setSortChunks (std::size_t chunks);       // >= 1, default 16
   void setThreads (int threads);                 // fix workers and read passes, >= 1; default all cores
+  /** \brief Fix workers and read passes (default: one per core). */
   int getThreads () const { return params_.threads; }
   void setRootCube (const Eigen::Vector3d& origin, double edge);
   void clearRootCube ();

@@ -69,6 +69,24 @@ struct CutNode
   }
 };
 
+/** \brief Copy a cut node's fields into a permanent node (its parent link is set when its
+  * grandparent is created).
+  * \param[out] n the permanent node
+  * \param[in] c the cut node
+  */
+template <typename PointT>
+void
+assignNode (Node<PointT>& n, const CutNode<PointT>& c)
+{
+  n.code = c.code;
+  n.points = c.points;
+  n.num_points = c.num_points;
+  n.level = c.level;
+  n.num_children = c.num_children;
+  n.flags = c.flags;
+  n.children = c.children;
+}
+
 // Blocks that never move: pointers into them stay valid while other threads allocate more
 // (a std::vector would relocate). One arena per worker, so allocation takes no lock.
 template <typename T>

@@ -69,12 +69,14 @@ void writeHierarchy (const std::string& path, const std::vector<NodeRecord>& rec
 void writeMetadata (const std::string& path, const Metadata& meta);
 
 
-// Potree's `spacing` (the root's point spacing; loaders halve it per level for adaptive point
-// sizes) for nodes of these sizes in a root cube of edge `edge`: a node of n points whose
-// surface crosses its cube once has spacing edge_l / sqrt (n), i.e. edge / (2^l sqrt (n)) at
-// level l, so edge / sqrt (n) at the root. Returns the median of edge / sqrt (n) over the
-// stored points (each node weighted by its points); edge / 128 (PotreeConverter's) when no
-// node stores a point.
+/** \brief Potree's `spacing` for nodes of these sizes: loaders take it as the root's point
+  * spacing and halve it per level to size points.
+  * \param[in] records the written nodes (their point counts)
+  * \param[in] edge the root cube's edge
+  * \return the point-weighted median of edge / sqrt (n) over the nodes (a node of n points on a
+  * surface at level l has spacing edge / (2^l sqrt (n))); edge / 128, PotreeConverter's, when no
+  * node stores a point
+  */
 double spacingForNodes (const std::vector<NodeRecord>& records, double edge);
 
 // Throws pcl::IOException with the reason on anything malformed.

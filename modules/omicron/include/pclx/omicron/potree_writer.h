@@ -63,14 +63,22 @@ public:
   void setHierarchyStepSize (int step);
   // Write the rgb attribute; default: when PointT has colour.
   void setWriteColors (bool on) { colors_ = on; }
-  // The parent point ratio of the octree whose nodes are appended (which points a parent took
-  // from each child). write () takes it from the octree; default 0.2, the octree's default.
+  /** \brief Set the parent point ratio of the octree whose nodes are appended, which tells
+    * which points each parent took from its children (the writer leaves them out).
+    * \param[in] ratio the octree's ratio, in (0, 1]; write () takes it from the octree
+    * \note Throws std::invalid_argument outside (0, 1]. Default 0.2, the octree's default.
+    */
   void setParentPointRatio (float ratio);
+  /** \brief The parent point ratio the appended nodes are read with. */
   float getParentPointRatio () const { return parent_ratio_; }
-  // Subtrees storing at most this many points are written as one leaf; 0 writes every node
-  // of the octree. Default kDefaultLeafPointLimit.
+  /** \brief Set the node size: a subtree storing at most this many points is written as one
+    * leaf holding all of them, as PotreeConverter sizes its nodes.
+    * \param[in] points the limit; 0 writes every node of the octree
+    */
   void setLeafPointLimit (std::uint32_t points) { leaf_limit_ = points; }
+  /** \brief The node size limit (default kDefaultLeafPointLimit). */
   std::uint32_t getLeafPointLimit () const { return leaf_limit_; }
+  /** \brief PotreeConverter's nodes hold up to about 20k points. */
   static constexpr std::uint32_t kDefaultLeafPointLimit = 20000;
 
   // Writes a built octree (throws pcl::IOException; std::logic_error when it is not built).
@@ -80,17 +88,29 @@ public:
   // may be called from several threads; close () writes hierarchy.bin and metadata.json with
   // `points` as the metadata point count (the input points the hierarchy holds).
   void open (const std::string& directory, const Eigen::Vector3d& origin, double edge);
-  // A node of an octree: its points minus those its parent took (all of them at the root).
+  /** \brief Append one node of an octree: its points minus those its parent took (all of them
+    * at the root).
+    * \param[in] node the node (its children are not written)
+    */
   void appendNode (const Node& node);
-  // The subtree: one leaf when it stores at most the leaf point limit, else each node as
-  // appendNode (const Node&) and each child's subtree the same way. Nodes flagged
-  // omicron::kSpilled stand for the subtrees appendSpilled () received.
+  /** \brief Append a subtree: one leaf when it stores at most getLeafPointLimit () points, else
+    * its root as appendNode (const Node&) and each child's subtree the same way.
+    * \param[in] node the subtree's root; nodes flagged omicron::kSpilled stand for what
+    * appendSpilled () received
+    */
   void appendSubtree (const Node& node);
-  // Out-of-core builds: `node` with its complete children, before they are dropped. Writes
-  // the children's subtrees, or, when the whole subtree fits one leaf, keeps it aside until
-  // appendSubtree () reaches `node` (an ancestor may take it into a larger leaf).
+  /** \brief Append the subtree of a node an out-of-core build is about to drop.
+    * \param[in] node a node with its complete children
+    * \note Writes the children's subtrees, or, when the whole subtree fits one leaf, keeps it
+    * aside (octree.pending.bin) until appendSubtree () reaches `node`, since an ancestor may take
+    * it into a larger leaf. close () fails if a kept subtree was never reached.
+    */
   void appendSpilled (const Node& node);
-  // Exactly the given points under `code` (for hierarchies of another origin).
+  /** \brief Append exactly the given points as the node `code` (hierarchies of another origin).
+    * \param[in] code the node
+    * \param[in] points the points
+    * \param[in] n how many
+    */
   void appendNode (MortonCode code, const PointT* points, std::uint32_t n);
   void close (std::uint64_t points);
   // Reserves the node records (32 B each) so they never reallocate (memory budgets).

@@ -209,13 +209,7 @@ pcl::ObliqueCut<PointT>::createParent (const CutNode* group, std::size_t k, Slot
   {
     const CutNode& c = group[i];
     Node& n = block[i];
-    n.code = c.code;
-    n.points = c.points;
-    n.num_points = c.num_points;
-    n.level = c.level;
-    n.num_children = c.num_children;
-    n.flags = c.flags;
-    n.children = c.children;
+    omicron::assignNode (n, c);
     const std::uint32_t m = omicron::parentSampleCount (c.num_points, params_.parent_ratio);
     for (std::uint32_t t = 0; t < m; ++t)
       *dst++ = c.points[omicron::parentSampleIndex (t, m, c.num_points)];
@@ -235,13 +229,7 @@ pcl::ObliqueCut<PointT>::createParent (const CutNode* group, std::size_t k, Slot
     // The subtree of pa is complete: the sink receives pa with its children, which are cut off.
     // pa keeps its sample (retained arena) and is drawn as a leaf.
     Node view;
-    view.code = pa.code;
-    view.points = pa.points;
-    view.num_points = pa.num_points;
-    view.level = pa.level;
-    view.num_children = pa.num_children;
-    view.flags = pa.flags;
-    view.children = pa.children;
+    omicron::assignNode (view, pa);
     sink_ (view);
     pa.children = nullptr;
     pa.num_children = 0;
