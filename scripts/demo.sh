@@ -51,8 +51,10 @@ xvfb-run -a ./build/apps/idc_scan/idc_scan --depth-dir "$OUT/idc_frames" --leaf 
   --output "$OUT/idc_mesh.ply" --screenshot "$OUT/idc_scan.png"
 
 echo "== pclx_pipeline (off-screen): the virtual camera through filters, HPR, normals, IDC and OMiCroN"
+# Its per-frame stage times go to a folder of their own (the bench CSVs below are charted together).
+mkdir -p "$OUT/pipeline"
 env -u PCLX_VIRTUAL_CAMERA_DIR xvfb-run -a ./build/apps/pclx_pipeline/pclx_pipeline --device "" --frames 8 \
-  --screenshot "$OUT/pipeline_device.png" --timings "$OUT/pipeline_timings.csv" | tail -7
+  --screenshot "$OUT/pipeline_device.png" --timings "$OUT/pipeline/timings.csv" | tail -7
 
 echo "== omicron_viewer (off-screen): a 2M-point cloud drawn while its LOD octree is built"
 rm -rf "$OUT/omicron_growth" "$OUT/omicron_potree" && mkdir -p "$OUT/omicron_growth"

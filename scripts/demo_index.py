@@ -33,7 +33,7 @@ CAPTIONS = {
     "pipeline_device.png": "pclx_pipeline live from the virtual OpenNI2 camera: the frame, PassThrough + "
                            "VoxelGrid + HPRFilter, normals with MST orientation, IncrementalDualContouring "
                            "across frames, the OMiCroN front over the accumulated map, and the stage timings",
-    "pipeline_timings.csv": "pclx_pipeline's milliseconds per stage and frame on the virtual camera",
+    "pipeline": "pclx_pipeline's milliseconds per stage and frame on the virtual camera (timings.csv)",
     "omicron_growth": "omicron_viewer growth pictures: the front every 2 rendered frames while the octree is built",
     "omicron_final.png": "omicron_viewer: the OMiCroN front drawn as splats once the octree is built "
                          "(2M points, coloured by normal)",
