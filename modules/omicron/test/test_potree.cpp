@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 
 namespace fs = std::filesystem;
 using omitest::Shape;
@@ -333,6 +334,11 @@ TEST (PotreeWriter, UnwritableFolderIsAClearError)
   pcl::PotreeWriter<pcl::PointXYZ> unbuilt;
   pcl::ObliqueCutOctree<pcl::PointXYZ> empty;
   EXPECT_THROW (unbuilt.write (empty, (dir.path / "x").string ()), std::logic_error);
+  // A parent ratio outside (0, 1] is refused and the writer keeps its own.
+  EXPECT_THROW (w.setParentPointRatio (0.f), std::invalid_argument);
+  EXPECT_THROW (w.setParentPointRatio (1.5f), std::invalid_argument);
+  EXPECT_THROW (w.setParentPointRatio (std::numeric_limits<float>::quiet_NaN ()), std::invalid_argument);
+  EXPECT_FLOAT_EQ (w.getParentPointRatio (), 0.2f);
 }
 
 TEST (PotreeReader, CorruptFilesAreClearErrors)
