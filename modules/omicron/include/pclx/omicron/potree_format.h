@@ -68,7 +68,6 @@ MortonCode codeFromName (const std::string& name);
 void writeHierarchy (const std::string& path, const std::vector<NodeRecord>& records, Metadata& meta);
 void writeMetadata (const std::string& path, const Metadata& meta);
 
-
 /** \brief Potree's `spacing` for nodes of these sizes: loaders take it as the root's point
   * spacing and halve it per level to size points.
   * \param[in] records the written nodes (their point counts)

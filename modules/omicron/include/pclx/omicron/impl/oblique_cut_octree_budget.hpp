@@ -473,20 +473,22 @@ pcl::ObliqueCutOctree<PointT>::runBudgeted (std::chrono::steady_clock::time_poin
 
   // The retained tree goes to the same folder (a spilled node stands for what the sink wrote
   // or kept aside), then hierarchy.bin and metadata.json.
-  std::size_t largest = 0, retained_points = 0;
+  std::size_t largest = 0;
   std::vector<const Node*> stack{cut_->getRoot ()};
   while (!stack.empty ())
   {
     const Node* n = stack.back ();
     stack.pop_back ();
     largest = std::max<std::size_t> (largest, n->num_points);
-    retained_points += n->num_points;
     for (std::uint8_t j = 0; j < n->num_children; ++j)
       stack.push_back (n->children + j);
   }
+  // A merged leaf may also hold points the sink kept aside, so the retained points do not
+  // bound a record here: only the largest node and the leaf limit do.
   write_peak = 0;
-  accountWrite (largest, std::max<std::size_t> (retained_points, writer.getLeafPointLimit ()));
+  const std::size_t wb = accountWrite (largest, std::numeric_limits<std::size_t>::max ());
   writer.appendSubtree (*cut_->getRoot ());
+  write_now.fetch_sub (wb);
   ledger.set (Ledger::kWriteBuffers, write_peak.load ());
   ledger.set (Ledger::kWriteBuffers, 0);
   ledger.set (Ledger::kHierarchyRecords, plan.node_bound * sizeof (omicron::potree::NodeRecord) +
