@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
-"""Lists what the demo wrote, one caption per file, and writes index.html beside it.
+"""Writes index.html beside what the demo wrote and prints one line per module.
 
   python3 scripts/demo_index.py demo_output
 
-Pictures come first (what an app showed), then charts (from bench/plot.py, captioned
-with their chart titles), then the CSV and point files. Files without a caption are
-listed by name so nothing the demo wrote is hidden.
+The page groups the outputs by module: the pictures an app rendered, then the charts of the
+module's benchmark rows, as a grid of thumbnails that open full size, then its data files.
+Files without a caption are shown by name so nothing the demo wrote is hidden.
 """
 import html
 import importlib.util
@@ -86,67 +86,103 @@ def chart_titles():
     return titles
 
 
-def main():
-    if len(sys.argv) != 2 or not os.path.isdir(sys.argv[1]):
-        sys.exit("usage: demo_index.py OUTPUT_DIR")
-    out = sys.argv[1]
-    titles = chart_titles()
-    pictures, charts, data = [], [], []
+# Page sections in order: (title, file-name prefixes that belong to it).
+MODULES = [
+    ("HPRFilter: hidden point removal", ("hpr", "scene.ply", "frames", "depth_frames")),
+    ("PlanarOctreeNormalEstimation and MSTNormalOrientation", ("normals", "scene_normals")),
+    ("RBFPOUReconstruction", ("rbf", "scene_mesh", "surface")),
+    ("IncrementalDualContouring", ("idc",)),
+    ("ObliqueCutOctree (OMiCroN) and its Potree output", ("omicron",)),
+    ("pclx_pipeline: every module on one camera", ("pipeline",)),
+    ("Ground truth used by the benchmarks", ("scenes",)),
+]
+OTHER = "Other outputs"
+
+
+def module_of(name):
+    base = name.split("/")[-1] if name.startswith("charts/") else name.split("/")[0]
+    for title, prefixes in MODULES:
+        if any(base.startswith(p) for p in prefixes):
+            return title
+    return OTHER
+
+
+def collect(out, titles):
+    """(module -> pictures, charts, data) with captions, in the demo's order."""
+    groups = {title: ([], [], []) for title, _ in MODULES + [(OTHER, ())]}
     for name in sorted(os.listdir(out)):
         path = os.path.join(out, name)
-        if name == "index.html":
+        if name in ("index.html", "logs"):
             continue
         if name == "charts" and os.path.isdir(path):
             for c in sorted(os.listdir(path)):
                 if c.endswith(".png"):
-                    charts.append(("charts/" + c, titles.get(c, c[:-4].replace("_", " "))))
+                    groups[module_of("charts/" + c)][1].append(
+                        ("charts/" + c, titles.get(c, c[:-4].replace("_", " "))))
         elif name.endswith("_growth") and os.path.isdir(path):
-            # A series of pictures (e.g. a hierarchy growing): shown in order, one caption each.
+            # A series of pictures (a hierarchy growing): in order, one caption each.
             frames = sorted(f for f in os.listdir(path) if f.endswith(".png"))
             for i, f in enumerate(frames):
-                pictures.append((f"{name}/{f}", f"{CAPTIONS.get(name, name)} ({i + 1} of {len(frames)})"))
+                groups[module_of(name)][0].append(
+                    (f"{name}/{f}", f"{CAPTIONS.get(name, name)} ({i + 1} of {len(frames)})"))
         elif name.endswith(".png"):
-            pictures.append((name, CAPTIONS.get(name, name)))
+            groups[module_of(name)][0].append((name, CAPTIONS.get(name, name)))
         else:
-            data.append((name + ("/" if os.path.isdir(path) else ""), CAPTIONS.get(name, "")))
-
-    # Known outputs in the order the demo makes them, then anything else by name.
+            groups[module_of(name)][2].append((name + ("/" if os.path.isdir(path) else ""), CAPTIONS.get(name, "")))
     order = {name: i for i, name in enumerate(CAPTIONS)}
-    pictures.sort(key=lambda item: (order.get(item[0].split("/")[0], len(order)), item[0]))
-    data.sort(key=lambda item: (order.get(item[0].rstrip("/"), len(order)), item[0]))
+    for pictures, _, data in groups.values():
+        pictures.sort(key=lambda item: (order.get(item[0].split("/")[0], len(order)), item[0]))
+        data.sort(key=lambda item: (order.get(item[0].rstrip("/"), len(order)), item[0]))
+    return {k: v for k, v in groups.items() if any(v)}
 
-    print(f"demo.sh wrote to {out}/ (open {out}/index.html to see everything on one page):")
-    for group, items in (("pictures", pictures), ("charts", charts), ("data", data)):
-        if items:
-            print(f"  {group}:")
-            for name, cap in items:
-                print(f"    {name:<40} {cap}")
 
+STYLE = ("body{font-family:sans-serif;max-width:1500px;margin:auto;padding:1em;background:#fafafa;color:#222}"
+         "h2{margin-top:1.6em;border-bottom:1px solid #ccc}"
+         ".grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(330px,1fr));gap:1em}"
+         "figure{margin:0;background:#fff;border:1px solid #ddd;padding:0.4em}"
+         "figure img{width:100%;height:220px;object-fit:contain;display:block}"
+         "figure.chart{background:#f4f8ff}"
+         "figcaption{font-size:0.85em;margin-top:0.3em}td{padding:0.15em 1em 0.15em 0;font-size:0.9em}")
+
+
+def figure(name, caption, cls=""):
+    n, c = html.escape(name), html.escape(caption)
+    return (f"<figure class='{cls}'><a href='{n}'><img src='{n}' alt='{c}' loading='lazy'></a>"
+            f"<figcaption>{c}</figcaption></figure>")
+
+
+def page(groups):
     parts = ["<!doctype html><html><head><meta charset='utf-8'><title>pclx demo</title>",
-             "<style>body{font-family:sans-serif;max-width:1400px;margin:auto;padding:1em;background:#fafafa}"
-             "figure{display:inline-block;vertical-align:top;margin:0.6em;max-width:660px}"
-             "img{max-width:100%;border:1px solid #ccc;background:#fff}"
-             "figcaption{font-size:0.9em;color:#333}td{padding:0.2em 1em 0.2em 0}</style></head><body>",
+             f"<style>{STYLE}</style></head><body>",
              "<h1>pclx demo output</h1>",
-             "<p>Written by <code>scripts/demo.sh</code> on generated data. Pictures are what the apps "
-             "rendered off-screen; charts come from the benchmarks' quick runs, with the peers measured in "
-             "the same run.</p>"]
-    for heading, items in (("Pictures", pictures), ("Charts", charts)):
-        if not items:
-            continue
-        parts.append(f"<h2>{heading}</h2>")
-        for name, cap in items:
-            n, c = html.escape(name), html.escape(cap)
-            parts.append(f"<figure><a href='{n}'><img src='{n}' alt='{c}'></a><figcaption>{c}</figcaption></figure>")
-    if data:
-        parts.append("<h2>Data</h2><table>")
-        for name, cap in data:
-            parts.append(f"<tr><td><a href='{html.escape(name)}'>{html.escape(name)}</a></td>"
-                         f"<td>{html.escape(cap)}</td></tr>")
-        parts.append("</table>")
+             "<p>Written by <code>scripts/demo.sh</code> on generated data. Each module shows what its app "
+             "rendered off-screen, then the charts of its benchmark's quick run (blue background; the peers "
+             "ran in the same run). Click a thumbnail for the full picture; each step's console output is in "
+             "<a href='logs/'>logs/</a>.</p>"]
+    for title, (pictures, charts, data) in groups.items():
+        parts.append(f"<h2>{html.escape(title)}</h2><div class='grid'>")
+        parts += [figure(n, c) for n, c in pictures] + [figure(n, c, "chart") for n, c in charts]
+        parts.append("</div>")
+        if data:
+            parts.append("<table>")
+            for name, cap in data:
+                parts.append(f"<tr><td><a href='{html.escape(name)}'>{html.escape(name)}</a></td>"
+                             f"<td>{html.escape(cap)}</td></tr>")
+            parts.append("</table>")
     parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+def main():
+    if len(sys.argv) != 2 or not os.path.isdir(sys.argv[1]):
+        sys.exit("usage: demo_index.py OUTPUT_DIR")
+    out = sys.argv[1]
+    groups = collect(out, chart_titles())
     with open(os.path.join(out, "index.html"), "w") as f:
-        f.write("\n".join(parts))
+        f.write(page(groups))
+    print(f"demo.sh wrote {out}/index.html:")
+    for title, (pictures, charts, data) in groups.items():
+        print(f"  {title}: {len(pictures)} pictures, {len(charts)} charts, {len(data)} data files")
 
 
 if __name__ == "__main__":

@@ -10,7 +10,7 @@ PKGS=(
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   libopen3d-dev nlohmann-json3-dev
   xvfb xauth gnuplot-nox python3-matplotlib python3-numpy time
-  chromium nodejs
+  chromium nodejs doxygen
 )
 # npm ships inside NodeSource's nodejs; Debian's nodejs needs its npm package.
 command -v npm > /dev/null 2>&1 || PKGS+=(npm)
