@@ -21,7 +21,10 @@ main (int argc, char** argv)
   std::vector<std::size_t> sizes{10000, 100000, 1000000};
   app.add_option ("--csv", csv, "also write the CSV rows to this file");
   app.add_option ("--sizes", sizes, "point counts")->capture_default_str ();
+  bool verbose = false;
+  app.add_flag ("--verbose", verbose, "progress lines on stderr");
   CLI11_PARSE (app, argc, argv);
+  pclx::bench::setVerbose (verbose);
 
   CsvWriter out (csv);
   std::vector<std::pair<std::string, TriangleMesh>> inputs{{"sphere", makeSphere (1.f, 6)},

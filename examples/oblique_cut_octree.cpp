@@ -30,7 +30,7 @@ main (int argc, char** argv)
   pcl::ObliqueCutOctree<pcl::PointXYZ>::Camera camera;
   camera.width = 640;
   camera.height = 480;
-  camera.view_projection = pcl::omicron::perspectiveLookAt (Eigen::Vector3f (0.f, 0.f, 4.f), Eigen::Vector3f::Zero (),
+  camera.view_projection = pcl::perspectiveLookAt (Eigen::Vector3f (0.f, 0.f, 4.f), Eigen::Vector3f::Zero (),
                                                             float (M_PI) / 3.f, 640.f / 480.f, 0.1f, 100.f);
   if (!octree.startBuild ())
     return 1;
@@ -45,7 +45,8 @@ main (int argc, char** argv)
   std::printf ("front: %zu nodes, %zu points to draw\n", items.size (), drawn);
 
   pcl::PotreeWriter<pcl::PointXYZ> writer;
-  writer.write (octree, "potree_out");
+  if (!writer.write (octree, "potree_out"))
+    return 1;
   std::printf ("Potree 2.0 files in potree_out/ (metadata.json, hierarchy.bin, octree.bin)\n");
   return items.empty () ? 1 : 0;
 }

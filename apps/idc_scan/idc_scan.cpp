@@ -1,5 +1,5 @@
 // idc_scan: posed depth frames become an adaptive mesh, updated frame by frame, with
-// IncrementalDualContouring (seed 004). Sources: a live OpenNI2 device or .oni file
+// IncrementalDualContouring (da Paz 2017). Sources: a live OpenNI2 device or .oni file
 // (--device, fixed pose: --pose), recorded frames through pcl::PCDGrabber / ImageGrabber
 // (--pcd-dir / --image-dir: the pose comes from each frame's VIEWPOINT, or --poses-dir, or
 // --pose), a 7-Scenes folder (--depth-dir: 16-bit PNG depth, .pose.txt, intrinsics) and the
@@ -288,7 +288,7 @@ private:
   {
     pclx::apps::DepthFrameFolder folder (opt_.source.depth_dir);
     const auto& k = folder.intrinsics ();
-    const pclx::surface::DepthIntrinsics K{k.fx, k.fy, k.cx, k.cy};
+    const pcl::DepthIntrinsics K{k.fx, k.fy, k.cx, k.cy};
     std::printf ("%s: %zu depth frames, fx %.1f fy %.1f cx %.1f cy %.1f\n", opt_.source.depth_dir.c_str (),
                  folder.size (), K.fx, K.fy, K.cx, K.cy);
     for (std::size_t i = 0; i < folder.size () && !stopRequested (); ++i)

@@ -84,7 +84,7 @@ regionColour (int id)
 }
 
 void
-printTable (const pclx::normals::NormalErrorStats& e, const char* what)
+printTable (const pcl::NormalErrorStats& e, const char* what)
 {
   std::printf ("%-22s %8zu %8.3f %8.3f %8.3f %8.3f %8.2f%% %8.2f%%", what, e.count, e.rms_deg, e.mean_deg, e.min_deg,
                e.max_deg, 100 * e.below5, 100 * e.below10);
@@ -95,7 +95,7 @@ printTable (const pclx::normals::NormalErrorStats& e, const char* what)
 int
 main (int argc, char** argv)
 {
-  CLI::App app ("Normals with PlanarOctreeNormalEstimation (seed 002) or PCA; PCD/PLY/XYZ in, PCD out");
+  CLI::App app ("Normals with PlanarOctreeNormalEstimation (Musmanno 2016) or PCA; PCD/PLY/XYZ in, PCD out");
   std::string input, output, truth_path, demo, method = "merged", orient = "none", color = "error", screenshot;
   // The library's defaults, so that the app and a PCL user's code give the same normals.
   const Estimator defaults;
@@ -117,7 +117,7 @@ main (int argc, char** argv)
   app.add_option ("--noise", noise, "--demo: Gaussian noise sigma / bounding-box diagonal")->capture_default_str ();
   app.add_option ("--shadow", shadow, "--demo: share of the surface removed as holes (0..1)")->capture_default_str ();
   app.add_option ("-o,--out,--output", output, "write a PCD with points and normals");
-  app.add_option ("-m,--method", method, "octree (seed), hybrid (seed 5.4.3), merged (seed ch. 7), pca (PCL)")
+  app.add_option ("-m,--method", method, "octree (Musmanno 2016), hybrid (his §5.4.3), merged (his ch. 7), pca (PCL)")
       ->check (CLI::IsMember ({"octree", "hybrid", "merged", "pca"}))
       ->capture_default_str ();
   app.add_option ("-k,--k", k, "kNN size for PCA, borders and fallbacks")->capture_default_str ();
@@ -316,16 +316,16 @@ main (int argc, char** argv)
   {
     std::printf ("\n%-22s %8s %8s %8s %8s %8s %9s %9s\n", "error (degrees)", "points", "rms", "mean", "min", "max",
                  "<5deg", "<10deg");
-    printTable (pclx::normals::compareNormals (normals, truth), "unoriented");
+    printTable (pcl::compareNormals (normals, truth), "unoriented");
     std::printf ("\n");
     if (orient != "none")
     {
-      const auto e = pclx::normals::compareNormals (normals, truth, true);
+      const auto e = pcl::compareNormals (normals, truth, true);
       printTable (e, "oriented");
       std::printf ("   flipped %.3f%%%s\n", 100 * e.flipped,
                    demo.empty () ? " (meaningful only if the truth is oriented)" : "");
     }
-    errors = pclx::normals::angleErrorsDeg (normals, truth);
+    errors = pcl::angleErrorsDeg (normals, truth);
   }
 
   if (!output.empty ())

@@ -348,7 +348,7 @@ private:
     pcl::ObliqueCutOctree<Point>::Camera camera;
     camera.width = opt_.width / 3;
     camera.height = opt_.height / 2;
-    camera.view_projection = pcl::omicron::perspectiveLookAt (eye, ahead, 1.0f, float (camera.width) / camera.height,
+    camera.view_projection = pcl::perspectiveLookAt (eye, ahead, 1.0f, float (camera.width) / camera.height,
                                                               0.05f, 100.f);
     std::vector<pcl::ObliqueCutOctree<Point>::Item> items;
     octree_->evaluate (camera, items);
@@ -530,7 +530,8 @@ private:
     if (octree_ && octree_->getRoot ())
     {
       pcl::PotreeWriter<Point> writer;
-      writer.write (*octree_, opt_.output + "/potree");
+      if (!writer.write (*octree_, opt_.output + "/potree"))
+        throw std::runtime_error (writer.getLastError ());
     }
     std::printf ("wrote the last frame's stages to %s\n", opt_.output.c_str ());
   }

@@ -1,5 +1,5 @@
 // rbf_reconstruct: a closed mesh from a point cloud (PCD / PLY / XYZ) with
-// RBFPOUReconstruction (RBF partition of unity, seed 002 ch. 4). Points without normals get
+// RBFPOUReconstruction (RBF partition of unity, Musmanno 2016 ch. 4). Points without normals get
 // PlanarOctreeNormalEstimation + MST orientation first. Writes a binary PLY; --view shows it,
 // --screenshot renders it off-screen to a PNG.
 #include <pclx/apps/cloud_loader.h>

@@ -1,7 +1,6 @@
 #include "bench_csv.h"
 
 #include <cstdlib>
-#include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <iomanip>
@@ -74,27 +73,21 @@ processCpuSeconds ()
   return double (ts.tv_sec) + 1e-9 * double (ts.tv_nsec);
 }
 
-double
-peakRssMiB ()
+namespace {
+bool verbose = false;
+}  // namespace
+
+void
+setVerbose (bool on)
 {
-  std::ifstream status ("/proc/self/status");
-  std::string line;
-  while (std::getline (status, line))
-    if (line.rfind ("VmHWM:", 0) == 0)
-      return std::stod (line.substr (6)) / 1024.0;  // kB
-  return 0.0;
+  verbose = on;
 }
 
-std::size_t
-procStatusKb (const char* key)
+std::ostream&
+progress ()
 {
-  std::ifstream status ("/proc/self/status");
-  std::string line;
-  const std::size_t len = std::strlen (key);
-  while (std::getline (status, line))
-    if (line.compare (0, len, key) == 0 && line.size () > len && line[len] == ':')
-      return std::stoull (line.substr (len + 1));
-  return 0;
+  static std::ostream discard (nullptr);
+  return verbose ? std::cerr : discard;
 }
 
 std::size_t

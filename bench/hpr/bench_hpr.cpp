@@ -83,7 +83,7 @@ viewpoints (const TriangleMesh& mesh, int count, float distance)
   return out;
 }
 
-// A competing busy process (the "loaded machine" of issue 12): a forked child spinning
+// A competing busy process (a "loaded machine"): a forked child spinning
 // until destroyed.
 class BusyChild
 {
@@ -302,7 +302,10 @@ main (int argc, char** argv)
                 "converges to)");
   app.add_flag ("--load-rows", load_rows,
                 "only the loaded-machine rows (1, 2, auto threads; with and without a busy child process)");
+  bool verbose = false;
+  app.add_flag ("--verbose", verbose, "progress lines on stderr");
   CLI11_PARSE (app, argc, argv);
+  pclx::bench::setVerbose (verbose);
   if (quick)
   {
     sizes = {100000};
@@ -408,7 +411,7 @@ main (int argc, char** argv)
 
   if (wide)
   {
-    // Issue 12 item 3: every shape, size and view; Open3D at R = 10^2 ... 10^6 d with its
+    // The wide set: every shape, size and view; Open3D at R = 10^2 ... 10^6 d with its
     // best F1 repeated as open3d_exact_bestR (scripts compare against that row). Up to 10^6 d
     // because 10^4 d, then 10^5 d, was its best everywhere at 1M-3M: the peer's optimum
     // must be bracketed.

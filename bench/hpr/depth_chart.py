@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
 """F1 of the candidate hull against the occlusion depth (R is linear in it) and the number of
-refinement passes, per shape and size: the R rule of issue 12 item 3.
+refinement passes, per shape and size: the R rule of the wide set.
 
   PCLX_DATA_DIR=/work/shared/data bench_hpr --wide --wide-dev --no-open3d --sizes 100000 1000000 \
       --views 2 --dev-depths 0.025 0.05 0.1 0.2 0.5 --dev-passes 0 1 2 --repeats-ours 1 \
-      --csv docs/results/hpr/hpr_wide_dev_depth.csv
-  /usr/bin/python3 bench/hpr/depth_chart.py docs/results/hpr/hpr_wide_dev_depth.csv --out docs/results/hpr
+      --csv bench/results/hpr_wide_dev_depth.csv
+  /usr/bin/python3 bench/hpr/depth_chart.py docs/results/hpr/hpr.csv --out docs/results/hpr
 """
 import argparse
 import collections

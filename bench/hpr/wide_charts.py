@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Charts of the wide set (bench_hpr --wide rows), issue 12 item 3.
+"""Charts of the wide set (bench_hpr --wide rows).
 
-  /usr/bin/python3 bench/hpr/wide_charts.py docs/results/hpr/hpr_wide*.csv --out docs/results/hpr
+  /usr/bin/python3 bench/hpr/wide_charts.py docs/results/hpr/hpr.csv --out docs/results/hpr
 
 hpr_wide_targets.png: per shape and size, F1 against seconds of the default (pclx_auto), the
 one-pass candidate hull (the default before the refinement passes) and Open3D at its best R,

@@ -1,8 +1,7 @@
 #!/usr/bin/env python3
-"""Issue 12 item 3: the wide-set summary of `bench_hpr --wide` rows.
+"""The wide-set summary of `bench_hpr --wide` rows.
 
-  /usr/bin/python3 bench/hpr/wide_summary.py docs/results/hpr/hpr_wide.csv \
-      --out docs/results/hpr/hpr_wide_summary.md --note "load average 4-5 (two other helpers)"
+  /usr/bin/python3 bench/hpr/wide_summary.py docs/results/hpr/hpr.csv --note "load average 4-5 (two other helpers)"
 
 One line per (shape, view, points): ours (pclx_auto, the default) F1 and seconds, the one-pass
 candidate hull (the default before the refinement passes) from the same run, Open3D's

@@ -7,7 +7,7 @@
 //     metrics flipped (share against the outward truth of closed generated shapes)
 // params: sweep=<main|noise|shadow|density|speed>;noise=<σ/diag>;shadow=<%>;min_ratio=<r>
 // PCPNet ground truth is unoriented: it only gets estimation rows.
-// --wide / --speed / --quick: the wide protocol of issue 13 instead (wide.cpp).
+// --wide / --speed / --quick: the wide protocol instead (wide.cpp).
 #include "bench_csv.h"
 #include "normals_bench_util.h"
 #include "wide.h"
@@ -85,7 +85,7 @@ run (const Case& c, const Options& opt, CsvWriter& out, bool orient)
     }
     pcl::PointCloud<pcl::Normal> normals;
     const double t = timeBest ([&] { ne.compute (normals); }, opt.repeats);
-    Metrics m = errorMetrics (pclx::normals::compareNormals (normals, truth));
+    Metrics m = errorMetrics (pcl::compareNormals (normals, truth));
     m.emplace_back ("planar_leaves", ne.getOctree ().numPlanarLeaves ());
     m.emplace_back ("regions", ne.getOctree ().regions ().size ());
     // Share of points whose normal needed no kNN search (patch or region surface).
@@ -108,7 +108,7 @@ run (const Case& c, const Options& opt, CsvWriter& out, bool orient)
     pcl::PointCloud<pcl::Normal> normals;
     const double t = timeBest ([&] { ne.compute (normals); }, opt.repeats);
     out.row ("normals", "pcl_omp_k" + std::to_string (k), c.params, c.input, n, t,
-             errorMetrics (pclx::normals::compareNormals (normals, truth)));
+             errorMetrics (pcl::compareNormals (normals, truth)));
     if (k == 18)
       pca18 = normals;
   }
@@ -125,7 +125,7 @@ run (const Case& c, const Options& opt, CsvWriter& out, bool orient)
     for (std::size_t i = 0; i < n; ++i)
       normals[i].getNormalVector3fMap () = o3d_normals[i].cast<float> ();
     out.row ("normals", "open3d_k18", c.params, c.input, n, t,
-             errorMetrics (pclx::normals::compareNormals (normals, truth)));
+             errorMetrics (pcl::compareNormals (normals, truth)));
   }
 #endif
   if (!orient || !c.oriented)
@@ -140,7 +140,7 @@ run (const Case& c, const Options& opt, CsvWriter& out, bool orient)
     mst.setKSearch (10);
     mst.setNumberOfThreads (threads);
     const double t = timeBest ([&] { oriented = normals; mst.orient (oriented); }, opt.repeats);
-    const auto e = pclx::normals::compareNormals (oriented, truth, true);
+    const auto e = pcl::compareNormals (oriented, truth, true);
     out.row ("normals", name, c.params + ";k=10", c.input, n, t,
              {{"flipped", e.flipped}, {"rms_oriented", e.rms_deg}, {"components", double (mst.getNumberOfComponents ())}});
   }
@@ -151,7 +151,7 @@ run (const Case& c, const Options& opt, CsvWriter& out, bool orient)
     pcl::PointCloud<pcl::Normal> normals (n, 1);
     for (std::size_t i = 0; i < n; ++i)
       normals[i].getNormalVector3fMap () = o3d_normals[i].cast<float> ();
-    const auto e = pclx::normals::compareNormals (normals, truth, true);
+    const auto e = pcl::compareNormals (normals, truth, true);
     out.row ("normals", "orient_open3d", c.params + ";k=10", c.input, n, t,
              {{"flipped", e.flipped}, {"rms_oriented", e.rms_deg}});
   }
@@ -173,7 +173,7 @@ main (int argc, char** argv)
   app.add_flag ("!--no-open3d", opt.open3d, "skip the Open3D peer");
   pclx::bench::WideOptions wide;
   app.add_flag ("--wide", wide.wide,
-                "issue 13's wide protocol: 7 shapes x 4 noise levels, ours vs PCA k sweep (+oracle), CGAL jet/VCM, "
+                "the wide protocol: 7 shapes x 4 noise levels, ours vs PCA k sweep (+oracle), CGAL jet/VCM, "
                 "Open3D, MST orientation; then the speed sweep (tens of minutes)");
   app.add_flag ("--speed", wide.speed, "the speed sweep only: ours vs PCL k=18 at 100k/300k/1M, noisy vs oracle-k PCA");
   app.add_flag ("--quick", wide.quick, "the wide protocol and speed sweep on small generated shapes (seconds; CTest)");
@@ -199,7 +199,10 @@ main (int argc, char** argv)
   bool no_speed_noisy = false;
   app.add_flag ("--no-speed-noisy", no_speed_noisy, "speed sweep: skip the noisy rows against oracle-k PCA");
   app.add_option ("--dump", wide.dump, "--wide: write each shape's clean sample as <dir>/<shape>.ply (to look at)");
+  bool verbose = false;
+  app.add_flag ("--verbose", verbose, "progress lines on stderr");
   CLI11_PARSE (app, argc, argv);
+  pclx::bench::setVerbose (verbose);
   if (wide.wide || wide.speed || wide.quick || wide.orient)
   {
     // --wide includes the speed sweep (unless --no-speed); --speed alone runs only that.
@@ -274,7 +277,7 @@ main (int argc, char** argv)
       run ({name, "sweep=noise;noise=" + fmt (sigma) + ";shadow=0", s, name == "torus"}, opt, out, name == "torus");
     }
 
-  // shadow (seed §6.2.1): holes removing a share of the surface.
+  // shadow (Musmanno 2016 §6.2.1): holes removing a share of the surface.
   const std::vector<int> shadows = opt.full ? std::vector<int>{0, 1, 2, 5, 10, 20, 25, 30, 50, 75}
                                             : std::vector<int>{0, 30};
   std::vector<std::pair<std::string, SampledCloud>> shadow_inputs;

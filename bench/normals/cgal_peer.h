@@ -1,5 +1,5 @@
 #pragma once
-// CGAL peers of bench_normals --wide (issue 13): jet fitting and the Voronoi covariance
+// CGAL peers of bench_normals --wide: jet fitting and the Voronoi covariance
 // measure from CGAL's Point Set Processing. Kept in their own translation unit behind a
 // plain interface (CGAL headers are heavy to compile).
 #include <Eigen/Core>

@@ -9,7 +9,7 @@ SPECS = [
          x="p_noise", y=EST, series="method", where=dict(sweep="noise"), split="input"),
     dict(name="normals_below10_vs_noise", title="Normals: share of errors < 10 deg against noise",
          x="p_noise", y="below10", series="method", where=dict(sweep="noise"), split="input"),
-    dict(name="normals_error_vs_shadow", title="Normals: RMS angle error against shadow holes (% removed, seed 6.2.1)",
+    dict(name="normals_error_vs_shadow", title="Normals: RMS angle error against shadow holes (% removed, Musmanno 2016 §6.2.1)",
          x="p_shadow", y=EST, series="method", where=dict(sweep="shadow"), split="input"),
     dict(name="normals_error_vs_density", title="Normals: RMS angle error against density gradient (min/max)",
          x="p_min_ratio", y=EST, series="method", logx=True, where=dict(sweep="density"), split="input"),

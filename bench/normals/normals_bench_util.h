@@ -1,5 +1,5 @@
 #pragma once
-// Helpers shared by bench_normals' default sweeps and its --wide protocol (issue 13).
+// Helpers shared by bench_normals' default sweeps and its --wide protocol.
 #include "bench_csv.h"
 
 #include <pclx/normals/normal_error.h>
@@ -13,7 +13,7 @@ namespace pclx {
 namespace bench {
 
 inline Metrics
-errorMetrics (const pclx::normals::NormalErrorStats& e)
+errorMetrics (const pcl::NormalErrorStats& e)
 {
   return {{"rms", e.rms_deg}, {"mean", e.mean_deg}, {"min", e.min_deg}, {"max", e.max_deg},
           {"below5", e.below5}, {"below10", e.below10}};

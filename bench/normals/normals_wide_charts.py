@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Charts of `bench_normals --wide` rows (issue 13).
+"""Charts of `bench_normals --wide` rows.
 
-  /usr/bin/python3 bench/normals/normals_wide_charts.py docs/results/normals/normals_wide.csv \
+  /usr/bin/python3 bench/normals/normals_wide_charts.py docs/results/normals/normals.csv \
       --out docs/results/normals
 
 normals_wide_rms_vs_noise.png   per shape: RMS against σ for ours, oracle PCA (k written beside it),
@@ -77,7 +77,7 @@ def rms_vs_noise(rows, out):
         ax.set_title(shape, fontsize=10)
         ax.grid(True, alpha=0.3)
     axes.flat[0].legend(fontsize=7)
-    fig.suptitle("Normals, wide set (issue 13): RMS error against noise, 100k points, 2 threads", fontsize=11)
+    fig.suptitle("Normals, wide set: RMS error against noise, 100k points, 2 threads", fontsize=11)
     fig.tight_layout()
     path = os.path.join(out, "normals_wide_rms_vs_noise.png")
     fig.savefig(path, dpi=100)

@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
-"""Markdown summary of `bench_normals --wide` rows (issue 13): the issue's table for the wide set,
+"""Markdown summary of `bench_normals --wide` rows: the target table for the wide set,
 the misses against its bar (ours > oracle PCA + 0.5 deg), the spread across shapes, the speed
 sweep's ratios against PCL at 1M points, ours against PCA at the oracle's k at high noise, and
 the MST orientation rows.
 
-  /usr/bin/python3 bench/normals/normals_wide_summary.py docs/results/normals/normals_wide.csv \
-      --commit <class commit> --out docs/results/normals/normals_wide_summary.md
+  /usr/bin/python3 bench/normals/normals_wide_summary.py bench/results/normals/normals_wide.csv \
+      --commit <class commit> --out bench/results/normals/normals_wide_summary.md
+(bench/normals/run_wide.sh does this; the current tables are in docs/results/normals/summary.md, the
+rows in docs/results/normals/normals.csv, which this script also reads.)
 """
 import argparse
 import collections
@@ -68,10 +70,10 @@ def main():
     for r in wide:
         cases.setdefault((r["input"], r["p_noise"]), {})[r["method"]] = r
     if not wide:
-        p(f"# Normals orientation (issue 13): `bench_normals --orient`, `modules/normals` at {a.commit}")
+        p(f"# Normals orientation: `bench_normals --orient`, `modules/normals` at {a.commit}")
         p("")
     else:
-        p(f"# Normals on the wide set (issue 13): `bench_normals --wide`")
+        p(f"# Normals on the wide set: `bench_normals --wide`")
         p("")
         p(f"Class measured: `modules/normals` at {a.commit}. 100k points per shape, Gaussian noise σ × bounding-box "
           "diagonal on positions (truth normals unchanged, one seed for every method), 2 threads "

@@ -1,14 +1,19 @@
 #!/usr/bin/env bash
-# The wide normals benchmark of issue 13 in one command: builds bench_normals, runs --wide --speed
-# (2 threads; about 40 min on the shared 2-core machine), charts it and writes the summary into
-# docs/results/normals/. Usage: bash bench/normals/run_wide.sh [build-dir] [extra bench_normals options]
-# A full run also keeps its CGAL rows in normals_wide_peers.csv; a rerun with --no-cgal (about 12 min
-# instead of 40, for a change of the class) borrows them for the summary: same clouds, same seed.
+# The wide normals benchmark in one command: builds bench_normals, runs --wide --speed
+# (2 threads; about 40 min on the shared 2-core machine), draws the normals_wide_*.png charts into
+# docs/results/normals/ and writes the run's CSV, log and generated tables into bench/results/normals/
+# (not tracked): fold them into docs/results/normals/normals.csv and summary.md by hand.
+# Usage: bash bench/normals/run_wide.sh [build-dir] [extra bench_normals options]
+# A full run also keeps its CGAL rows in bench/results/normals/normals_wide_peers.csv; a rerun with
+# --no-cgal (about 12 min instead of 40, for a change of the class) borrows them for the summary (same
+# clouds, same seed), else the jet_* / vcm_* rows of docs/results/normals/normals.csv.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 BUILD=${1:-build-nbench}
 shift || true
 OUT=docs/results/normals
+RUN=bench/results/normals
+mkdir -p "$RUN"
 if [ ! -f "$BUILD/build.ninja" ] && [ ! -f "$BUILD/Makefile" ]; then
   cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPCLX_BUILD_DRIVERS=OFF -DPCLX_BUILD_APPS=OFF
 fi
@@ -20,16 +25,21 @@ DIRTY=$(git status --porcelain -- modules/normals/include modules/normals/src mo
   2>/dev/null | grep -q . && echo " + uncommitted changes" || true)
 echo "[run_wide] modules/normals at $COMMIT$DIRTY; started $(date -u +%H:%M) UTC" >&2
 start=$(date +%s)
-"$BUILD/bench/normals/bench_normals" --wide --speed --threads 2 --csv "$OUT/normals_wide.csv" "$@" \
-  > /dev/null 2> >(tee "$OUT/normals_wide.log" >&2)
-echo "[run_wide] bench wall time $(( $(date +%s) - start )) s" | tee -a "$OUT/normals_wide.log" >&2
+"$BUILD/bench/normals/bench_normals" --wide --speed --threads 2 --csv "$RUN/normals_wide.csv" "$@" \
+  > /dev/null 2> >(tee "$RUN/normals_wide.log" >&2)
+echo "[run_wide] bench wall time $(( $(date +%s) - start )) s" | tee -a "$RUN/normals_wide.log" >&2
 PEERS=()
-if grep -q '^normals,jet_' "$OUT/normals_wide.csv"; then
-  grep -E '^(module|normals,(jet|vcm)_)' "$OUT/normals_wide.csv" > "$OUT/normals_wide_peers.csv"
-elif [ -f "$OUT/normals_wide_peers.csv" ]; then
-  PEERS=(--peers-from "$OUT/normals_wide_peers.csv")
+if grep -q '^normals,jet_' "$RUN/normals_wide.csv"; then
+  grep -E '^(module|normals,(jet|vcm)_)' "$RUN/normals_wide.csv" > "$RUN/normals_wide_peers.csv"
+else
+  if [ ! -f "$RUN/normals_wide_peers.csv" ] && grep -q '^normals,jet_' "$OUT/normals.csv" 2>/dev/null; then
+    grep -E '^(module|normals,(jet|vcm)_)' "$OUT/normals.csv" > "$RUN/normals_wide_peers.csv"
+  fi
+  if [ -f "$RUN/normals_wide_peers.csv" ]; then
+    PEERS=(--peers-from "$RUN/normals_wide_peers.csv")
+  fi
 fi
-/usr/bin/python3 bench/normals/normals_wide_charts.py "$OUT/normals_wide.csv" "${PEERS[@]}" --out "$OUT"
-/usr/bin/python3 bench/normals/normals_wide_summary.py "$OUT/normals_wide.csv" --commit "$COMMIT$DIRTY" \
-  "${PEERS[@]}" --out "$OUT/normals_wide_summary.md" > /dev/null
-echo "[run_wide] wrote $OUT/normals_wide.csv, normals_wide_*.png, normals_wide_summary.md" >&2
+/usr/bin/python3 bench/normals/normals_wide_charts.py "$RUN/normals_wide.csv" "${PEERS[@]}" --out "$OUT"
+/usr/bin/python3 bench/normals/normals_wide_summary.py "$RUN/normals_wide.csv" --commit "$COMMIT$DIRTY" \
+  "${PEERS[@]}" --out "$RUN/normals_wide_summary.md" > /dev/null
+echo "[run_wide] wrote $OUT/normals_wide_*.png and $RUN/normals_wide.csv, normals_wide.log, normals_wide_summary.md" >&2

@@ -1,4 +1,4 @@
-// bench_normals --wide / --speed / --quick (issue 13). Rows (module normals):
+// bench_normals --wide / --speed / --quick. Rows (module normals):
 //   sweep=wide;noise=<σ/diag>: ours (PlanarOctreeNormalEstimation defaults), pca_k<K> (PCL
 //     NormalEstimationOMP), oracle_pca (the sweep's lowest RMS; params k=<K>), jet_k<K> and
 //     jet_best (CGAL jet_estimate_normals, k grown until the error rises), vcm_R<a>_r<b> and
@@ -189,7 +189,7 @@ pointSpacing (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud)
   return r[r.size () / 2] * std::sqrt (M_PI / 16);
 }
 
-// Orientation oracle (issue 13's "< 1 % flipped"): a reader that knows the true surface but,
+// Orientation oracle (for the "< 1 % flipped" target): a reader that knows the true surface but,
 // like any method, not which point of it a noisy sample came from. A sample q's origin then has
 // the posterior exp(-|q - x|² / 2σ²) dA(x) over the surface (a dense uniform sample of the mesh
 // within 3σ, weights summed per face). "position" points q's normal where the largest posterior
@@ -420,10 +420,12 @@ WideRun::shapes ()
       if (s.oriented && !outward)
         for (auto& f : s.mesh.faces)
           std::swap (f[1], f[2]);
-      std::cerr << "[bench_normals] " << name << ": " << s.mesh.faces.size () << " faces, "
-                << (s.oriented ? (std::string ("closed and consistently oriented") + (outward ? "" : " (flipped to outward)"))
-                               : std::string ("not closed or not consistently oriented: no orientation rows"))
-                << "\n";
+      pclx::bench::progress () << "[bench_normals] " << name << ": " << s.mesh.faces.size () << " faces, "
+                               << (s.oriented
+                                       ? (std::string ("closed and consistently oriented") +
+                                          (outward ? "" : " (flipped to outward)"))
+                                       : std::string ("not closed or not consistently oriented: no orientation rows"))
+                               << "\n";
       all.push_back (std::move (s));
     }
     for (const char* name : {"bunny100k", "fandisk100k", "151A_100k_0"})
@@ -452,7 +454,7 @@ WideRun::ours (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledCl
   ne.setNumberOfThreads (opt_.threads);
   Normals normals;
   const auto [t, cpu] = timeBestWallCpu ([&] { ne.compute (normals); }, repeats);
-  const auto e = pclx::normals::compareNormals (normals, truth.cloud);
+  const auto e = pcl::compareNormals (normals, truth.cloud);
   Metrics m = errorMetrics (e);
   const auto& st = ne.getPointStatus ();
   m.emplace_back ("knn_share", st.empty () ? 0.0
@@ -472,7 +474,7 @@ WideRun::pca (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const SampledClo
   ne.setKSearch (k);
   Normals normals;
   const auto [t, cpu] = timeBestWallCpu ([&] { ne.compute (normals); }, repeats);
-  const auto e = pclx::normals::compareNormals (normals, truth.cloud);
+  const auto e = pcl::compareNormals (normals, truth.cloud);
   if (out)
     *out = std::move (normals);
   return {"pca_k" + std::to_string (k), t, e.rms_deg, errorMetrics (e), cpu};
@@ -526,7 +528,7 @@ WideRun::wideCase (const Shape& shape, const SampledCloud& clean, float sigma)
       for (int k : opt_.quick ? std::vector<int>{18} : std::vector<int>{18, 50, 100, 200})
       {
         const double t = cgal_peer::jetNormals (pts, k, opt_.threads, nrm);
-        const auto e = pclx::normals::compareNormals (toPcl (nrm), s.cloud);
+        const auto e = pcl::compareNormals (toPcl (nrm), s.cloud);
         jets.push_back ({"jet_k" + std::to_string (k), t, e.rms_deg, errorMetrics (e)});
         emit (jets.back (), params, input, n);
         if (jets.size () > 1 && jets.back ().rms > jets[jets.size () - 2].rms)
@@ -550,7 +552,7 @@ WideRun::wideCase (const Shape& shape, const SampledCloud& clean, float sigma)
         cgal_peer::vcmNormalsSweep (pts, a * h, conv_h, nrms, secs);
         for (std::size_t j = 0; j < conv.size (); ++j)
         {
-          const auto e = pclx::normals::compareNormals (toPcl (nrms[j]), s.cloud);
+          const auto e = pcl::compareNormals (toPcl (nrms[j]), s.cloud);
           Metrics m = errorMetrics (e);
           m.emplace_back ("offset_radius", a * h);
           m.emplace_back ("convolution_radius", conv_h[j]);
@@ -580,7 +582,7 @@ WideRun::wideCase (const Shape& shape, const SampledCloud& clean, float sigma)
         std::vector<Eigen::Vector3f> nf (n);
         for (std::size_t i = 0; i < n; ++i)
           nf[i] = n3[i].cast<float> ();
-        const auto e = pclx::normals::compareNormals (toPcl (nf), s.cloud);
+        const auto e = pcl::compareNormals (toPcl (nf), s.cloud);
         Metrics m = errorMetrics (e);
         m.insert (m.end (), extra_m.begin (), extra_m.end ());
         emit ({name, t, e.rms_deg, m}, params, input, n);
@@ -596,10 +598,11 @@ WideRun::wideCase (const Shape& shape, const SampledCloud& clean, float sigma)
       extra += orientRows (cloud, s, params, input, {{"orient_mst_ours", &our_normals}, {"orient_mst_pca_k18", &pca18}},
                            false);
   }
-  std::cerr << std::fixed << std::setprecision (2) << "[bench_normals] wide " << input << " σ=" << fmt (sigma) << ": ours "
-            << o.rms << "° " << o.seconds << " s, oracle PCA " << oracle.rms << "° (" << oracle.method << ", "
-            << oracle.seconds << " s)" << extra << "  [" << elapsed (t0) << ", total " << elapsed (start_) << "]\n"
-            << std::defaultfloat;
+  pclx::bench::progress () << std::fixed << std::setprecision (2) << "[bench_normals] wide " << input
+                           << " σ=" << fmt (sigma) << ": ours " << o.rms << "° " << o.seconds << " s, oracle PCA "
+                           << oracle.rms << "° (" << oracle.method << ", " << oracle.seconds << " s)" << extra << "  ["
+                           << elapsed (t0) << ", total " << elapsed (start_) << "]\n"
+                           << std::defaultfloat;
 }
 
 // MST (k = 10) on each set of normals: flipped share against the oriented truth, overall and
@@ -613,9 +616,9 @@ WideRun::orientRows (const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud, const Sam
 {
   const std::size_t n = cloud->size ();
   auto metrics = [&] (const Normals& oriented, const Normals& unoriented) {
-    const auto e = pclx::normals::compareNormals (oriented, s.cloud, true);
-    const auto un = pclx::normals::angleErrorsDeg (unoriented, s.cloud);
-    const auto ori = pclx::normals::angleErrorsDeg (oriented, s.cloud, true);
+    const auto e = pcl::compareNormals (oriented, s.cloud, true);
+    const auto un = pcl::angleErrorsDeg (unoriented, s.cloud);
+    const auto ori = pcl::angleErrorsDeg (oriented, s.cloud, true);
     std::size_t good = 0, good_flipped = 0;
     for (std::size_t i = 0; i < n; ++i)
       if (!std::isnan (un[i]) && un[i] < 60.0)
@@ -710,8 +713,8 @@ WideRun::orientCase (const Shape& shape, const SampledCloud& clean, float sigma)
       << 100 * f.lines << " %";
     oracle = x.str ();
   }
-  std::cerr << "[bench_normals] orient " << shape.name << " σ=" << fmt (sigma) << text << oracle << "  ["
-            << elapsed (t0) << "]\n";
+  pclx::bench::progress () << "[bench_normals] orient " << shape.name << " σ=" << fmt (sigma) << text << oracle << "  ["
+                           << elapsed (t0) << "]\n";
 }
 
 void
@@ -735,11 +738,12 @@ WideRun::speed (const std::vector<Shape>& shapes)
       p.method = "pcl_omp_k18";
       emitSpeed (o, "sweep=speed;noise=0", shape.name, n);
       emitSpeed (p, "sweep=speed;noise=0", shape.name, n);
-      std::cerr << std::fixed << std::setprecision (2) << "[bench_normals] speed " << shape.name << " " << n
-                << ": ours " << o.seconds << " s (CPU " << o.cpu_seconds << " s) " << o.rms << "°, PCL k=18 "
-                << p.seconds << " s (CPU " << p.cpu_seconds << " s) " << p.rms << "° (" << p.seconds / o.seconds
-                << "x wall, " << p.cpu_seconds / o.cpu_seconds << "x CPU)  [" << elapsed (t0) << "]\n"
-                << std::defaultfloat;
+      pclx::bench::progress () << std::fixed << std::setprecision (2) << "[bench_normals] speed " << shape.name << " "
+                               << n << ": ours " << o.seconds << " s (CPU " << o.cpu_seconds << " s) " << o.rms
+                               << "°, PCL k=18 " << p.seconds << " s (CPU " << p.cpu_seconds << " s) " << p.rms << "° ("
+                               << p.seconds / o.seconds << "x wall, " << p.cpu_seconds / o.cpu_seconds << "x CPU)  ["
+                               << elapsed (t0) << "]\n"
+                               << std::defaultfloat;
     }
     // Noisy: ours against PCA at the k the oracle picks for this shape and σ.
     for (float sigma : opt_.speed_noisy ? std::vector<float>{0.006f, 0.012f} : std::vector<float>{})
@@ -762,11 +766,11 @@ WideRun::speed (const std::vector<Shape>& shapes)
       p.method = "pca_oracle";
       emitSpeed (o, params, shape.name, cloud->size ());
       emitSpeed (p, params, shape.name, cloud->size ());
-      std::cerr << std::fixed << std::setprecision (2) << "[bench_normals] speed " << shape.name << " σ=" << fmt (sigma)
-                << ": ours " << o.seconds << " s (CPU " << o.cpu_seconds << " s) " << o.rms << "°, PCA oracle k="
-                << best_k << " " << p.seconds << " s (CPU " << p.cpu_seconds << " s) " << p.rms << "°  ["
-                << elapsed (t0) << "]\n"
-                << std::defaultfloat;
+      pclx::bench::progress () << std::fixed << std::setprecision (2) << "[bench_normals] speed " << shape.name
+                               << " σ=" << fmt (sigma) << ": ours " << o.seconds << " s (CPU " << o.cpu_seconds
+                               << " s) " << o.rms << "°, PCA oracle k=" << best_k << " " << p.seconds << " s (CPU "
+                               << p.cpu_seconds << " s) " << p.rms << "°  [" << elapsed (t0) << "]\n"
+                               << std::defaultfloat;
     }
   }
 }
@@ -777,8 +781,8 @@ WideRun::run ()
   omp_set_num_threads (opt_.threads);  // Open3D's OpenMP loops too
 #ifdef PCLX_HAVE_CGAL_PEER
   if (opt_.cgal && opt_.peers == "all")
-    std::cerr << "[bench_normals] CGAL jet_estimate_normals: " << cgal_peer::jetConcurrency ()
-              << "; vcm_estimate_normals: sequential\n";
+    pclx::bench::progress () << "[bench_normals] CGAL jet_estimate_normals: " << cgal_peer::jetConcurrency ()
+                             << "; vcm_estimate_normals: sequential\n";
 #else
   std::cerr << "[bench_normals] built without the CGAL peer: no jet / VCM rows\n";
 #endif
@@ -828,7 +832,7 @@ WideRun::run ()
           meshes.push_back (s);
     speed (meshes);
   }
-  std::cerr << "[bench_normals] done in " << elapsed (start_) << "\n";
+  pclx::bench::progress () << "[bench_normals] done in " << elapsed (start_) << "\n";
   return 0;
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-// bench_normals --wide / --speed / --quick: the wide normals protocol of issue 13 (shapes we
+// bench_normals --wide / --speed / --quick: the wide normals protocol (shapes we
 // never tuned to, PCPNet noise levels, PCA k sweep with an oracle row, CGAL jet and VCM,
 // Open3D), a speed sweep against PCL at 100k-1M points, and MST orientation on closed shapes.
 #include "bench_csv.h"

@@ -1,4 +1,4 @@
-// pcl::ObliqueCutOctree (OMiCroN) benchmark, peers in the same run (issue 9).
+// pcl::ObliqueCutOctree (OMiCroN) benchmark, peers in the same run.
 //
 // Inputs are binary PCDs written once to a work folder (mesh samplings of the Stanford bunny and
 // fertility when ../shared/data is present, a generated scene of pclx_testing shapes, a lattice
@@ -303,7 +303,7 @@ orbitCamera (const Octree& octree, double t)
   Octree::Camera cam;
   cam.width = 1920;
   cam.height = 1080;
-  cam.view_projection = pcl::omicron::perspectiveLookAt (eye, c, float (M_PI) / 3.f, 16.f / 9.f, 0.01f * edge, 10.f * edge);
+  cam.view_projection = pcl::perspectiveLookAt (eye, c, float (M_PI) / 3.f, 16.f / 9.f, 0.01f * edge, 10.f * edge);
   return cam;
 }
 
@@ -458,7 +458,8 @@ runOurs (const Cloud::ConstPtr& cloud, const Config& c, std::size_t rss0)
   const auto potreeMetrics = [&] (const std::string& dir) {
     // What a Potree loader gets: points stored (each input point once), nodes and their sizes.
     pcl::PotreeReader reader;
-    reader.open (dir);
+    if (!reader.open (dir))
+      throw std::runtime_error (reader.getLastError ());
     std::vector<double> sizes;
     for (const auto& node : reader.getNodes ())
       sizes.push_back (node.num_points);
@@ -473,7 +474,8 @@ runOurs (const Cloud::ConstPtr& cloud, const Config& c, std::size_t rss0)
   {
     const auto tw = Clock::now ();
     pcl::PotreeWriter<pcl::PointXYZ> writer;
-    writer.write (octree, c.potree_dir);
+    if (!writer.write (octree, c.potree_dir))
+      throw std::runtime_error (writer.getLastError ());
     const double write_s = since (tw);
     m.insert (m.end (), {{"potree_write_s", write_s}, {"file_to_potree_s", total + write_s}});
     potreeMetrics (c.potree_dir);
@@ -631,9 +633,9 @@ private:
         continue;
       const pcl::PointXYZ* src = c->leaf ? points_.data () + c->begin : c->sample.data ();
       const std::uint32_t n = std::uint32_t (c->leaf ? c->end - c->begin : c->sample.size ());
-      const std::uint32_t m = pcl::omicron::parentSampleCount (n, ratio_);
+      const std::uint32_t m = pclx::omicron::detail::parentSampleCount (n, ratio_);
       for (std::uint32_t t = 0; t < m; ++t)
-        node.sample.push_back (src[pcl::omicron::parentSampleIndex (t, m, n)]);
+        node.sample.push_back (src[pclx::omicron::detail::parentSampleIndex (t, m, n)]);
     }
   }
 
@@ -767,7 +769,10 @@ main (int argc, char** argv)
   app.add_flag ("--no-sweeps", no_sweeps, "only the main rows (ours default, front, peers)");
   app.add_flag ("--budget-only", budget_only,
                 "only the reads and the memory-budget rows (budget = 1/4 of the cloud, and in memory)");
+  bool verbose = false;
+  app.add_flag ("--verbose", verbose, "progress lines on stderr");
   CLI11_PARSE (app, argc, argv);
+  pclx::bench::setVerbose (verbose);
   if (quick)
   {
     sizes = {1000000, 2000000};
@@ -831,8 +836,9 @@ main (int argc, char** argv)
 
   CsvWriter out (csv);
   const bool budget_api = haveBudget ();
-  std::cerr << "[omicron] " << threads << " threads; setMemoryBudget " << (budget_api ? "present" : "absent")
-            << "; pcl_outofcore_process " << (no_outofcore ? "skipped" : "on") << "; work dir " << work << "\n";
+  pclx::bench::progress () << "[omicron] " << threads << " threads; setMemoryBudget "
+                           << (budget_api ? "present" : "absent") << "; pcl_outofcore_process "
+                           << (no_outofcore ? "skipped" : "on") << "; work dir " << work << "\n";
   const auto t_start = Clock::now ();
 
   for (const std::string& name : inputs)
@@ -849,16 +855,16 @@ main (int argc, char** argv)
       const std::string path = work + "/" + name + "_" + label + ".pcd";
       if (!fs::exists (path) || fs::file_size (path) != expectedPcdBytes (n))
       {
-        std::cerr << "[omicron] writing " << path << " ..." << std::flush;
+        pclx::bench::progress () << "[omicron] writing " << path << " ..." << std::flush;
         const auto tg = Clock::now ();
         gens[name](n, path);
-        std::cerr << " " << fmt (since (tg)) << " s\n";
+        pclx::bench::progress () << " " << fmt (since (tg)) << " s\n";
       }
       const double file_mb = double (fs::file_size (path)) / 1048576.0;
       auto emit = [&] (const Row& r) { out.row ("omicron", r.method, r.params, name, n, r.seconds, r.metrics); };
       auto log = [&] (const std::string& what, double s) {
-        std::cerr << "[omicron] " << name << " " << label << ": " << what << " " << fmt (s) << " s  (elapsed "
-                  << fmt (since (t_start)) << " s)\n";
+        pclx::bench::progress () << "[omicron] " << name << " " << label << ": " << what << " " << fmt (s)
+                                 << " s  (elapsed " << fmt (since (t_start)) << " s)\n";
       };
 
       // Reads (warm page cache: the file was just written or read).
@@ -1065,6 +1071,6 @@ main (int argc, char** argv)
         budgetRows ();
     }
   }
-  std::cerr << "[omicron] done in " << fmt (since (t_start)) << " s\n";
+  pclx::bench::progress () << "[omicron] done in " << fmt (since (t_start)) << " s\n";
   return 0;
 }

@@ -1,4 +1,4 @@
-// profile_omicron: stage breakdown of one in-memory ObliqueCutOctree build (issue 9 profiling).
+// profile_omicron: stage breakdown of one in-memory ObliqueCutOctree build.
 //   profile_omicron FILE.pcd [--file] [--threads 2] [--repeat 3]
 // Loads FILE with pcl::io::loadPCDFile (or, with --file, builds from the file path) and prints
 // the build's stage times (Statistics) and the minor page faults of the build (getrusage).

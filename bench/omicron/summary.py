@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """Target table of a bench_omicron CSV (markdown on stdout).
 
-  /usr/bin/python3 bench/omicron/summary.py docs/results/omicron/omicron_full.csv
+  /usr/bin/python3 bench/omicron/summary.py docs/results/omicron/omicron.csv
+
+With several runs in the file, the first row of each case counts.
 """
 import os
 import sys

@@ -6,8 +6,9 @@ Runs the app off-screen (every frame processed) and reads its per-frame stage ti
           stages switched on one after another: the frame rate each stage leaves;
   plan    HPR + normals only, on generated frames at 320x240 and 640x480, over VoxelGrid leaves:
           what reaches 30 fps;
-and writes pipeline_budget.csv (one row per run and frame), pipeline_budget.md (the tables) and
-pipeline_stage_times.png (stage time against frame index, all stages on).
+and writes pipeline.csv (one row per run and frame) and pipeline_stage_times.png (stage time against
+frame index, all stages on) into DIR, and prints the tables (also left in the work directory as
+pipeline_budget.md) for docs/results/pipeline/summary.md.
   pipeline_budget.py --app APP --make-frames MAKE_IDC_FRAMES --out DIR [--shared DIR]
 """
 import argparse
@@ -84,11 +85,12 @@ def main():
                 rows_out.append(["plan", "%s %dx%d" % (name, w, h), "hpr+normals", voxel] + [r["frame"]] +
                                 [r[s + "_ms"] for s in STAGES])
 
-    with open(os.path.join(args.out, "pipeline_budget.csv"), "w", newline="") as f:
+    with open(os.path.join(args.out, "pipeline.csv"), "w", newline="") as f:
         wr = csv.writer(f)
         wr.writerow(["run", "input", "stages", "voxel", "frame"] + [s + "_ms" for s in STAGES])
         wr.writerows(rows_out)
-    with open(os.path.join(args.out, "pipeline_budget.md"), "w") as f:
+    tables = os.path.join(work, "pipeline_budget.md")
+    with open(tables, "w") as f:
         f.write("# pclx_pipeline: per-stage budget (2 cores, %d frames per run, first frame left out)\n\n" % args.frames)
         f.write("## Stages switched on one after another: %s\n\n" % room_name)
         f.write("| stages on | " + " | ".join(STAGES) + " | total ms | fps |\n|---|" + "---|" * (len(STAGES) + 2) + "\n")
@@ -124,7 +126,7 @@ def main():
         fig.savefig(os.path.join(args.out, "pipeline_stage_times.png"), dpi=90)
     except ImportError:
         print("[pipeline_budget] matplotlib missing: no chart", file=sys.stderr)
-    print(open(os.path.join(args.out, "pipeline_budget.md")).read())
+    print(open(tables).read())
     return 0
 
 

@@ -53,13 +53,11 @@ msSince (Clock::time_point t0)
   return std::chrono::duration<double, std::milli> (Clock::now () - t0).count ();
 }
 
+// Resident set size of this process now, in MiB.
 double
 rssMiB ()
 {
-  std::ifstream in ("/proc/self/statm");
-  long pages = 0, resident = 0;
-  in >> pages >> resident;
-  return resident * 4096.0 / 1048576.0;
+  return static_cast<double> (pclx::bench::procStatusKb ("VmRSS")) / 1024.0;
 }
 
 double
@@ -85,7 +83,7 @@ struct Sequence
   std::string name;
   bool pinhole = true, has_truth = false, object = false;
   TriangleMesh truth;
-  pclx::surface::DepthIntrinsics K;
+  pcl::DepthIntrinsics K;
   std::vector<Frame> frames;
   std::vector<double> leaves;       // IDC detail levels (metres)
   std::vector<double> tsdf_voxels;  // Open3D's voxel sweep (metres; pinhole sequences)
@@ -391,7 +389,7 @@ bunnyScans (const std::string& dir, const TriangleMesh& zipper, std::size_t max_
 }
 
 pcl::PointCloud<pcl::PointXYZ>::Ptr
-cameraCloud (const Frame& f, const pclx::surface::DepthIntrinsics& K)
+cameraCloud (const Frame& f, const pcl::DepthIntrinsics& K)
 {
   if (f.organized)
     return f.organized;
@@ -584,7 +582,7 @@ struct Bench
     for (double x : frame_ms) total += x;
     out.row ("surface", method, params, s.name, s.frames.size (), total / 1e3, m);
     if (total > 3e3)
-      std::cerr << "bench_idc:   " << method << " " << params << ": " << total / 1e3 << " s\n";
+      pclx::bench::progress () << "bench_idc:   " << method << " " << params << ": " << total / 1e3 << " s\n";
   }
 
   void
@@ -901,11 +899,11 @@ writePreview (const Sequence& s, const std::string& dir, std::size_t samples)
 void
 runSequence (Bench& bench, const Sequence& s, const Options& opt)
 {
-  std::cerr << "bench_idc: " << s.name << ", " << s.frames.size () << " frames\n";
+  pclx::bench::progress () << "bench_idc: " << s.name << ", " << s.frames.size () << " frames\n";
   const std::unique_ptr<Truth> truth = makeTruth (s, bench.samples);
   if (truth)
-    std::cerr << "bench_idc:   truth seen by the frames: " << truth->samples.size () << " of " << truth->all_samples
-              << " samples (" << 100.0 * truth->seenFraction () << " %)\n";
+    pclx::bench::progress () << "bench_idc:   truth seen by the frames: " << truth->samples.size () << " of "
+                             << truth->all_samples << " samples (" << 100.0 * truth->seenFraction () << " %)\n";
   for (double leaf : s.leaves)
     bench.idc (s, leaf, 0, false, truth.get (), true);
 #ifdef PCLX_HAVE_OPEN3D
@@ -951,7 +949,10 @@ main (int argc, char** argv)
   app.add_option ("--collapse-ratio", collapse_ratio, "front-end edge-collapse target ratio")->capture_default_str ();
   app.add_option ("--collapse-error", collapse_error, "front-end collapse error bound (m; 0 auto, < 0 none)")
       ->capture_default_str ();
+  bool verbose = false;
+  app.add_flag ("--verbose", verbose, "progress lines on stderr");
   CLI11_PARSE (app, argc, argv);
+  pclx::bench::setVerbose (verbose);
   const std::size_t samples = opt.quick ? 20000 : 100000;
   const std::vector<Sequence> seqs = loadSequences (opt);
   if (!opt.preview.empty ())

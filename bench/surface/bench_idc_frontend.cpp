@@ -1,4 +1,4 @@
-// bench_idc_frontend: the front end of incremental dual contouring (seed 004 §3.2–3.3,
+// bench_idc_frontend: the front end of incremental dual contouring (da Paz 2017 §3.2–3.3,
 // pcl::CoupledSimplification) per 640 × 480 frame, stage by stage, against
 // pcl::OrganizedFastMesh (PCL's connected cloud of an organized cloud) on the same frames:
 // the 50 7-Scenes frames (when ../shared/data exists) and frames rendered from generated
@@ -38,7 +38,7 @@ struct Frame
   std::string name;
   int width = 0, height = 0;
   std::vector<float> depth;  // metres
-  pclx::surface::DepthIntrinsics K;
+  pcl::DepthIntrinsics K;
   Eigen::Matrix4d pose = Eigen::Matrix4d::Identity ();
 };
 
@@ -162,7 +162,7 @@ main (int argc, char** argv)
     double tris_in = 0, tris_out = 0, clustered = 0, block = 0;
     for (const auto& f : frames)
     {
-      pclx::surface::FrameMesh m;
+      pcl::FrameMesh m;
       const double c0 = threadCpuMs ();
       if (!cs.compute (f.depth.data (), f.width, f.height, f.K, f.pose, m))
         continue;

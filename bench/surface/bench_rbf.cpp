@@ -1,4 +1,4 @@
-// pcl::RBFPOUReconstruction benchmark (issue 11): the whole pipeline beside PCL's and Open3D's
+// pcl::RBFPOUReconstruction benchmark: the whole pipeline beside PCL's and Open3D's
 // reconstructions, on clouds sampled from meshes with known ground truth.
 //
 // Methods (rows `surface,<method>,<params>,<input>,<points>,<seconds>,metric,value,...`):
@@ -97,7 +97,7 @@ fmt (double v)
 
 struct Options
 {
-  bool quick = false;
+  bool quick = false, verbose = false;
   int threads = 2;
   std::string csv, data_dir, sweeps = "main,mcrbf,robust,noise,noisy,scanest,size";
   std::size_t main_points = 20000, sweep_points = 10000, noisy_points = 100000, eval_samples = 50000;
@@ -124,9 +124,10 @@ public:
       file_ << "module,method,params,input,points,seconds,metric,value,...\n";
     }
   }
-  void comment (const std::string& text)
+  // A '#' line of the CSV file, echoed on stderr with --verbose (always when it is a warning).
+  void comment (const std::string& text, bool warning = false)
   {
-    std::cerr << "# " << text << "\n";
+    (warning ? std::cerr : pclx::bench::progress ()) << "# " << text << "\n";
     if (file_.is_open ())
       file_ << "# " << text << "\n" << std::flush;
   }
@@ -670,10 +671,11 @@ struct Bench
                    {{"time_limit_s", job.time_limit}, {"mem_limit_gb", opt.mem_limit_gb}});
       }
       ++done;
-      std::cerr << "[bench_rbf] " << std::fixed << std::setprecision (0) << since (start) << " s: " << c.sweep
-                << " " << c.truth->name << " " << n << " " << c.cond << " " << job.method << " " << job.params
-                << " -> " << status << " (" << std::setprecision (1) << since (t0) << " s)\n"
-                << std::defaultfloat;
+      pclx::bench::progress () << "[bench_rbf] " << std::fixed << std::setprecision (0) << since (start)
+                               << " s: " << c.sweep << " " << c.truth->name << " " << n << " " << c.cond << " "
+                               << job.method << " " << job.params << " -> " << status << " ("
+                               << std::setprecision (1) << since (t0) << " s)\n"
+                               << std::defaultfloat;
     }
   }
 };
@@ -684,7 +686,7 @@ int
 main (int argc, char** argv)
 {
   CLI::App app ("pcl::RBFPOUReconstruction benchmark: the whole pipeline against PCL Poisson, MarchingCubesHoppe, "
-                "MarchingCubesRBF and Open3D screened Poisson (issue 11)");
+                "MarchingCubesRBF and Open3D screened Poisson");
   Options opt;
   std::string sizes;
   app.add_flag ("--quick", opt.quick, "a few rows of every method on small clouds (well under a minute)");
@@ -708,7 +710,9 @@ main (int argc, char** argv)
       ->capture_default_str ();
   app.add_option ("--slow-time-limit", opt.slow_time_limit, "seconds per MarchingCubesRBF run")
       ->capture_default_str ();
+  app.add_flag ("--verbose", opt.verbose, "progress lines and the CSV file's '#' notes on stderr");
   CLI11_PARSE (app, argc, argv);
+  pclx::bench::setVerbose (opt.verbose);
   pclx::bench::passiveOpenMpWaits (argv);
   if (opt.threads < 1)
   {
@@ -736,7 +740,7 @@ main (int argc, char** argv)
   b.out.comment ("single-threaded peers: pcl_mc_hoppe, pcl_mc_rbf (pcl_poisson gets setThreads but its solver is "
                  "mostly serial); rbf, normals, o3d_poisson use the thread count");
 #ifndef PCLX_HAVE_OPEN3D
-  b.out.comment ("Open3D not found at build time: no o3d_poisson rows");
+  b.out.comment ("Open3D not found at build time: no o3d_poisson rows", true);
 #endif
 
   // Shapes: generated ones always; the bunny and fertility when the data folder is there.
@@ -798,7 +802,7 @@ main (int argc, char** argv)
     b.run (noisy, {rbfJob ("true", 0, false, th, tl), rbfJob ("true", 0, false, th, tl, true), o3dJob (7, th, tl)});
     const Case bad = b.makeCase (shape ("sphere"), "quick", "flip", 0.05, 3000);
     b.run (bad, {rbfJob ("true", 0, false, th, tl), rbfJob ("true", 0, true, th, tl)});
-    std::cerr << "[bench_rbf] done: " << b.done << " runs in " << since (b.start) << " s\n";
+    pclx::bench::progress () << "[bench_rbf] done: " << b.done << " runs in " << since (b.start) << " s\n";
     return 0;
   }
 
@@ -944,6 +948,6 @@ main (int argc, char** argv)
         b.run (c, jobs);
       }
 
-  std::cerr << "[bench_rbf] done: " << b.done << " runs in " << since (b.start) << " s\n";
+  pclx::bench::progress () << "[bench_rbf] done: " << b.done << " runs in " << since (b.start) << " s\n";
   return 0;
 }

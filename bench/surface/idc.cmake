@@ -1,4 +1,4 @@
-# Incremental dual contouring (issue 10): the front end per frame (bench_idc_frontend) and the
+# Incremental dual contouring: the front end per frame (bench_idc_frontend) and the
 # whole pipeline against Open3D's ScalableTSDFVolume and PCL's MarchingCubesHoppe /
 # GreedyProjectionTriangulation (bench_idc).
 # The 7-Scenes reader is pclx_appkit's (apps/common), built with the apps.

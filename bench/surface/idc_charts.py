@@ -31,7 +31,7 @@ def load(path):
     rows = []
     with open(path) as f:
         for r in csv.reader(f):
-            if not r or r[0] != "surface":
+            if not r or r[0] != "surface" or "sweep=" in r[2]:  # bench_rbf rows share surface.csv
                 continue
             d = dict(method=r[1], input=r[3], frames=int(r[4]), seconds=float(r[5]))
             for kv in r[2].split(";"):

@@ -1,4 +1,4 @@
-# bench_rbf: pcl::RBFPOUReconstruction (issue 11), the whole pipeline (our normals + MST, PCA
+# bench_rbf: pcl::RBFPOUReconstruction, the whole pipeline (our normals + MST, PCA
 # normals + MST, true normals) against PCL Poisson, MarchingCubesHoppe, MarchingCubesRBF and,
 # when found, Open3D's screened Poisson. Every method runs in a forked child (peak memory,
 # address-space and time limits); see bench_rbf.cpp.

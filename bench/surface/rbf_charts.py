@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Charts of bench_rbf rows (pcl::RBFPOUReconstruction against PCL and Open3D, issue 11).
+"""Charts of bench_rbf rows (pcl::RBFPOUReconstruction against PCL and Open3D).
 
-  python3 bench/surface/rbf_charts.py docs/results/surface/rbf.csv --out docs/results/surface
+  python3 bench/surface/rbf_charts.py docs/results/surface/surface.csv --out docs/results/surface
 
 Reads rows with bench/plot.py's reader and draws
   rbf_error_vs_time_clean.png / _scan.png   Chamfer error against time, every method over its sweep
@@ -435,7 +435,7 @@ def main():
     ap.add_argument("--out", default="docs/results/surface")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    rows = [r for r in read_rows(args.csv) if r["module"] == "surface"]
+    rows = [r for r in read_rows(args.csv) if r["module"] == "surface" and "p_sweep" in r]  # bench_rbf rows, not bench_idc's
     if not rows:
         sys.exit("rbf_charts.py: no surface rows in " + " ".join(args.csv))
     written = [p for p in (error_vs_time(rows, "clean", args.out), error_vs_time(rows, "scan", args.out),

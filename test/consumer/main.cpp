@@ -248,7 +248,7 @@ obliqueCutFront ()
   octree.setMaxDepth (6);
   const bool built = octree.build ();
   pcl::ObliqueCutOctree<pcl::PointXYZ>::Camera camera;
-  camera.view_projection = pcl::omicron::perspectiveLookAt (Eigen::Vector3f (0, 0, 4), Eigen::Vector3f::Zero (),
+  camera.view_projection = pcl::perspectiveLookAt (Eigen::Vector3f (0, 0, 4), Eigen::Vector3f::Zero (),
                                                             float (M_PI) / 3.f, 640.f / 480.f, 0.1f, 100.f);
   camera.width = 640;
   camera.height = 480;

@@ -84,24 +84,125 @@ plural (std::uint64_t n, const char* what)
   return std::to_string (n) + " " + what + (n == 1 ? "" : "s");
 }
 
-FileCheck
-checkPcd (const std::string& path, const std::string& head, std::uintmax_t file_size)
+// The PCD header as read so far (checkPcd's stages share it).
+struct PcdHeader
 {
   FileCheck info;
-  info.format = CloudFormat::PCD;
-  info.file_size = file_size;
   std::vector<std::uint64_t> sizes, counts;
   std::vector<char> types;
   bool have_width = false, have_height = false, have_points = false;
-  std::size_t pos = 0;
+  std::size_t pos = 0;  // after the DATA line: where the data starts
+};
+
+// SIZE, TYPE or COUNT: one entry per field, in PCL's order FIELDS, SIZE, TYPE, COUNT.
+void
+readPcdFieldList (const std::string& path, const std::vector<std::string>& w, PcdHeader& h)
+{
+  const std::string& key = w[0];
+  const std::size_t n = w.size () - 1;
+  if (h.info.fields.empty () || (key != "SIZE" && h.sizes.empty ()) || (key == "COUNT" && h.types.empty ()))
+    fail (path, key + " comes before FIELDS, SIZE or TYPE");
+  if ((key == "SIZE" && !h.sizes.empty ()) || (key == "TYPE" && !h.types.empty ()) ||
+      (key == "COUNT" && !h.counts.empty ()))
+    fail (path, key + " appears twice");
+  if (n != h.info.fields.size ())
+    fail (path, key + " has " + std::to_string (n) + " entries for " + plural (h.info.fields.size (), "field"));
+  for (std::size_t i = 1; i <= n; ++i)
+  {
+    if (key == "TYPE")
+    {
+      if (w[i].size () != 1 || std::string ("IUF").find (w[i][0]) == std::string::npos)
+        fail (path, "TYPE '" + w[i] + "' is not I, U or F");
+      h.types.push_back (w[i][0]);
+      continue;
+    }
+    std::uint64_t v;
+    if (!parseCount (w[i], v))
+      fail (path, key + " '" + w[i] + "' is not a count");
+    if (key == "SIZE" && v != 1 && v != 2 && v != 4 && v != 8)
+      fail (path, "SIZE " + w[i] + " is not 1, 2, 4 or 8 bytes");
+    if (key == "COUNT" && (v == 0 || v > 1u << 20))
+      fail (path, "COUNT " + w[i] + " is out of range");
+    (key == "SIZE" ? h.sizes : h.counts).push_back (v);
+  }
+}
+
+// WIDTH, HEIGHT or POINTS: one count, not absurd.
+void
+readPcdDimension (const std::string& path, const std::vector<std::string>& w, PcdHeader& h)
+{
+  const std::string& key = w[0];
+  std::uint64_t v;
+  if (w.size () != 2 || !parseCount (w[1], v))
+    fail (path, key + " is not a count");
+  if (v > kMaxPoints)
+    fail (path, key + " " + w[1] + " is absurd (more than " + std::to_string (kMaxPoints) + ")");
+  if (key == "POINTS" && h.sizes.empty ())
+    fail (path, "POINTS comes before SIZE");
+  if (key == "WIDTH")
+    h.info.width = static_cast<std::uint32_t> (v), h.have_width = true;
+  else if (key == "HEIGHT")
+    h.info.height = static_cast<std::uint32_t> (v), h.have_height = true;
+  else
+    h.info.points = v, h.have_points = true;
+}
+
+// One header line split into words; returns true at the DATA line.
+bool
+readPcdHeaderLine (const std::string& path, const std::string& line, const std::vector<std::string>& w, PcdHeader& h)
+{
+  const std::string& key = w[0];
+  const std::size_t n = w.size () - 1;
+  if (key == "VERSION")
+    return false;
+  if (key == "FIELDS" || key == "COLUMNS")
+  {
+    if (n == 0)
+      fail (path, "FIELDS lists no fields");
+    if (!h.info.fields.empty ())
+      fail (path, "FIELDS appears twice");
+    h.info.fields.assign (w.begin () + 1, w.end ());
+    return false;
+  }
+  if (key == "SIZE" || key == "TYPE" || key == "COUNT")
+  {
+    readPcdFieldList (path, w, h);
+    return false;
+  }
+  if (key == "WIDTH" || key == "HEIGHT" || key == "POINTS")
+  {
+    readPcdDimension (path, w, h);
+    return false;
+  }
+  if (key == "VIEWPOINT")
+  {
+    double v;
+    if (n != 7 || !std::all_of (w.begin () + 1, w.end (), [&v] (const std::string& s) { return parseNumber (s, v); }))
+      fail (path, "VIEWPOINT needs 7 numbers");
+    return false;
+  }
+  if (key == "DATA")
+  {
+    if (n != 1 || (w[1] != "ascii" && w[1] != "binary" && w[1] != "binary_compressed"))
+      fail (path, "DATA must be ascii, binary or binary_compressed");
+    h.info.encoding = w[1];
+    return true;
+  }
+  fail (path, "unknown PCD header line '" + line.substr (0, 40) + "'");
+}
+
+// The header lines up to DATA, read the way PCL reads them.
+void
+readPcdHeader (const std::string& path, const std::string& head, PcdHeader& h)
+{
   std::string line;
   while (true)
   {
-    if (pos >= kMaxHeader)
+    if (h.pos >= kMaxHeader)
       fail (path, "no DATA line in the first " + std::to_string (kMaxHeader) + " bytes (not a PCD file?)");
     // With the CR: PCL skips only truly empty lines, and stops its header at a line of
     // white space such as a lone "\r".
-    if (!nextLine (head, pos, line, true))
+    if (!nextLine (head, h.pos, line, true))
       fail (path, "the PCD header ends before its DATA line (truncated or not a PCD file)");
     if (line.empty ())
       continue;
@@ -116,88 +217,23 @@ checkPcd (const std::string& path, const std::string& head, std::uintmax_t file_
       fail (path, "the PCD header has a blank line before DATA");
     if (w[0][0] == '#')
       continue;
-    const std::string& key = w[0];
-    const std::size_t n = w.size () - 1;
-    if (key == "VERSION")
-      continue;
-    if (key == "FIELDS" || key == "COLUMNS")
-    {
-      if (n == 0)
-        fail (path, "FIELDS lists no fields");
-      if (!info.fields.empty ())
-        fail (path, "FIELDS appears twice");
-      info.fields.assign (w.begin () + 1, w.end ());
-      continue;
-    }
-    if (key == "SIZE" || key == "TYPE" || key == "COUNT")
-    {
-      // PCL's order: FIELDS, SIZE, TYPE, COUNT.
-      if (info.fields.empty () || (key != "SIZE" && sizes.empty ()) || (key == "COUNT" && types.empty ()))
-        fail (path, key + " comes before FIELDS, SIZE or TYPE");
-      if ((key == "SIZE" && !sizes.empty ()) || (key == "TYPE" && !types.empty ()) || (key == "COUNT" && !counts.empty ()))
-        fail (path, key + " appears twice");
-      if (n != info.fields.size ())
-        fail (path, key + " has " + std::to_string (n) + " entries for " + plural (info.fields.size (), "field"));
-      for (std::size_t i = 1; i <= n; ++i)
-      {
-        if (key == "TYPE")
-        {
-          if (w[i].size () != 1 || std::string ("IUF").find (w[i][0]) == std::string::npos)
-            fail (path, "TYPE '" + w[i] + "' is not I, U or F");
-          types.push_back (w[i][0]);
-          continue;
-        }
-        std::uint64_t v;
-        if (!parseCount (w[i], v))
-          fail (path, key + " '" + w[i] + "' is not a count");
-        if (key == "SIZE" && v != 1 && v != 2 && v != 4 && v != 8)
-          fail (path, "SIZE " + w[i] + " is not 1, 2, 4 or 8 bytes");
-        if (key == "COUNT" && (v == 0 || v > 1u << 20))
-          fail (path, "COUNT " + w[i] + " is out of range");
-        (key == "SIZE" ? sizes : counts).push_back (v);
-      }
-      continue;
-    }
-    if (key == "WIDTH" || key == "HEIGHT" || key == "POINTS")
-    {
-      std::uint64_t v;
-      if (n != 1 || !parseCount (w[1], v))
-        fail (path, key + " is not a count");
-      if (v > kMaxPoints)
-        fail (path, key + " " + w[1] + " is absurd (more than " + std::to_string (kMaxPoints) + ")");
-      if (key == "POINTS" && sizes.empty ())
-        fail (path, "POINTS comes before SIZE");
-      if (key == "WIDTH")
-        info.width = static_cast<std::uint32_t> (v), have_width = true;
-      else if (key == "HEIGHT")
-        info.height = static_cast<std::uint32_t> (v), have_height = true;
-      else
-        info.points = v, have_points = true;
-      continue;
-    }
-    if (key == "VIEWPOINT")
-    {
-      double v;
-      if (n != 7 || !std::all_of (w.begin () + 1, w.end (), [&v] (const std::string& s) { return parseNumber (s, v); }))
-        fail (path, "VIEWPOINT needs 7 numbers");
-      continue;
-    }
-    if (key == "DATA")
-    {
-      if (n != 1 || (w[1] != "ascii" && w[1] != "binary" && w[1] != "binary_compressed"))
-        fail (path, "DATA must be ascii, binary or binary_compressed");
-      info.encoding = w[1];
-      break;
-    }
-    fail (path, "unknown PCD header line '" + line.substr (0, 40) + "'");
+    if (readPcdHeaderLine (path, line, w, h))
+      return;
   }
-  if (info.fields.empty () || sizes.empty () || types.empty ())
+}
+
+// The header's parts agree with each other; returns the bytes and the values of a point.
+std::pair<std::uint64_t, std::uint64_t>
+checkPcdLayout (const std::string& path, PcdHeader& h)
+{
+  FileCheck& info = h.info;
+  if (info.fields.empty () || h.sizes.empty () || h.types.empty ())
     fail (path, "the PCD header lacks FIELDS, SIZE or TYPE");
-  if (counts.empty ())
-    counts.assign (info.fields.size (), 1);
-  if (!have_width || !have_height)
+  if (h.counts.empty ())
+    h.counts.assign (info.fields.size (), 1);
+  if (!h.have_width || !h.have_height)
     fail (path, "the PCD header lacks WIDTH or HEIGHT");
-  if (!have_points)
+  if (!h.have_points)
     info.points = std::uint64_t (info.width) * info.height;
   if (std::uint64_t (info.width) * info.height != info.points)
     fail (path, "WIDTH x HEIGHT (" + std::to_string (info.width) + " x " + std::to_string (info.height) +
@@ -207,15 +243,20 @@ checkPcd (const std::string& path, const std::string& head, std::uintmax_t file_
   std::uint64_t point_bytes = 0, values = 0;
   for (std::size_t i = 0; i < info.fields.size (); ++i)
   {
-    if (types[i] == 'F' && sizes[i] != 4 && sizes[i] != 8)
-      fail (path, "field '" + info.fields[i] + "' is F with SIZE " + std::to_string (sizes[i]));
-    point_bytes += sizes[i] * counts[i];
-    values += counts[i];
+    if (h.types[i] == 'F' && h.sizes[i] != 4 && h.sizes[i] != 8)
+      fail (path, "field '" + info.fields[i] + "' is F with SIZE " + std::to_string (h.sizes[i]));
+    point_bytes += h.sizes[i] * h.counts[i];
+    values += h.counts[i];
   }
-  const std::uint64_t data_offset = pos;
-  // PCL goes on reading header lines after DATA until one is not a header keyword: data
-  // that starts like one (binary bytes "WIDTH...") would be read as header.
-  for (std::size_t p = pos; p < head.size ();)
+  return {point_bytes, values};
+}
+
+// PCL goes on reading header lines after DATA until one is not a header keyword: data
+// that starts like one (binary bytes "WIDTH...") would be read as header.
+void
+refuseHeaderAfterData (const std::string& path, const std::string& head, std::size_t data_offset)
+{
+  for (std::size_t p = data_offset; p < head.size ();)
   {
     std::size_t end = head.find ('\n', p);
     if (end == std::string::npos)
@@ -233,6 +274,13 @@ checkPcd (const std::string& path, const std::string& head, std::uintmax_t file_
     if (token.empty () || (token[0] != '#' && token.rfind ("VERSION", 0) != 0))
       break;
   }
+}
+
+// The data after the header is long enough for the declared points.
+void
+checkPcdDataSize (const std::string& path, const std::string& head, std::uintmax_t file_size, const FileCheck& info,
+                  std::uint64_t data_offset, std::uint64_t point_bytes, std::uint64_t values)
+{
   const std::uint64_t available = file_size > data_offset ? file_size - data_offset : 0;
   if (info.encoding == "binary")
   {
@@ -257,7 +305,20 @@ checkPcd (const std::string& path, const std::string& head, std::uintmax_t file_
   else if (Wide (available) + 1 < Wide (2) * info.points * values)
     fail (path, "ascii data of " + std::to_string (available) + " bytes cannot hold " + plural (info.points, "point") +
                     " of " + plural (values, "value"));
-  return info;
+}
+
+// Header lines, then their agreement, then what follows DATA, then the data's size.
+FileCheck
+checkPcd (const std::string& path, const std::string& head, std::uintmax_t file_size)
+{
+  PcdHeader h;
+  h.info.format = CloudFormat::PCD;
+  h.info.file_size = file_size;
+  readPcdHeader (path, head, h);
+  const auto [point_bytes, values] = checkPcdLayout (path, h);
+  refuseHeaderAfterData (path, head, h.pos);
+  checkPcdDataSize (path, head, file_size, h.info, h.pos, point_bytes, values);
+  return h.info;
 }
 
 std::uint64_t
@@ -279,25 +340,68 @@ plyIntegerType (const std::string& t)
   return plyTypeSize (t) > 0 && t.find ("float") == std::string::npos && t != "double";
 }
 
-FileCheck
-checkPly (const std::string& path, const std::string& head, std::uintmax_t file_size)
+// A PLY element as its header declares it.
+struct PlyElement
 {
-  FileCheck info;
-  info.format = CloudFormat::PLY;
-  info.file_size = file_size;
-  struct Element
+  std::string name;
+  std::uint64_t count = 0, fixed_bytes = 0, lists = 0, list_bytes = 0, values = 0;
+  std::vector<std::string> properties;
+};
+
+// An "element <name> <count>" line.
+void
+readPlyElement (const std::string& path, const std::string& line, const std::vector<std::string>& w,
+                std::vector<PlyElement>& elements)
+{
+  PlyElement e;
+  if (w.size () != 3 || !parseCount (w[2], e.count))
+    fail (path, "element line '" + line.substr (0, 60) + "' needs a name and a count");
+  if (e.count > kMaxPoints)
+    fail (path, "element " + w[1] + " count " + w[2] + " is absurd (more than " + std::to_string (kMaxPoints) + ")");
+  for (const auto& other : elements)
+    if (other.name == w[1])
+      fail (path, "element " + w[1] + " appears twice");
+  e.name = w[1];
+  elements.push_back (e);
+}
+
+// A "property <type> <name>" or "property list <count type> <type> <name>" line.
+void
+readPlyProperty (const std::string& path, const std::string& line, const std::vector<std::string>& w,
+                 std::vector<PlyElement>& elements)
+{
+  if (elements.empty ())
+    fail (path, "property before any element");
+  PlyElement& e = elements.back ();
+  if (w.size () == 3 && plyTypeSize (w[1]) > 0)
   {
-    std::string name;
-    std::uint64_t count = 0, fixed_bytes = 0, lists = 0, list_bytes = 0, values = 0;
-    std::vector<std::string> properties;
-  };
-  std::vector<Element> elements;
+    e.fixed_bytes += plyTypeSize (w[1]);
+    ++e.values;
+    e.properties.push_back (w[2]);
+  }
+  else if (w.size () == 5 && w[1] == "list" && plyIntegerType (w[2]) && plyTypeSize (w[3]) > 0)
+  {
+    ++e.lists;
+    e.list_bytes += plyTypeSize (w[2]);
+    e.properties.push_back (w[4]);
+  }
+  else
+    fail (path, "property line '" + line.substr (0, 60) + "' is malformed");
+  const auto& props = e.properties;
+  if (std::count (props.begin (), props.end (), props.back ()) > 1)
+    fail (path, "property " + props.back () + " of element " + e.name + " appears twice");
+}
+
+// The header lines up to end_header; returns the offset of the data.
+std::size_t
+readPlyHeader (const std::string& path, const std::string& head, FileCheck& info, std::vector<PlyElement>& elements)
+{
   std::size_t pos = 0;
   std::string line;
   if (!nextLine (head, pos, line) || line != "ply")
     fail (path, "does not start with the PLY magic line 'ply'");
-  bool have_format = false, ended = false;
-  while (!ended)
+  bool have_format = false;
+  while (true)
   {
     if (pos >= kMaxHeader)
       fail (path, "no end_header in the first " + std::to_string (kMaxHeader) + " bytes");
@@ -325,49 +429,25 @@ checkPly (const std::string& path, const std::string& head, std::uintmax_t file_
       info.encoding = w[1];
     }
     else if (key == "element")
-    {
-      Element e;
-      if (w.size () != 3 || !parseCount (w[2], e.count))
-        fail (path, "element line '" + line.substr (0, 60) + "' needs a name and a count");
-      if (e.count > kMaxPoints)
-        fail (path, "element " + w[1] + " count " + w[2] + " is absurd (more than " + std::to_string (kMaxPoints) + ")");
-      for (const auto& other : elements)
-        if (other.name == w[1])
-          fail (path, "element " + w[1] + " appears twice");
-      e.name = w[1];
-      elements.push_back (e);
-    }
+      readPlyElement (path, line, w, elements);
     else if (key == "property")
-    {
-      if (elements.empty ())
-        fail (path, "property before any element");
-      Element& e = elements.back ();
-      if (w.size () == 3 && plyTypeSize (w[1]) > 0)
-      {
-        e.fixed_bytes += plyTypeSize (w[1]);
-        ++e.values;
-        e.properties.push_back (w[2]);
-      }
-      else if (w.size () == 5 && w[1] == "list" && plyIntegerType (w[2]) && plyTypeSize (w[3]) > 0)
-      {
-        ++e.lists;
-        e.list_bytes += plyTypeSize (w[2]);
-        e.properties.push_back (w[4]);
-      }
-      else
-        fail (path, "property line '" + line.substr (0, 60) + "' is malformed");
-      const auto& props = e.properties;
-      if (std::count (props.begin (), props.end (), props.back ()) > 1)
-        fail (path, "property " + props.back () + " of element " + e.name + " appears twice");
-    }
+      readPlyProperty (path, line, w, elements);
     else if (key == "end_header")
-      ended = true;
+      break;
     else
       fail (path, "unknown PLY header line '" + line.substr (0, 40) + "'");
   }
   if (!have_format)
     fail (path, "the PLY header has no format line");
-  const auto vertex = std::find_if (elements.begin (), elements.end (), [] (const Element& e) { return e.name == "vertex"; });
+  return pos;
+}
+
+// A vertex element with x, y, z and no lists, and only elements PCL reads; returns the vertex element.
+const PlyElement&
+checkPlyElements (const std::string& path, const std::vector<PlyElement>& elements, FileCheck& info)
+{
+  const auto vertex =
+      std::find_if (elements.begin (), elements.end (), [] (const PlyElement& e) { return e.name == "vertex"; });
   if (vertex == elements.end ())
     fail (path, "has no vertex element");
   for (const char* axis : {"x", "y", "z"})
@@ -389,11 +469,24 @@ checkPly (const std::string& path, const std::string& head, std::uintmax_t file_
     if (e.properties.empty () && e.count > 0)
       fail (path, "element " + e.name + " has no properties");
   }
-  info.points = vertex->count;
-  info.width = static_cast<std::uint32_t> (vertex->count);
+  return *vertex;
+}
+
+// Header lines, then the elements, then the data's size: the smallest data the elements
+// need (fixed rows exact, each list at least its count).
+FileCheck
+checkPly (const std::string& path, const std::string& head, std::uintmax_t file_size)
+{
+  FileCheck info;
+  info.format = CloudFormat::PLY;
+  info.file_size = file_size;
+  std::vector<PlyElement> elements;
+  const std::size_t pos = readPlyHeader (path, head, info, elements);
+  const PlyElement& vertex = checkPlyElements (path, elements, info);
+  info.points = vertex.count;
+  info.width = static_cast<std::uint32_t> (vertex.count);
   info.height = 1;
-  info.fields = vertex->properties;
-  // Smallest data the elements need: fixed rows exact, each list at least its count.
+  info.fields = vertex.properties;
   const std::uint64_t available = file_size > pos ? file_size - pos : 0;
   Wide need = 0;
   const bool ascii = info.encoding == "ascii";
@@ -401,7 +494,7 @@ checkPly (const std::string& path, const std::string& head, std::uintmax_t file_
     need += ascii ? Wide (2) * e.count * (e.values + e.lists) : Wide (e.count) * (e.fixed_bytes + e.list_bytes);
   if (ascii ? Wide (available) + 1 < need : available < need)
     fail (path, (ascii ? "ascii" : "binary") + std::string (" data of ") + std::to_string (available) +
-                    " bytes cannot hold " + plural (vertex->count, "vertex") + " and the other elements" +
+                    " bytes cannot hold " + plural (vertex.count, "vertex") + " and the other elements" +
                     (ascii ? "" : " (truncated?)"));
   return info;
 }

@@ -1,4 +1,4 @@
-#include <pclx/hpr/angular_grid.h>
+#include <pclx/hpr/detail/angular_grid.h>
 
 #include "stage_profile.h"
 
@@ -14,8 +14,9 @@
 #include <omp.h>
 #endif
 
-namespace pcl {
+namespace pclx {
 namespace hpr {
+namespace detail {
 
 namespace {
 constexpr double kPi = 3.14159265358979323846;
@@ -42,9 +43,8 @@ atomicMin (std::uint64_t& target, std::uint64_t value)
 }
 // The smallest packed key per slot, over points scored in parallel. Each thread keeps its
 // own row of slots while the rows take at most 64 MB (merged by best ()): with one shared
-// array, two threads' loads and compare-exchanges on the same lines made the grid's
-// assignment only 1.13× faster than one thread at 1M points. Above that, one shared row with
-// atomic minima.
+// array, the threads' loads and compare-exchanges on the same cache lines take away most of
+// the parallel gain. Above that, one shared row with atomic minima.
 class BestKeys
 {
 public:
@@ -103,6 +103,13 @@ AngularGrid::build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   buildGrid (points, centre, &radius_for_area, 0.0, sectors);
 }
 
+// The extent of the points' sector coordinates: (y/x, z/x) on gnomonic grids, (φ, θ) on
+// wide ones.
+struct AngularGrid::Extent
+{
+  float a_min, a_max, b_min, b_max;
+};
+
 void
 AngularGrid::buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre,
                         const std::function<double (double)>* radius_for_area, double radius, std::size_t sectors)
@@ -113,8 +120,25 @@ AngularGrid::buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen:
     throw std::invalid_argument ("AngularGrid: needs points and k > 0");
   if (n >= std::numeric_limits<std::int32_t>::max ())
     throw std::invalid_argument ("AngularGrid: too many points");
+  setFrame (centre);
+  Extent extent = pointDirections (points);
+  HPR_LAP ("build.unit_rho");
+  if (!gnomonic_)
+    extent = sphericalCoordinates ();
+  HPR_LAP ("build.sector_coords");
+  layoutSectors (extent, radius_for_area, radius, sectors);
+  HPR_LAP ("build.layout");
+  assignCandidates ();
+  HPR_LAP ("build.assign_score");
+  buildEmptyMap ();
+  HPR_LAP ("build.candidates_empty");
+}
 
-  // Frame (§4.1): x through the cloud centre; z from the world axis least aligned with x.
+void
+AngularGrid::setFrame (const Eigen::Vector3d& centre)
+{
+  // Frame (Machado e Silva et al. 2014, §4.1): x through the cloud centre; z from the world
+  // axis least aligned with x.
   Eigen::Vector3d x = centre;
   x = x.norm () > 0 ? x.normalized () : Eigen::Vector3d::UnitX ();
   Eigen::Vector3d e = Eigen::Vector3d::UnitZ ();
@@ -125,17 +149,18 @@ AngularGrid::buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen:
   frame_.row (0) = x;
   frame_.row (1) = y;
   frame_.row (2) = z;
+}
 
-  // Directions in frame coordinates (all later tests are rotation invariant), and the
-  // gnomonic sector coordinates (see below) in the same pass: they are what almost every
-  // view uses, and a second pass over the directions cost ~30 % of this one.
+AngularGrid::Extent
+AngularGrid::pointDirections (const std::vector<Eigen::Vector3d>& points)
+{
+  // Directions in frame coordinates (all later tests are rotation invariant), and the extent
+  // of the gnomonic sector coordinates in the same pass: they are what almost every view
+  // uses, and this saves a second pass over the directions.
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t> (points.size ());
   unit_.resize (n);
   rho_.resize (n);
   sector_.resize (n);
-  // Wide views only: (φ, θ) per point (atan2 and acos are worth storing; the gnomonic
-  // coordinates are two divisions, recomputed where needed rather than written and read back).
-  std::vector<float>& ca = scratch_.ca;
-  std::vector<float>& cb = scratch_.cb;
   float min_x = 1.f;
   double rho0 = std::numeric_limits<double>::infinity ();
   float a_min = std::numeric_limits<float>::max (), a_max = std::numeric_limits<float>::lowest ();
@@ -158,82 +183,97 @@ AngularGrid::buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen:
     b_max = std::max (b_max, gb);
   }
   rho0_ = rho0;
-  HPR_LAP ("build.unit_rho");
-
-  // Sector coordinates. Narrow views (every point within 60° of the axis) use the
-  // gnomonic tiling (a, b) = (y/x, z/x): sectors are pyramids bounded by planes through
-  // C, like a cube face projected on the sphere (one of the tilings of §3), and cost two
-  // divisions per point. Wide views (C inside or beside the cloud) use the seed's
+  // Narrow views (every point within 60° of the axis) use the gnomonic tiling
+  // (a, b) = (y/x, z/x): sectors are pyramids bounded by planes through C, like a cube face
+  // projected on the sphere (one of the tilings of Machado e Silva et al. 2014, §3), and cost
+  // two divisions per point. Wide views (C inside or beside the cloud) use the paper's
   // spherical angles (φ, θ), with φ wrapping around the viewer.
   gnomonic_ = min_x > 0.5f;
-  if (!gnomonic_)
-  {
-    ca.resize (n);
-    cb.resize (n);
-    a_min = b_min = std::numeric_limits<float>::max ();
-    a_max = b_max = std::numeric_limits<float>::lowest ();
+  return {a_min, a_max, b_min, b_max};
+}
+
+AngularGrid::Extent
+AngularGrid::sphericalCoordinates ()
+{
+  // Wide views only: (φ, θ) per point (atan2 and acos are worth storing; the gnomonic
+  // coordinates are two divisions, recomputed where needed rather than written and read back).
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t> (unit_.size ());
+  std::vector<float>& ca = scratch_.ca;
+  std::vector<float>& cb = scratch_.cb;
+  ca.resize (n);
+  cb.resize (n);
+  float a_min, a_max, b_min, b_max;
+  a_min = b_min = std::numeric_limits<float>::max ();
+  a_max = b_max = std::numeric_limits<float>::lowest ();
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 8192) reduction(min : a_min, b_min) reduction(max : a_max, b_max)
-    for (std::ptrdiff_t i = 0; i < n; ++i)
-    {
-      const Eigen::Vector3f& u = unit_[i];
-      ca[i] = std::atan2 (u.y (), u.x ());
-      cb[i] = std::acos (std::clamp (u.z (), -1.f, 1.f));
-      a_min = std::min (a_min, ca[i]);
-      a_max = std::max (a_max, ca[i]);
-      b_min = std::min (b_min, cb[i]);
-      b_max = std::max (b_max, cb[i]);
-    }
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+  {
+    const Eigen::Vector3f& u = unit_[i];
+    ca[i] = std::atan2 (u.y (), u.x ());
+    cb[i] = std::acos (std::clamp (u.z (), -1.f, 1.f));
+    a_min = std::min (a_min, ca[i]);
+    a_max = std::max (a_max, ca[i]);
+    b_min = std::min (b_min, cb[i]);
+    b_max = std::max (b_max, cb[i]);
   }
-  HPR_LAP ("build.sector_coords");
+  return {a_min, a_max, b_min, b_max};
+}
+
+void
+AngularGrid::layoutCentres ()
+{
+  // Sector centres and their angles for the current n_phi_, n_theta_, phi0_, theta0_.
+  cell_ = std::sqrt (cell_phi_ * cell_theta_);
+  centre_a_.resize (n_phi_);
+  for (int i = 0; i < n_phi_; ++i)
+    centre_a_[i] = phi0_ + (i + 0.5) * cell_phi_;
+  centre_b_.resize (n_theta_);
+  for (int j = 0; j < n_theta_; ++j)
+    centre_b_[j] = theta0_ + (j + 0.5) * cell_theta_;
+  cos_phi_.resize (n_phi_);
+  sin_phi_.resize (n_phi_);
+  for (int i = 0; i < n_phi_; ++i)
+  {
+    cos_phi_[i] = std::cos (centre_a_[i]);
+    sin_phi_[i] = std::sin (centre_a_[i]);
+  }
+  cos_theta_.resize (n_theta_);
+  sin_theta_.resize (n_theta_);
+  for (int j = 0; j < n_theta_; ++j)
+  {
+    cos_theta_[j] = std::cos (centre_b_[j]);
+    sin_theta_[j] = std::sin (centre_b_[j]);
+  }
+}
+
+void
+AngularGrid::layoutSectors (Extent e, const std::function<double (double)>* radius_for_area, double radius,
+                            std::size_t sectors)
+{
   // The grid covers the cloud's extent (tighter than the enclosing-sphere frustum of
   // Eq. 2–3; the same for round clouds), with square cells.
-  wrap_phi_ = !gnomonic_ && (a_max - a_min) > kPi;
+  wrap_phi_ = !gnomonic_ && (e.a_max - e.a_min) > kPi;
   if (wrap_phi_)
   {
-    a_min = float (-kPi);
-    a_max = float (kPi);
+    e.a_min = float (-kPi);
+    e.a_max = float (kPi);
   }
   const double pad = 1e-6;
-  const double range_a = std::max (double (a_max) - a_min, 0.0) + 2 * pad;
-  const double range_b = std::max (double (b_max) - b_min, 0.0) + 2 * pad;
+  const double range_a = std::max (double (e.a_max) - e.a_min, 0.0) + 2 * pad;
+  const double range_b = std::max (double (e.b_max) - e.b_min, 0.0) + 2 * pad;
   // A cell size set by setCellSize () wins unless it would need more than `sectors` cells.
   const double cell = std::max (fixed_cell_, std::sqrt (range_a * range_b / double (sectors)));
-  // Sector centres and their angles for the current n_phi_, n_theta_, phi0_, theta0_.
-  auto layout = [this] {
-    cell_ = std::sqrt (cell_phi_ * cell_theta_);
-    centre_a_.resize (n_phi_);
-    for (int i = 0; i < n_phi_; ++i)
-      centre_a_[i] = phi0_ + (i + 0.5) * cell_phi_;
-    centre_b_.resize (n_theta_);
-    for (int j = 0; j < n_theta_; ++j)
-      centre_b_[j] = theta0_ + (j + 0.5) * cell_theta_;
-    cos_phi_.resize (n_phi_);
-    sin_phi_.resize (n_phi_);
-    for (int i = 0; i < n_phi_; ++i)
-    {
-      cos_phi_[i] = std::cos (centre_a_[i]);
-      sin_phi_[i] = std::sin (centre_a_[i]);
-    }
-    cos_theta_.resize (n_theta_);
-    sin_theta_.resize (n_theta_);
-    for (int j = 0; j < n_theta_; ++j)
-    {
-      cos_theta_[j] = std::cos (centre_b_[j]);
-      sin_theta_[j] = std::sin (centre_b_[j]);
-    }
-  };
   n_phi_ = std::max (1, int (std::ceil (range_a / cell - 1e-9)));
   n_theta_ = std::max (1, int (std::ceil (range_b / cell - 1e-9)));
-  phi0_ = wrap_phi_ ? -kPi : a_min - pad;
+  phi0_ = wrap_phi_ ? -kPi : e.a_min - pad;
   cell_phi_ = wrap_phi_ ? 2 * kPi / n_phi_ : cell;
-  theta0_ = b_min - pad;
+  theta0_ = e.b_min - pad;
   cell_theta_ = cell;
   // Angular size of a cell (gnomonic cells shrink as 1/(1 + a² + b²) away from the axis;
   // the axis value is what calibration and splats use).
-  layout ();
+  layoutCentres ();
   // R from the cloud's own extent (the outline ring below adds no solid angle of the cloud).
-  // The grid's solid angle only where R depends on it (a sum over every sector: 2 ms for the
-  // 130k sectors of a second refinement pass at 1M points).
+  // The grid's solid angle (a sum over every sector) only where R depends on it.
   radius_ = radius_for_area ? (*radius_for_area) (gridSolidAngle ()) : radius;
   if (outline_)
   {
@@ -246,12 +286,19 @@ AngularGrid::buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen:
     }
     n_theta_ += 2;
     theta0_ -= cell_theta_;
-    layout ();
+    layoutCentres ();
   }
-  const std::size_t k = std::size_t (n_phi_) * n_theta_;
+}
 
-  HPR_LAP ("build.layout");
-  // §4.2: sector of every point and the extreme (best scored) point per sector.
+void
+AngularGrid::assignCandidates ()
+{
+  // Machado e Silva et al. 2014, §4.2: sector of every point and the extreme (best scored)
+  // point per sector.
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t> (unit_.size ());
+  const std::size_t k = std::size_t (n_phi_) * n_theta_;
+  const std::vector<float>& ca = scratch_.ca;
+  const std::vector<float>& cb = scratch_.cb;
   const int threads = nt ();
   const BestKeys keys (scratch_.keys, k, threads);
   const float inv_a = float (1.0 / cell_phi_), inv_b = float (1.0 / cell_theta_);
@@ -283,7 +330,6 @@ AngularGrid::buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen:
       keys.offer (best_key, s, packKey (g, std::uint32_t (i)));
     }
   }
-  HPR_LAP ("build.assign_score");
   cand_.assign (k, -1);
   best_.assign (k, std::numeric_limits<double>::infinity ());
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 8192)
@@ -296,9 +342,15 @@ AngularGrid::buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen:
       best_[s] = score (cand_[s], std::size_t (s));
     }
   }
+}
 
-  // §4.3 EMPTY map: when k/n > 25 % it is kept on a coarser grid, so sectors inside the
-  // object's projection that merely received no sample are still visited.
+void
+AngularGrid::buildEmptyMap ()
+{
+  // Machado e Silva et al. 2014, §4.3, the EMPTY map: when k/n > 25 % it is kept on a coarser
+  // grid, so sectors inside the object's projection that merely received no sample are still
+  // visited.
+  const std::size_t n = unit_.size (), k = cand_.size ();
   empty_factor_ = 1;
   if (double (k) / double (n) > 0.25)
     empty_factor_ = int (std::ceil (std::sqrt (double (k) / double (n) / 0.25)));
@@ -318,7 +370,6 @@ AngularGrid::buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen:
   }
   else
     own_.clear ();
-  HPR_LAP ("build.candidates_empty");
 }
 
 void
@@ -547,7 +598,8 @@ AngularGrid::propagateAdaptive (int max_steps)
     }
     else
     {
-      // Few changes: scatter from the changed sectors only (the seed's CPU variant).
+      // Few changes: scatter from the changed sectors only (the CPU variant of Machado e
+      // Silva 2012, §4.3.3).
       for (std::size_t s : changed)
       {
         const int c = cand_[s];
@@ -705,7 +757,7 @@ AngularGrid::normalsAndSplats (const std::vector<Eigen::Vector3d>& points, std::
   const std::size_t k = cand_.size ();
   std::vector<Eigen::Vector3f> sector_normal (k, Eigen::Vector3f::Zero ());
   std::vector<float> sector_splat (k, 0.f);
-  // Circulation order around a sector (§5.3, Fig. 8a).
+  // Circulation order around a sector (Machado e Silva et al. 2014, §5.3, Fig. 8a).
   static const int ring[8][2] = {{-1, -1}, {-1, 0}, {-1, 1}, {0, 1}, {1, 1}, {1, 0}, {1, -1}, {0, -1}};
   const float half_diag = static_cast<float> (cell_ * std::sqrt (2.0) / 2);
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 256)
@@ -761,22 +813,109 @@ AngularGrid::normalsAndSplats (const std::vector<Eigen::Vector3d>& points, std::
   }
 }
 
+namespace {
+// The four triangles of a 2×2 quad of corner sectors 0…3 (both diagonals), and the edge
+// (ab, bc, ca) of each that lies on a diagonal (the other two bound the quad).
+constexpr int kQuadTriangles[4][3] = {{0, 1, 2}, {0, 2, 3}, {0, 1, 3}, {1, 2, 3}};
+constexpr int kQuadTriangleDiagonal[4] = {2, 0, 1, 2};
+}  // namespace
+
+// Tetrahedron (C, a, b, c) in flipped space: q is strictly inside when it is strictly
+// inside the cone of the three directions and strictly on C's side of plane(a, b, c).
+struct AngularGrid::Tetra
+{
+  Eigen::Vector3d edge[3];  // cone side normals, pointing inwards
+  double cone_eps;
+  Eigen::Vector3d w;        // plane normal, C's side positive
+  Eigen::Vector3d f;        // a point of the plane (flipped a)
+  double h;                 // inside when w·(q − f) > h (h > 0: the margin)
+  int diagonal;             // the edge on the quad's diagonal (the other two bound the quad)
+};
+
+// The tetrahedra of one 2×2 quad of sectors, the smallest ρ of their candidates, and the
+// quad row they were set up for (see runTetrahedronTests ()).
+struct AngularGrid::QuadSet
+{
+  Tetra t[4];
+  int count;
+  double min_rho;
+  int qa = std::numeric_limits<int>::min ();
+};
+
+// What the stages of interiorPoints () share: its arguments, the sizes, and the per-point
+// mask it returns when no survivor list is asked for.
+struct AngularGrid::InteriorPass
+{
+  const std::vector<Eigen::Vector3d>& points;
+  std::vector<int>* survivors = nullptr;
+  std::vector<Eigen::Vector3d>* survivor_points = nullptr;
+  std::vector<std::uint8_t>* survivor_in_band = nullptr;
+  std::vector<int>* outside_band = nullptr;
+  std::size_t n = 0, k = 0;  // points, sectors
+  double R2 = 0;             // 2R
+  bool with_own = false;     // quads may use a sector's own point in place of a repeated candidate
+  bool want_band = false;    // the caller asked for the uncertain band
+  bool with_cut = false;     // the depth cut runs (gnomonic grids with many points per sector)
+  int threads = 1;
+  std::vector<std::uint8_t> interior;
+
+  InteriorPass (const std::vector<Eigen::Vector3d>& pts, std::vector<int>* surv,
+                std::vector<Eigen::Vector3d>* surv_pts, std::vector<std::uint8_t>* surv_in_band,
+                std::vector<int>* outside)
+    : points (pts), survivors (surv), survivor_points (surv_pts), survivor_in_band (surv_in_band), outside_band (outside)
+  {
+  }
+};
+
 std::vector<std::uint8_t>
 AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::vector<int>* survivors,
                              std::vector<Eigen::Vector3d>* survivor_points,
                              std::vector<std::uint8_t>* survivor_in_band, std::vector<int>* outside_band) const
 {
   HPR_LAPS ();
-  const std::size_t n = unit_.size (), k = cand_.size ();
-  std::vector<std::uint8_t> interior (survivors ? 0 : n, 0);
+  InteriorPass pass (points, survivors, survivor_points, survivor_in_band, outside_band);
+  pass.n = unit_.size ();
+  pass.k = cand_.size ();
+  // Exactly the flip the hull sees (double, from the input points): a culled point must
+  // be interior to the very hull Qhull computes.
+  pass.R2 = 2.0 * radius_;
+  pass.with_own = own_.size () == pass.k;
+  pass.want_band = survivors && (survivor_in_band || outside_band);
+  // The depth cut only where sectors hold many points (the first pass): the refinement
+  // passes' grids hold the band, which lies near the surface, and have more sectors than points.
+  pass.with_cut = gnomonic_ && n_phi_ >= 3 && n_theta_ >= 3 && pass.n >= 8 * pass.k;
+  pass.threads = nt ();
+  pass.interior.assign (survivors ? 0 : pass.n, 0);
+
+  prepareCandidates (pass);
+  HPR_LAP ("interior.cand_flip");
+  // With a band asked for, culls within band_depth_ mark its seed sectors.
+  if (pass.want_band)
+    scratch_.seed.assign (pass.k, 0);
+  if (pass.with_cut)
+    computeDepthCut (pass);
+  HPR_LAP ("interior.cut");
+  bucketByRow (pass);
+  HPR_LAP ("interior.scatter");
+  runTetrahedronTests (pass);
+  HPR_LAP ("interior.tests");
+  markUncertainBand (pass);
+  HPR_LAP ("interior.band");
+  writeInteriorOutput (pass);
+  HPR_LAP ("interior.output");
+  return std::move (pass.interior);
+}
+
+void
+AngularGrid::prepareCandidates (InteriorPass& pass) const
+{
+  const std::size_t n = pass.n, k = pass.k;
+  const double R2 = pass.R2;
   std::vector<std::uint8_t>& is_cand = scratch_.is_cand;
   is_cand.assign (n, 0);
   for (int c : cand_)
     if (c >= 0)
       is_cand[c] = 1;
-  // Exactly the flip the hull sees (double, from the input points): a culled point must
-  // be interior to the very hull Qhull computes.
-  const double R2 = 2.0 * radius_;
   // Direction and flipped position of each sector's candidate, once per sector (each is
   // used by the 16 tetrahedra of up to 9 sectors).
   // Slot s: the candidate of sector s; slot k + s: its own best point when propagation
@@ -788,7 +927,8 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   cand_dir.resize (2 * k);
   cand_flip.resize (2 * k);
   cand_rho.resize (2 * k);
-  const bool with_own = own_.size () == k;
+  const bool with_own = pass.with_own;
+  const std::vector<Eigen::Vector3d>& points = pass.points;
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 1024)
   for (std::ptrdiff_t s = 0; s < std::ptrdiff_t (k); ++s)
     for (int slot = 0; slot < 2; ++slot)
@@ -808,8 +948,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   // Gnomonic views: the planes through C and each sector's candidate along the two grid
   // axes (split[2s], split[2s + 1]; normals n with n·p ≥ 0 on the side of larger a or b). The
   // four quads around a sector meet at its candidate, so the side of these planes a point
-  // lies on names the quad most likely to hold it (the sector centre, the earlier guess,
-  // needed 1.6 quads per tested point on a lumpy ellipsoid at 1M).
+  // lies on names the quad most likely to hold it.
   std::vector<Eigen::Vector3d>& split = scratch_.split;
   std::vector<Eigen::Vector2d>& cand_g = scratch_.cand_g;  // the candidates' (a, b) (depth cut)
   if (gnomonic_)
@@ -830,102 +969,94 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       split[2 * s + 1] = ez - gb * ex;
     }
   }
-  HPR_LAP ("interior.cand_flip");
-  // Tetrahedron (C, a, b, c) in flipped space: q is strictly inside when it is strictly
-  // inside the cone of the three directions and strictly on C's side of plane(a, b, c).
-  struct Tetra
-  {
-    Eigen::Vector3d edge[3];  // cone side normals, pointing inwards
-    double cone_eps;
-    Eigen::Vector3d w;        // plane normal, C's side positive
-    Eigen::Vector3d f;        // a point of the plane (flipped a)
-    double h;                 // inside when w·(q − f) > h (h > 0: the margin)
-    int diagonal;             // the edge on the quad's diagonal (the other two bound the quad)
-  };
-  static const int tri[4][3] = {{0, 1, 2}, {0, 2, 3}, {0, 1, 3}, {1, 2, 3}};
-  static const int tri_diagonal[4] = {2, 0, 1, 2};  // edge (ab, bc, ca) of tri[] on a diagonal
+}
 
+void
+AngularGrid::quadTetras (const InteriorPass& pass, int qa, int qb, Tetra* out, int& count, double& min_rho) const
+{
   // The tetrahedra of the 2×2 quad whose corner sectors are (qa, qb) … (qa + 1, qb + 1),
   // both diagonals; min ρ of their candidates.
-  auto quadTetras = [&] (int qa, int qb, Tetra* out, int& count, double& min_rho) {
-    count = 0;
-    min_rho = std::numeric_limits<double>::infinity ();
-    int a0 = qa, a1 = qa + 1;
-    const int b0 = qb, b1 = qb + 1;
-    if (wrap_phi_)
-    {
-      a0 = (a0 + n_phi_) % n_phi_;
-      a1 = a1 % n_phi_;
-    }
-    if (a0 < 0 || a1 >= n_phi_ || b0 < 0 || b1 >= n_theta_)
-      return;
-    std::size_t sc[4] = {std::size_t (a0) * n_theta_ + b0, std::size_t (a0) * n_theta_ + b1,
-                         std::size_t (a1) * n_theta_ + b1, std::size_t (a1) * n_theta_ + b0};
-    int id[4] = {cand_[sc[0]], cand_[sc[1]], cand_[sc[2]], cand_[sc[3]]};
-    // A corner that repeats another's candidate takes its sector's own point (slot k + s).
-    if (with_own)
-      for (int i = 1; i < 4; ++i)
-        for (int j = 0; j < i; ++j)
-          if (id[i] >= 0 && id[i] == id[j])
+  const std::size_t k = pass.k;
+  const double R2 = pass.R2;
+  const std::vector<Eigen::Vector3d>& cand_dir = scratch_.cand_dir;
+  const std::vector<Eigen::Vector3d>& cand_flip = scratch_.cand_flip;
+  const std::vector<double>& cand_rho = scratch_.cand_rho;
+  count = 0;
+  min_rho = std::numeric_limits<double>::infinity ();
+  int a0 = qa, a1 = qa + 1;
+  const int b0 = qb, b1 = qb + 1;
+  if (wrap_phi_)
+  {
+    a0 = (a0 + n_phi_) % n_phi_;
+    a1 = a1 % n_phi_;
+  }
+  if (a0 < 0 || a1 >= n_phi_ || b0 < 0 || b1 >= n_theta_)
+    return;
+  std::size_t sc[4] = {std::size_t (a0) * n_theta_ + b0, std::size_t (a0) * n_theta_ + b1,
+                       std::size_t (a1) * n_theta_ + b1, std::size_t (a1) * n_theta_ + b0};
+  int id[4] = {cand_[sc[0]], cand_[sc[1]], cand_[sc[2]], cand_[sc[3]]};
+  // A corner that repeats another's candidate takes its sector's own point (slot k + s).
+  if (pass.with_own)
+    for (int i = 1; i < 4; ++i)
+      for (int j = 0; j < i; ++j)
+        if (id[i] >= 0 && id[i] == id[j])
+        {
+          // sc[m] < k: not replaced yet; own_ differs from cand_ only where propagation moved it.
+          auto swappable = [&] (int m) { return sc[m] < k && own_[sc[m]] >= 0 && own_[sc[m]] != cand_[sc[m]]; };
+          const int m = swappable (i) ? i : swappable (j) ? j : -1;
+          if (m >= 0)
           {
-            // sc[m] < k: not replaced yet; own_ differs from cand_ only where propagation moved it.
-            auto swappable = [&] (int m) { return sc[m] < k && own_[sc[m]] >= 0 && own_[sc[m]] != cand_[sc[m]]; };
-            const int m = swappable (i) ? i : swappable (j) ? j : -1;
-            if (m >= 0)
-            {
-              id[m] = own_[sc[m]];
-              sc[m] += k;
-            }
+            id[m] = own_[sc[m]];
+            sc[m] += k;
           }
-    for (int ti = 0; ti < 4; ++ti)
-    {
-      const int* t = tri[ti];
-      const std::size_t sa = sc[t[0]], sb = sc[t[1]], sc2 = sc[t[2]];
-      const int ia = id[t[0]], ib = id[t[1]], ic = id[t[2]];
-      if (ia < 0 || ib < 0 || ic < 0 || ia == ib || ib == ic || ia == ic)
-        continue;
-      const Eigen::Vector3d &ua = cand_dir[sa], &ub = cand_dir[sb], &uc = cand_dir[sc2];
-      const double o = ua.cross (ub).dot (uc);
-      if (std::abs (o) < 1e-18)
-        continue;
-      min_rho = std::min ({min_rho, cand_rho[sa], cand_rho[sb], cand_rho[sc2]});
-      const double sgn = o > 0 ? 1.0 : -1.0;
-      Tetra& T = out[count];
-      T.edge[0] = sgn * ua.cross (ub);
-      T.edge[1] = sgn * ub.cross (uc);
-      T.edge[2] = sgn * uc.cross (ua);
-      T.cone_eps = 1e-9 * std::abs (o);
-      const Eigen::Vector3d &fa = cand_flip[sa], &fb = cand_flip[sb], &fc = cand_flip[sc2];
-      Eigen::Vector3d nrm = (fb - fa).cross (fc - fa);
-      if (nrm.dot (fa) > 0)  // make C (the origin) the positive side
-        nrm = -nrm;
-      T.w = nrm;
-      // Strict, with a margin of ~10² double roundoffs of coordinates of size 2R (|q| < 2R:
-      // w·(q − f) is off by ~1.5e-15·2R·|w|; Qhull's own fuzz is of the same order).
-      // It must not grow faster than that: a margin relative to w·a (the old 1e-7·w·a)
-      // is ~1e-7·2R deep, and R grows as distance² (Fig. 9 at a fixed angular spacing),
-      // so from 20× the diameter on it swallowed every depth difference and nothing
-      // was culled.
-      T.f = fa;
-      T.h = 1e-13 * R2 * nrm.norm ();
-      T.diagonal = tri_diagonal[ti];
-      ++count;
-    }
-  };
-  // Survivors of each row, recorded by the tests (row r's from kept[start[row]] to
-  // kept_end[row], in row order), so that the band and the output read ~n/10 entries instead
-  // of scanning all n twice. With a band asked for, culls within band_depth_ mark its seed
-  // sectors (the tests: a row's sectors are its own, rows in parallel write disjoint seeds;
-  // the depth cut below: relaxed atomic stores).
-  const bool want_band = survivors && (survivor_in_band || outside_band);
+        }
+  for (int ti = 0; ti < 4; ++ti)
+  {
+    const int* t = kQuadTriangles[ti];
+    const std::size_t sa = sc[t[0]], sb = sc[t[1]], sc2 = sc[t[2]];
+    const int ia = id[t[0]], ib = id[t[1]], ic = id[t[2]];
+    if (ia < 0 || ib < 0 || ic < 0 || ia == ib || ib == ic || ia == ic)
+      continue;
+    const Eigen::Vector3d &ua = cand_dir[sa], &ub = cand_dir[sb], &uc = cand_dir[sc2];
+    const double o = ua.cross (ub).dot (uc);
+    if (std::abs (o) < 1e-18)
+      continue;
+    min_rho = std::min ({min_rho, cand_rho[sa], cand_rho[sb], cand_rho[sc2]});
+    const double sgn = o > 0 ? 1.0 : -1.0;
+    Tetra& T = out[count];
+    T.edge[0] = sgn * ua.cross (ub);
+    T.edge[1] = sgn * ub.cross (uc);
+    T.edge[2] = sgn * uc.cross (ua);
+    T.cone_eps = 1e-9 * std::abs (o);
+    const Eigen::Vector3d &fa = cand_flip[sa], &fb = cand_flip[sb], &fc = cand_flip[sc2];
+    Eigen::Vector3d nrm = (fb - fa).cross (fc - fa);
+    if (nrm.dot (fa) > 0)  // make C (the origin) the positive side
+      nrm = -nrm;
+    T.w = nrm;
+    // Strict, with a margin of ~10² double roundoffs of coordinates of size 2R (|q| < 2R:
+    // w·(q − f) is off by ~1.5e-15·2R·|w|; Qhull's own fuzz is of the same order). It must
+    // not grow faster than that: R grows as distance² (Fig. 9 at a fixed angular spacing),
+    // so a margin relative to w·a would swallow every depth difference of a far view.
+    T.f = fa;
+    T.h = 1e-13 * R2 * nrm.norm ();
+    T.diagonal = kQuadTriangleDiagonal[ti];
+    ++count;
+  }
+}
+
+bool
+AngularGrid::seedsBand (double rho, double near) const
+{
   // A cull at ρ seeds the band unless deeper than band_depth_ behind the nearest candidate around it.
-  auto seedsBand = [this] (double rho, double near) { return !(band_depth_ > 0 && rho - near > band_depth_); };
-  std::vector<std::uint8_t>& seed = scratch_.seed;
-  if (want_band)
-    seed.assign (k, 0);
+  return !(band_depth_ > 0 && rho - near > band_depth_);
+}
+
+void
+AngularGrid::computeDepthCut (const InteriorPass& pass) const
+{
   // Depth cut (gnomonic views): a point of sector s deeper than cut[s] is strictly inside one
-  // of the tetrahedra its tests would try, so it is culled here, before the bucket sort, and
-  // never tested (on a closed object, the far side: about half the points). Why it holds: when
+  // of the tetrahedra its tests would try, so it is culled before the bucket sort and never
+  // tested (on a closed object, the far side: about half the points). Why it holds: when
   // each of the 8 neighbours' candidates lies beyond the side (edge neighbours) or the two sides
   // (diagonal ones) of s that it faces, the outer edges of the 4 quads around s form a loop
   // that winds once around s (in gnomonic coordinates cones through C are polygons), so the
@@ -933,76 +1064,85 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   // cover every direction of s. A point whose flipped distance from C, 2R − ρ, is below the
   // distance from C of every one of these tetrahedra's planes (less the margin h) is on C's
   // side of them all, hence strictly inside the one whose cone holds it.
+  const std::size_t k = pass.k;
+  const double R2 = pass.R2;
   std::vector<double>& cut = scratch_.cut;
   std::vector<double>& cut_near = scratch_.cut_near;  // min ρ of those candidates (band seeds)
-  // Only where sectors hold many points (the first pass, ~30 per sector): the refinement
-  // passes' grids hold the band, which lies near the surface, and cost more sectors than points.
-  const bool with_cut = gnomonic_ && n_phi_ >= 3 && n_theta_ >= 3 && n >= 8 * k;
-  if (with_cut)
-  {
-    const int qcols = n_theta_ - 1;
-    const std::ptrdiff_t quads = std::ptrdiff_t (n_phi_ - 1) * qcols;
-    std::vector<double>& quad_d = scratch_.quad_d;
-    std::vector<double>& quad_near = scratch_.quad_near;
-    quad_d.resize (std::size_t (quads));
-    quad_near.resize (std::size_t (quads));
+  const std::vector<Eigen::Vector2d>& cand_g = scratch_.cand_g;
+  const int qcols = n_theta_ - 1;
+  const std::ptrdiff_t quads = std::ptrdiff_t (n_phi_ - 1) * qcols;
+  std::vector<double>& quad_d = scratch_.quad_d;
+  std::vector<double>& quad_near = scratch_.quad_near;
+  quad_d.resize (std::size_t (quads));
+  quad_near.resize (std::size_t (quads));
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 1024)
-    for (std::ptrdiff_t q = 0; q < quads; ++q)
-    {
-      const int qa = int (q / qcols), qb = int (q % qcols);
-      const std::size_t s0 = std::size_t (qa) * n_theta_ + std::size_t (qb);
-      const int id[4] = {cand_[s0], cand_[s0 + 1], cand_[s0 + n_theta_ + 1], cand_[s0 + n_theta_]};
-      quad_d[q] = -std::numeric_limits<double>::infinity ();  // no cut next to this quad
-      if (id[0] < 0 || id[1] < 0 || id[2] < 0 || id[3] < 0 || id[0] == id[1] || id[0] == id[2] ||
-          id[0] == id[3] || id[1] == id[2] || id[1] == id[3] || id[2] == id[3])
-        continue;
-      Tetra t[4];
-      int count;
-      quadTetras (qa, qb, t, count, quad_near[q]);
-      if (count < 4)
-        continue;
-      double d = std::numeric_limits<double>::infinity ();
-      for (const Tetra& T : t)
-        d = std::min (d, (-T.w.dot (T.f) - T.h) / T.w.norm ());
-      quad_d[q] = d;
-    }
-    cut.assign (k, std::numeric_limits<double>::infinity ());
-    cut_near.resize (k);
-    // 1 % of a cell: the points' sectors come from float coordinates.
-    const double eps_a = 0.01 * cell_phi_ + 1e-6, eps_b = 0.01 * cell_theta_ + 1e-6;
+  for (std::ptrdiff_t q = 0; q < quads; ++q)
+  {
+    const int qa = int (q / qcols), qb = int (q % qcols);
+    const std::size_t s0 = std::size_t (qa) * n_theta_ + std::size_t (qb);
+    const int id[4] = {cand_[s0], cand_[s0 + 1], cand_[s0 + n_theta_ + 1], cand_[s0 + n_theta_]};
+    quad_d[q] = -std::numeric_limits<double>::infinity ();  // no cut next to this quad
+    if (id[0] < 0 || id[1] < 0 || id[2] < 0 || id[3] < 0 || id[0] == id[1] || id[0] == id[2] ||
+        id[0] == id[3] || id[1] == id[2] || id[1] == id[3] || id[2] == id[3])
+      continue;
+    Tetra t[4];
+    int count;
+    quadTetras (pass, qa, qb, t, count, quad_near[q]);
+    if (count < 4)
+      continue;
+    double d = std::numeric_limits<double>::infinity ();
+    for (const Tetra& T : t)
+      d = std::min (d, (-T.w.dot (T.f) - T.h) / T.w.norm ());
+    quad_d[q] = d;
+  }
+  cut.assign (k, std::numeric_limits<double>::infinity ());
+  cut_near.resize (k);
+  // 1 % of a cell: the points' sectors come from float coordinates.
+  const double eps_a = 0.01 * cell_phi_ + 1e-6, eps_b = 0.01 * cell_theta_ + 1e-6;
 #pragma omp parallel for num_threads(nt ()) schedule(dynamic, 16)
-    for (int a = 1; a < n_phi_ - 1; ++a)
+  for (int a = 1; a < n_phi_ - 1; ++a)
+  {
+    const double lo_a = phi0_ + a * cell_phi_ - eps_a, hi_a = phi0_ + (a + 1) * cell_phi_ + eps_a;
+    for (int b = 1; b < n_theta_ - 1; ++b)
     {
-      const double lo_a = phi0_ + a * cell_phi_ - eps_a, hi_a = phi0_ + (a + 1) * cell_phi_ + eps_a;
-      for (int b = 1; b < n_theta_ - 1; ++b)
-      {
-        const std::size_t q0 = std::size_t (a - 1) * qcols + std::size_t (b - 1), q1 = q0 + std::size_t (qcols);
-        const double d = std::min ({quad_d[q0], quad_d[q0 + 1], quad_d[q1], quad_d[q1 + 1]});
-        if (!(d > 0))
-          continue;
-        const double lo_b = theta0_ + b * cell_theta_ - eps_b, hi_b = theta0_ + (b + 1) * cell_theta_ + eps_b;
-        const std::size_t s = std::size_t (a) * n_theta_ + std::size_t (b);
-        bool around = true;
-        for (int da = -1; da <= 1 && around; ++da)
-          for (int db = -1; db <= 1 && around; ++db)
-          {
-            const Eigen::Vector2d& g = cand_g[std::size_t (std::ptrdiff_t (s) + da * n_theta_ + db)];
-            around = (da == 0 || (da < 0 ? g.x () < lo_a : g.x () > hi_a)) &&
-                     (db == 0 || (db < 0 ? g.y () < lo_b : g.y () > hi_b));
-          }
-        if (!around)
-          continue;
-        cut[s] = R2 - d + 1e-13 * R2;
-        cut_near[s] = std::min ({quad_near[q0], quad_near[q0 + 1], quad_near[q1], quad_near[q1 + 1]});
-      }
+      const std::size_t q0 = std::size_t (a - 1) * qcols + std::size_t (b - 1), q1 = q0 + std::size_t (qcols);
+      const double d = std::min ({quad_d[q0], quad_d[q0 + 1], quad_d[q1], quad_d[q1 + 1]});
+      if (!(d > 0))
+        continue;
+      const double lo_b = theta0_ + b * cell_theta_ - eps_b, hi_b = theta0_ + (b + 1) * cell_theta_ + eps_b;
+      const std::size_t s = std::size_t (a) * n_theta_ + std::size_t (b);
+      bool around = true;
+      for (int da = -1; da <= 1 && around; ++da)
+        for (int db = -1; db <= 1 && around; ++db)
+        {
+          const Eigen::Vector2d& g = cand_g[std::size_t (std::ptrdiff_t (s) + da * n_theta_ + db)];
+          around = (da == 0 || (da < 0 ? g.x () < lo_a : g.x () > hi_a)) &&
+                   (db == 0 || (db < 0 ? g.y () < lo_b : g.y () > hi_b));
+        }
+      if (!around)
+        continue;
+      cut[s] = R2 - d + 1e-13 * R2;
+      cut_near[s] = std::min ({quad_near[q0], quad_near[q0 + 1], quad_near[q1], quad_near[q1 + 1]});
     }
   }
-  HPR_LAP ("interior.cut");
+}
 
-  // Points bucketed by sector row (counting sort over the n_phi rows): the tests below set
-  // up the tetrahedra of two rows of quads once, and read the points in order. Bucketing by
-  // sector (k buckets) cost more than the tests at 1M points: k interleaved write streams
-  // miss the cache on every point; n_phi ≈ √k streams stay in it.
+void
+AngularGrid::bucketByRow (InteriorPass& pass) const
+{
+  // Points bucketed by sector row (counting sort over the n_phi rows): the tests set up the
+  // tetrahedra of two rows of quads once, and read the points in order. Bucketing by sector
+  // (k buckets) would cost more than the tests: k interleaved write streams miss the cache
+  // on every point; n_phi ≈ √k streams stay in it.
+  const std::size_t n = pass.n;
+  const bool with_cut = pass.with_cut, want_band = pass.want_band;
+  const std::vector<int>* survivors = pass.survivors;
+  const std::vector<Eigen::Vector3d>& points = pass.points;
+  std::vector<std::uint8_t>& interior = pass.interior;
+  std::vector<std::uint8_t>& is_cand = scratch_.is_cand;
+  std::vector<std::uint8_t>& seed = scratch_.seed;
+  const std::vector<double>& cut = scratch_.cut;
+  const std::vector<double>& cut_near = scratch_.cut_near;
   const int cols = n_theta_;
   const double inv_cols = 1.0 / cols;
   // Exact: s + 0.5 keeps the product off the integers for every s < 2^31.
@@ -1012,8 +1152,7 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   start.assign (std::size_t (n_phi_) + 1, 0);
   order.resize (n);
   // The points in row order, scattered once while sorting: the tests then read memory in
-  // order (reading points[order[r]] there was memory-bound, 3x slower at 1M points).
-  // Candidates are never interior.
+  // order rather than through order[]. Candidates are never interior.
   std::vector<Eigen::Vector3d>& sorted = scratch_.sorted;
   std::vector<std::uint8_t>& inside_sorted = scratch_.inside;
   std::vector<std::uint8_t>& cand_sorted = scratch_.cand_sorted;
@@ -1026,9 +1165,8 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
   // Counting sort in parallel: each thread counts its own contiguous slice per row, the
   // slices' offsets are laid out row by row in thread order, and each thread scatters its
   // slice. Thread t's points of a row follow thread t − 1's, so the order is the serial one
-  // for any thread count. Serial, count and scatter were a quarter of the call's wall time
-  // with two threads at 1M points.
-  const int threads = nt ();
+  // for any thread count.
+  const int threads = pass.threads;
   std::vector<std::uint32_t>& slot = scratch_.slot;
   slot.assign (std::size_t (threads) * n_phi_, 0);
   // Points beyond the depth cut are marked 2 in is_cand by the counting loop (candidates are
@@ -1088,8 +1226,65 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
       col_sorted[r] = s - row * std::uint32_t (cols);
     }
   }
-  HPR_LAP ("interior.scatter");
+}
 
+bool
+AngularGrid::insideQuads (const QuadSet* const* quad, int first, const Eigen::Vector3d& p, const Eigen::Vector3d& q,
+                          double rho)
+{
+  // Once the point is inside the cone of a tetrahedron of one quad and above the planes of
+  // that quad's tetrahedra, the other quads are not tried: they would have to overlap this
+  // one to contain it (stopping only keeps points), and a visible point would otherwise pay
+  // for all 16 tetrahedra.
+  bool inside = false, in_cone = false;
+  for (int kq = 0; kq < 4 && !inside && !in_cone; ++kq)
+  {
+    const QuadSet& Q = *quad[(first + kq) % 4];
+    for (int t = 0; t < Q.count; ++t)
+    {
+      const Tetra& T = Q.t[t];
+      int outside = -1;
+      for (int e = 0; e < 3 && outside < 0; ++e)
+        if (T.edge[e].dot (p) <= T.cone_eps * rho)
+          outside = e;
+      if (outside >= 0)
+      {
+        // Beyond an edge that bounds the quad: the point is outside the quad's cone (when the
+        // quad is convex), so its other tetrahedra are skipped (skipping only keeps points).
+        if (outside != T.diagonal)
+          break;
+        continue;
+      }
+      in_cone = true;
+      if (T.w.dot (q - T.f) > T.h)
+      {
+        inside = true;
+        break;
+      }
+    }
+  }
+  return inside;
+}
+
+void
+AngularGrid::runTetrahedronTests (InteriorPass& pass) const
+{
+  // Survivors of each row, recorded by the tests (row r's from kept[start[row]] to
+  // kept_end[row], in row order), so that the band and the output read the survivors only
+  // instead of scanning all n twice. A row's seed sectors are its own, so rows in parallel
+  // write disjoint seeds.
+  const std::size_t n = pass.n;
+  const double R2 = pass.R2;
+  const bool want_band = pass.want_band;
+  const std::vector<int>* survivors = pass.survivors;
+  const int cols = n_theta_;
+  const std::vector<std::uint32_t>& start = scratch_.start;
+  const std::vector<Eigen::Vector3d>& sorted = scratch_.sorted;
+  const std::vector<std::uint8_t>& cand_sorted = scratch_.cand_sorted;
+  const std::vector<std::uint32_t>& col_sorted = scratch_.col;
+  const std::vector<Eigen::Vector3d>& split = scratch_.split;
+  std::vector<std::uint8_t>& inside_sorted = scratch_.inside;
+  std::vector<std::uint8_t>& seed = scratch_.seed;
   std::vector<std::uint32_t>& kept = scratch_.kept;
   std::vector<std::uint32_t>& kept_end = scratch_.kept_end;
   if (survivors)
@@ -1104,211 +1299,194 @@ AngularGrid::interiorPoints (const std::vector<Eigen::Vector3d>& points, std::ve
     // (a − 1, b), (a, b − 1), (a, b), numbered q = 2·(da + 1) + (db + 1). Each is set up when a
     // point first needs it (stamped with its qa): the refinement grids have more sectors than
     // points. A thread that takes row a + 1 next reuses row a's quads as its upper row.
-    struct QuadSet
-    {
-      Tetra t[4];
-      int count;
-      double min_rho;
-      int qa = std::numeric_limits<int>::min ();
-    };
     std::vector<QuadSet> upper (std::size_t (cols) + 1), lower (std::size_t (cols) + 1);
     int lower_row = -2;
     auto quadAt = [&] (std::vector<QuadSet>& quads, int qa, int qb) -> const QuadSet* {
       QuadSet& Q = quads[std::size_t (qb + 1)];
       if (Q.qa != qa)
       {
-        quadTetras (qa, qb, Q.t, Q.count, Q.min_rho);
+        quadTetras (pass, qa, qb, Q.t, Q.count, Q.min_rho);
         Q.qa = qa;
       }
       return &Q;
     };
 #pragma omp for schedule(dynamic, 2)
-  for (std::ptrdiff_t row = 0; row < std::ptrdiff_t (n_phi_); ++row)
-  {
-    if (start[row] == start[row + 1])
-      continue;
-    const int a = int (row);
-    if (lower_row == a - 1)
-      upper.swap (lower);
-    lower_row = a;
-    std::uint32_t* keep = survivors ? kept.data () + start[row] : nullptr;
-    auto survive = [&keep] (std::uint32_t r) {
-      if (keep)
-        *keep++ = r;
-    };
-    for (std::uint32_t r = start[row]; r < start[row + 1]; ++r)
+    for (std::ptrdiff_t row = 0; row < std::ptrdiff_t (n_phi_); ++row)
     {
-      if (cand_sorted[r])
-      {
-        survive (r);
+      if (start[row] == start[row + 1])
         continue;
-      }
-      const int b = int (col_sorted[r]);
-      const QuadSet* quad[4] = {quadAt (upper, a - 1, b - 1), quadAt (upper, a - 1, b), quadAt (lower, a, b - 1),
-                                quadAt (lower, a, b)};
-      if (quad[0]->count + quad[1]->count + quad[2]->count + quad[3]->count == 0)
+      const int a = int (row);
+      if (lower_row == a - 1)
+        upper.swap (lower);
+      lower_row = a;
+      std::uint32_t* keep = survivors ? kept.data () + start[row] : nullptr;
+      auto survive = [&keep] (std::uint32_t r) {
+        if (keep)
+          *keep++ = r;
+      };
+      for (std::uint32_t r = start[row]; r < start[row + 1]; ++r)
       {
-        survive (r);
-        continue;
-      }
-      // A point inside (C, a, b, c) is deeper than the nearest of a, b, c (|q| = 2R − ρ is
-      // below the plane's largest |x| over the triangle, 2R − min ρ): points no deeper than
-      // every candidate of the 3×3 neighbourhood skip the tests.
-      const double min_rho = std::min ({quad[0]->min_rho, quad[1]->min_rho, quad[2]->min_rho, quad[3]->min_rho});
-      const Eigen::Vector3d& p = sorted[r];
-      const double rho = p.norm ();
-      if (rho <= min_rho)
-      {
-        survive (r);
-        continue;
-      }
-      // The cone tests take p itself, their margin scaled by ρ (no division per point;
-      // the margin, 1e-9 of the cone's size, dwarfs the rounding either way).
-      const Eigen::Vector3d q = p * (R2 / rho - 1.0);  // same flip as flipped()
-      // Try first the quad on the point's side of its sector's candidate (the one most likely
-      // to contain it), then the other three.
-      int first = 0;
-      if (gnomonic_)
-      {
-        const std::size_t s = std::size_t (a) * cols + std::size_t (b);
-        first = 2 * (split[2 * s].dot (p) >= 0) + (split[2 * s + 1].dot (p) >= 0);
-      }
-      // Once the point is inside the cone of a tetrahedron of one quad and above the planes of
-      // that quad's tetrahedra, the other quads are not tried: they would have to overlap this
-      // one to contain it (stopping only keeps points; F1 unchanged to 4 digits on the wide
-      // bench, 1M points), and a visible point otherwise paid for all 16 tetrahedra.
-      bool inside = false, in_cone = false;
-      for (int kq = 0; kq < 4 && !inside && !in_cone; ++kq)
-      {
-        const QuadSet& Q = *quad[(first + kq) % 4];
-        for (int t = 0; t < Q.count; ++t)
+        if (cand_sorted[r])
         {
-          const Tetra& T = Q.t[t];
-          int outside = -1;
-          for (int e = 0; e < 3 && outside < 0; ++e)
-            if (T.edge[e].dot (p) <= T.cone_eps * rho)
-              outside = e;
-          if (outside >= 0)
-          {
-            // Beyond an edge that bounds the quad: the point is outside the quad's cone (when the
-            // quad is convex), so its other tetrahedra are skipped (skipping only keeps points).
-            if (outside != T.diagonal)
-              break;
-            continue;
-          }
-          in_cone = true;
-          if (T.w.dot (q - T.f) > T.h)
-          {
-            inside = true;
-            break;
-          }
+          survive (r);
+          continue;
         }
+        const int b = int (col_sorted[r]);
+        const QuadSet* quad[4] = {quadAt (upper, a - 1, b - 1), quadAt (upper, a - 1, b), quadAt (lower, a, b - 1),
+                                  quadAt (lower, a, b)};
+        if (quad[0]->count + quad[1]->count + quad[2]->count + quad[3]->count == 0)
+        {
+          survive (r);
+          continue;
+        }
+        // A point inside (C, a, b, c) is deeper than the nearest of a, b, c (|q| = 2R − ρ is
+        // below the plane's largest |x| over the triangle, 2R − min ρ): points no deeper than
+        // every candidate of the 3×3 neighbourhood skip the tests.
+        const double min_rho = std::min ({quad[0]->min_rho, quad[1]->min_rho, quad[2]->min_rho, quad[3]->min_rho});
+        const Eigen::Vector3d& p = sorted[r];
+        const double rho = p.norm ();
+        if (rho <= min_rho)
+        {
+          survive (r);
+          continue;
+        }
+        // The cone tests take p itself, their margin scaled by ρ (no division per point;
+        // the margin, 1e-9 of the cone's size, dwarfs the rounding either way).
+        const Eigen::Vector3d q = p * (R2 / rho - 1.0);  // the flip of prepareCandidates ()
+        // Try first the quad on the point's side of its sector's candidate (the one most likely
+        // to contain it), then the other three.
+        int first = 0;
+        if (gnomonic_)
+        {
+          const std::size_t s = std::size_t (a) * cols + std::size_t (b);
+          first = 2 * (split[2 * s].dot (p) >= 0) + (split[2 * s + 1].dot (p) >= 0);
+        }
+        const bool inside = insideQuads (quad, first, p, q, rho);
+        // A cull within band_depth_ of the nearest candidate around it seeds the band.
+        if (!inside)
+          survive (r);
+        else if (!survivors)
+          inside_sorted[r] = 1;
+        else if (want_band && seedsBand (rho, min_rho))
+          seed[std::size_t (a) * cols + std::size_t (b)] = 1;
       }
-      // A cull within band_depth_ of the nearest candidate around it seeds the band.
-      if (!inside)
-        survive (r);
-      else if (!survivors)
-        inside_sorted[r] = 1;
-      else if (want_band && seedsBand (rho, min_rho))
-        seed[std::size_t (a) * cols + std::size_t (b)] = 1;
+      if (keep)
+        kept_end[row] = std::uint32_t (keep - kept.data ());
     }
-    if (keep)
-      kept_end[row] = std::uint32_t (keep - kept.data ());
   }
-  }
-  HPR_LAP ("interior.tests");
+}
+
+void
+AngularGrid::markUncertainBand (const InteriorPass& pass) const
+{
   // The uncertain band: sectors whose 3×3 neighbourhood holds a culled point or a sector
   // without candidate (a silhouette, the grid's edge). Elsewhere every point had only
   // front-surface points around it, and a finer pass culls (nearly) nothing there.
+  const std::size_t k = pass.k;
+  std::vector<std::uint8_t>& seed = scratch_.seed;
   std::vector<std::uint8_t>& band = scratch_.band;
   band.clear ();
-  // Sector of the r-th point in row order, without a random read of sector_.
-  auto sectorSorted = [&] (int row, std::uint32_t r) { return std::size_t (row) * cols + col_sorted[r]; };
-  if (want_band)
-  {
-    for (std::size_t s = 0; s < k; ++s)
-      if (cand_[s] < 0)
-        seed[s] = 1;
-    band.assign (k, 0);
-    const Shape grid = shape ();
-    for (int a = 0; a < grid.rows; ++a)
-      for (int b = 0; b < grid.cols; ++b)
-      {
-        std::uint8_t any = 0;
-        for (int da = -1; da <= 1 && !any; ++da)
-          for (int db = -1; db <= 1 && !any; ++db)
-          {
-            // Outside the grid counts as empty: the cloud's outline.
-            const std::ptrdiff_t t = grid.neighbour (a, b, da, db);
-            any = t < 0 ? 1 : seed[std::size_t (t)];
-          }
-        band[std::size_t (a) * n_theta_ + b] = any;
-      }
-  }
-  HPR_LAP ("interior.band");
-  if (survivors)
-  {
-    // The caller reads the survivors; the per-point mask (a random scatter) is left empty.
-    // Sized exactly first: growing from a guess re-copied up to 24 MB at 1M points.
-    interior.clear ();
-    // With `outside_band`, survivors outside the band go there and the others (the band) to
-    // `survivors`: the caller marks the first visible and refines the second, without a
-    // second pass that splits them. Rows are counted, then written, in parallel (each row at
-    // its prefix offset: the serial order); serial, this was a tenth of the call.
-    std::vector<std::uint32_t> n_kept (std::size_t (n_phi_) + 1, 0), kept_band (std::size_t (n_phi_) + 1, 0);
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 4)
-    for (std::ptrdiff_t row = 0; row < std::ptrdiff_t (n_phi_); ++row)
+  if (!pass.want_band)
+    return;
+  for (std::size_t s = 0; s < k; ++s)
+    if (cand_[s] < 0)
+      seed[s] = 1;
+  band.assign (k, 0);
+  const Shape grid = shape ();
+  for (int a = 0; a < grid.rows; ++a)
+    for (int b = 0; b < grid.cols; ++b)
     {
-      std::uint32_t in_band = 0;
-      if (outside_band)
-        for (std::uint32_t j = start[row]; j < kept_end[row]; ++j)
-          in_band += band[sectorSorted (int (row), kept[j])];
-      n_kept[row + 1] = kept_end[row] - start[row];
-      kept_band[row + 1] = in_band;
-    }
-    for (int row = 0; row < n_phi_; ++row)
-    {
-      n_kept[row + 1] += n_kept[row];
-      kept_band[row + 1] += kept_band[row];
-    }
-    const std::size_t to_survivors = outside_band ? kept_band[n_phi_] : n_kept[n_phi_];
-    survivors->resize (to_survivors);
-    if (survivor_points)
-      survivor_points->resize (to_survivors);
-    if (survivor_in_band)
-      survivor_in_band->resize (to_survivors);
-    if (outside_band)
-      outside_band->resize (n_kept[n_phi_] - kept_band[n_phi_]);
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 4)
-    for (std::ptrdiff_t row = 0; row < std::ptrdiff_t (n_phi_); ++row)
-    {
-      std::size_t j = outside_band ? kept_band[row] : n_kept[row], o = n_kept[row] - kept_band[row];
-      for (std::uint32_t i = start[row]; i < kept_end[row]; ++i)
-      {
-        const std::uint32_t r = kept[i];
-        const bool in_band = !band.empty () && band[sectorSorted (int (row), r)];
-        if (outside_band && !in_band)
+      std::uint8_t any = 0;
+      for (int da = -1; da <= 1 && !any; ++da)
+        for (int db = -1; db <= 1 && !any; ++db)
         {
-          (*outside_band)[o++] = int (order[r]);
-          continue;
+          // Outside the grid counts as empty: the cloud's outline.
+          const std::ptrdiff_t t = grid.neighbour (a, b, da, db);
+          any = t < 0 ? 1 : seed[std::size_t (t)];
         }
-        (*survivors)[j] = int (order[r]);
-        if (survivor_points)
-          (*survivor_points)[j] = sorted[r];
-        if (survivor_in_band)
-          (*survivor_in_band)[j] = in_band;
-        ++j;
-      }
+      band[std::size_t (a) * n_theta_ + b] = any;
     }
-  }
-  else
+}
+
+void
+AngularGrid::writeInteriorOutput (InteriorPass& pass) const
+{
+  const std::size_t n = pass.n;
+  const int threads = pass.threads;
+  const std::vector<std::uint32_t>& order = scratch_.order;
+  if (!pass.survivors)
   {
+    const std::vector<std::uint8_t>& inside_sorted = scratch_.inside;
+    std::vector<std::uint8_t>& interior = pass.interior;
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (std::ptrdiff_t r = 0; r < std::ptrdiff_t (n); ++r)
       interior[order[r]] = inside_sorted[r] != 0;
+    return;
   }
-  HPR_LAP ("interior.output");
-  return interior;
+  // The caller reads the survivors; the per-point mask (a random scatter) is left empty.
+  // With `outside_band`, survivors outside the band go there and the others (the band) to
+  // `survivors`: the caller marks the first visible and refines the second, without a
+  // second pass that splits them. Rows are counted, then written, in parallel (each row at
+  // its prefix offset: the serial order), and the outputs are sized exactly first.
+  std::vector<int>* survivors = pass.survivors;
+  std::vector<Eigen::Vector3d>* survivor_points = pass.survivor_points;
+  std::vector<std::uint8_t>* survivor_in_band = pass.survivor_in_band;
+  std::vector<int>* outside_band = pass.outside_band;
+  pass.interior.clear ();
+  const int cols = n_theta_;
+  const std::vector<std::uint32_t>& start = scratch_.start;
+  const std::vector<std::uint32_t>& kept = scratch_.kept;
+  const std::vector<std::uint32_t>& kept_end = scratch_.kept_end;
+  const std::vector<std::uint32_t>& col_sorted = scratch_.col;
+  const std::vector<Eigen::Vector3d>& sorted = scratch_.sorted;
+  const std::vector<std::uint8_t>& band = scratch_.band;
+  // Sector of the r-th point in row order, without a random read of sector_.
+  auto sectorSorted = [&] (int row, std::uint32_t r) { return std::size_t (row) * cols + col_sorted[r]; };
+  std::vector<std::uint32_t> n_kept (std::size_t (n_phi_) + 1, 0), kept_band (std::size_t (n_phi_) + 1, 0);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 4)
+  for (std::ptrdiff_t row = 0; row < std::ptrdiff_t (n_phi_); ++row)
+  {
+    std::uint32_t in_band = 0;
+    if (outside_band)
+      for (std::uint32_t j = start[row]; j < kept_end[row]; ++j)
+        in_band += band[sectorSorted (int (row), kept[j])];
+    n_kept[row + 1] = kept_end[row] - start[row];
+    kept_band[row + 1] = in_band;
+  }
+  for (int row = 0; row < n_phi_; ++row)
+  {
+    n_kept[row + 1] += n_kept[row];
+    kept_band[row + 1] += kept_band[row];
+  }
+  const std::size_t to_survivors = outside_band ? kept_band[n_phi_] : n_kept[n_phi_];
+  survivors->resize (to_survivors);
+  if (survivor_points)
+    survivor_points->resize (to_survivors);
+  if (survivor_in_band)
+    survivor_in_band->resize (to_survivors);
+  if (outside_band)
+    outside_band->resize (n_kept[n_phi_] - kept_band[n_phi_]);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 4)
+  for (std::ptrdiff_t row = 0; row < std::ptrdiff_t (n_phi_); ++row)
+  {
+    std::size_t j = outside_band ? kept_band[row] : n_kept[row], o = n_kept[row] - kept_band[row];
+    for (std::uint32_t i = start[row]; i < kept_end[row]; ++i)
+    {
+      const std::uint32_t r = kept[i];
+      const bool in_band = !band.empty () && band[sectorSorted (int (row), r)];
+      if (outside_band && !in_band)
+      {
+        (*outside_band)[o++] = int (order[r]);
+        continue;
+      }
+      (*survivors)[j] = int (order[r]);
+      if (survivor_points)
+        (*survivor_points)[j] = sorted[r];
+      if (survivor_in_band)
+        (*survivor_in_band)[j] = in_band;
+      ++j;
+    }
+  }
 }
 
 AngularGrid::Calibration
@@ -1319,7 +1497,7 @@ AngularGrid::calibrate () const
   std::vector<double> min_rho (k, std::numeric_limits<double>::infinity ());
   for (std::ptrdiff_t i = 0; i < n; ++i)
     min_rho[sector_[i]] = std::min (min_rho[sector_[i]], rho_[i]);
-  // Visible-count estimate (§6): per sector, points roughly as near as the nearest one,
+  // Visible-count estimate (Machado e Silva et al. 2014, §6): per sector, points roughly as near as the nearest one,
   // "roughly" being one sector footprint at that depth.
   double visible = 0;
   for (std::ptrdiff_t i = 0; i < n; ++i)
@@ -1339,5 +1517,7 @@ AngularGrid::calibrate () const
   return c;
 }
 
+}  // namespace detail
 }  // namespace hpr
-}  // namespace pcl
+}  // namespace pclx
+

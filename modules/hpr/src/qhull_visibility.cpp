@@ -1,4 +1,4 @@
-#include <pclx/hpr/qhull_visibility.h>
+#include <pclx/hpr/detail/qhull_visibility.h>
 
 extern "C" {
 #include <libqhull_r/qhull_ra.h>
@@ -7,8 +7,9 @@ extern "C" {
 #include <cstdio>
 #include <cstdlib>
 
-namespace pcl {
+namespace pclx {
 namespace hpr {
+namespace detail {
 
 HullResult
 flippedHull (const std::vector<Eigen::Vector3d>& points, bool triangulate, bool joggle)
@@ -31,7 +32,7 @@ flippedHull (const std::vector<Eigen::Vector3d>& points, bool triangulate, bool 
   qh_zero (qh, err);
   // Qt only when facets are wanted: triangulating costs time and changes no vertex.
   // Q5 (no final outer-plane check) and Q8 (no near-inside point bookkeeping) only concern
-  // facet planes and coplanar points, not which points are vertices; they save ~30 %.
+  // facet planes and coplanar points, not which points are vertices, and save time.
   std::string flags = "qhull Q5 Q8";
   if (triangulate)
     flags += " Qt";
@@ -85,5 +86,6 @@ flippedHull (const std::vector<Eigen::Vector3d>& points, bool triangulate, bool 
   return result;
 }
 
+}  // namespace detail
 }  // namespace hpr
-}  // namespace pcl
+}  // namespace pclx

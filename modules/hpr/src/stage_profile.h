@@ -8,8 +8,9 @@
 #include <cstring>
 #include <string>
 
-namespace pcl {
+namespace pclx {
 namespace hpr {
+namespace detail {
 namespace profile {
 struct Table
 {
@@ -60,11 +61,12 @@ struct Laps
   }
 };
 }  // namespace profile
+}  // namespace detail
 }  // namespace hpr
-}  // namespace pcl
-#define HPR_LAPS() ::pcl::hpr::profile::Laps hpr_laps_
+}  // namespace pclx
+#define HPR_LAPS() ::pclx::hpr::detail::profile::Laps hpr_laps_
 #define HPR_LAP(stage) hpr_laps_.lap (stage)
-#define HPR_PASS(p) (::pcl::hpr::profile::table.pass = (p))
+#define HPR_PASS(p) (::pclx::hpr::detail::profile::table.pass = (p))
 #else
 #define HPR_LAPS()
 #define HPR_LAP(stage)

@@ -1,6 +1,6 @@
-#include <pclx/hpr/angular_grid.h>
-#include <pclx/hpr/qhull_visibility.h>
-#include <pclx/hpr/visibility.h>
+#include <pclx/hpr/detail/angular_grid.h>
+#include <pclx/hpr/detail/qhull_visibility.h>
+#include <pclx/hpr/detail/visibility.h>
 
 #include "stage_profile.h"
 
@@ -24,8 +24,9 @@
 #include <unistd.h>
 #endif
 
-namespace pcl {
+namespace pclx {
 namespace hpr {
+namespace detail {
 
 namespace {
 
@@ -196,9 +197,8 @@ cullInterior (AngularGrid& grid, const std::vector<Eigen::Vector3d>& pts, const 
 // OpenMP's worker threads spin for a while after a parallel region ends (libgomp's default
 // wait policy), so right after one of ours, or any other OpenMP code run from the same thread
 // (it reuses the same workers), /proc/loadavg counts them as runnable, and the rule below read them
-// as another process on the cores: back-to-back calls on an idle machine then ran on one
-// thread (the wide bench's automatic rows, 1M points: 0.101 s against 0.075 s on two forced
-// threads). The workers' ids are noted here; the ones found running are not counted. Any
+// as another process on the cores: back-to-back calls on an idle machine would then run on
+// one thread. The workers' ids are noted here; the ones found running are not counted. Any
 // other busy thread, of this process or another, still is. Per calling thread: libgomp gives
 // each thread that opens parallel regions its own pool of workers.
 constexpr int kMaxNotedWorkers = 64;
@@ -272,8 +272,7 @@ autoThreads (std::size_t points)
     threads = std::clamp (free_cores, 1, threads);
   }
   // Noted only when this call will wake them anyway: a region of its own on a busy machine
-  // waits for a worker the scheduler has not run yet (100k points under a spinning process:
-  // 0.025 s against 0.016 s on one thread, mean of 5).
+  // would wait for a worker the scheduler has not run yet.
   if (threads > 1)
     noteWorkers (threads);
 #endif
@@ -328,8 +327,8 @@ isEdgeOn (const std::vector<Eigen::Vector3d>& points, double tolerance)
 
 namespace {
 // estimateSurfaceNoise in parts, so that the candidate hull can gather the seeds' neighbours
-// in the pass over the points it makes anyway (distancesOf): a pass of its own cost ~6 % of a
-// 1M call (8.4 ms, mostly reading the points again), not ~2 %. A kd-tree over the whole cloud
+// in the pass over the points it makes anyway (distancesOf) rather than reading the points
+// again in a pass of its own. A kd-tree over the whole cloud
 // would cost more than the rest of the call, and one over a subsample has neighbourhoods
 // that span both faces of thin walls.
 class NoiseProbe
@@ -562,19 +561,13 @@ candidateHullDepth (double occlusion_depth, double cloud_radius, double noise)
 {
   // CANDIDATE_HULL calibrates its R at 0.8 of the occlusion depth (R is linear in it). With
   // the outline candidates its culling gets close to the exact operator's at the same R, and
-  // the smaller R culls the backs of thin parts seen face-on. Wide bench, 1M points, two
-  // refinement passes (measured before the band-depth rule): lowest F1 of the 8 views 0.939 at
-  // 1.0 (fins view 1), 0.952 at 0.8 (fins view 1), 0.953 at 0.7; fins view 1 0.946 at 0.9. The
-  // organic shapes lose 0.001–0.003 at 0.8 and 0.002–0.005 more at 0.7; at 100k 0.8 costs them
-  // 0.003–0.008 and gives fins view 1 +0.016.
+  // the smaller R culls the backs of thin parts seen face-on; both values were chosen on the
+  // wide benchmark (docs/hpr.md).
   constexpr double kCandidateHullDepthScale = 0.8;
   // On noisy input the candidates are the front-most noisy points and a smaller R culls the
   // noisy front surface behind them: the depth grows to kNoiseDepths × the measured noise
-  // (estimateSurfaceNoise, which reads ~0.3 σ) where that is deeper. --quick's noise sweep
-  // (100k, σ = 0.25 / 0.5 / 1 / 2 % of the diagonal), c = 50 / 60 / 70: torus scene at 0.25 %
-  // 0.868 / 0.868 / 0.863, at 2 % 0.639 / 0.666 / 0.685; bunny at 0.25 % 0.862 / 0.883 / 0.896
-  // (0.8 alone: torus 0.793, bunny 0.708; 1.0 before the outline candidates: 0.823, 0.760).
-  // Clean clouds measure far below the threshold (the depth stays 0.8 × occlusion_depth).
+  // (estimateSurfaceNoise) where that is deeper. Clean clouds measure far below the threshold
+  // (the depth stays 0.8 × occlusion_depth).
   constexpr double kNoiseDepths = 60.0;
   return std::max (kCandidateHullDepthScale * occlusion_depth, kNoiseDepths * noise / std::max (cloud_radius, 1e-300));
 }
@@ -603,6 +596,376 @@ VisibilityWorkspace::release ()
   std::vector<std::uint8_t> ().swap (state);
 }
 
+namespace {
+
+// computeVisibility's first pass: min and max |p|² and the sum of the points, from the
+// caller's statistics when it gathered them. The sums are per fixed block, added in block
+// order: the centroid does not depend on the thread count.
+struct PointSums
+{
+  double max_rho2 = 0, min_rho2 = std::numeric_limits<double>::infinity ();
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero ();
+};
+
+PointSums
+sumPoints (const std::vector<Eigen::Vector3d>& points, const PointStats* stats, int threads)
+{
+  const std::size_t n = points.size ();
+  const std::size_t blocks = (n + kStatsBlock - 1) / kStatsBlock;
+  PointSums out;
+  if (stats && stats->block_sum.size () == blocks)
+  {
+    out.max_rho2 = stats->max_rho2;
+    out.min_rho2 = stats->min_rho2;
+    for (const auto& b : stats->block_sum)
+      out.sum += b;
+    return out;
+  }
+  double max_rho2 = 0, min_rho2 = std::numeric_limits<double>::infinity ();
+  std::vector<Eigen::Vector3d> block_sum (blocks, Eigen::Vector3d::Zero ());
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) reduction(max : max_rho2) reduction(min : min_rho2)
+  for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
+  {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero ();
+    for (std::size_t i = std::size_t (b) * kStatsBlock, e = std::min (n, i + kStatsBlock); i < e; ++i)
+    {
+      const Eigen::Vector3d& p = points[i];
+      const double r2 = p.squaredNorm ();
+      max_rho2 = std::max (max_rho2, r2);
+      min_rho2 = std::min (min_rho2, r2);
+      sum += p;
+    }
+    block_sum[b] = sum;
+  }
+  out.max_rho2 = max_rho2;
+  out.min_rho2 = min_rho2;
+  for (const auto& b : block_sum)
+    out.sum += b;
+  return out;
+}
+
+// What the method stages of computeVisibility share: the points (those at the viewpoint
+// left out), the options, and R, k and ℓ as given or calibrated.
+struct MethodInput
+{
+  const std::vector<Eigen::Vector3d>& pts;
+  const VisibilityOptions& opt;
+  VisibilityWorkspace* ws;  // buffers kept between calls, or nullptr
+  int threads = 1;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero ();  // the centroid of pts
+  double R = 0;                        // the candidate hull may calibrate its own
+  std::size_t k = 0;                   // sectors of the grid-sampling methods
+  std::size_t k_cull = 0;              // sectors of the candidate hull's culling grid
+  std::size_t k_cull_default = 0;      // sectors of the exact pre-filter's culling grid
+  int steps = 0;                       // ℓ (adaptive) or m (fixed)
+
+  MethodInput (const std::vector<Eigen::Vector3d>& points, const VisibilityOptions& options, VisibilityWorkspace* w)
+    : pts (points), opt (options), ws (w)
+  {
+  }
+};
+
+// R, k and ℓ of `in`: as given, or calibrated where the method uses them (the grid-sampling
+// methods' k and ℓ; the candidate hull calibrates R on its own culling grid).
+void
+planMethod (MethodInput& in, VisibilityResult& res)
+{
+  const VisibilityOptions& opt = in.opt;
+  const std::size_t n = in.pts.size ();
+  const bool grid_sampled = opt.method == VisibilityMethod::ANGULAR_GRID || opt.method == VisibilityMethod::KAVAN ||
+                            opt.method == VisibilityMethod::HYBRID ||
+                            opt.method == VisibilityMethod::BENTLEY_FAUST_PREPARATA;
+  const bool ch_only = opt.method == VisibilityMethod::CANDIDATE_HULL;
+  const bool need_cal = (opt.radius <= 0 && !ch_only) || (grid_sampled && opt.sectors == 0) ||
+                        (opt.method == VisibilityMethod::ANGULAR_GRID && opt.steps == 0 && !opt.fixed_propagation);
+  HPRCalibration cal;
+  res.threads = in.threads;
+  if (need_cal)
+  {
+    VisibilityOptions copt = opt;
+    copt.threads = in.threads;
+    cal = calibrateHPR (in.pts, copt);
+  }
+  // The culling grid of CANDIDATE_HULL and of the exact pre-filter, k = 2·n^0.7 (chosen on
+  // the benchmark, see docs/hpr.md): finer grids make smaller triangles that cover fewer
+  // points, coarser ones sag. Its triangles span a cell diagonal, not the spacing of visible
+  // points, so CANDIDATE_HULL's own R makes such a triangle hide a point one occlusion depth
+  // behind it.
+  in.k_cull_default = std::size_t (std::max (64.0, 2.0 * std::pow (double (n), 0.7)));
+  in.k_cull = opt.sectors > 0 ? std::min ({opt.sectors, kMaxSectors, 64 * n}) : in.k_cull_default;
+  in.R = opt.radius > 0 ? opt.radius : cal.radius;
+  std::size_t k = opt.sectors > 0 ? opt.sectors : cal.sectors;
+  // More than 64 sectors per point only adds empty sectors (the visible count saturates
+  // near a few sectors per point, Machado e Silva et al. 2014, §7.2).
+  const std::size_t k_cap = std::min (kMaxSectors, 64 * n);
+  if (k > k_cap)
+  {
+    res.warning += "k = " + std::to_string (k) + " clamped to " + std::to_string (k_cap) + "; ";
+    k = k_cap;
+  }
+  in.k = k;
+  in.steps = opt.steps > 0 ? opt.steps : (need_cal ? propagationSteps (cal, k) : 0);
+  res.radius = in.R;
+}
+
+std::vector<int>
+everyPoint (std::size_t n)
+{
+  std::vector<int> all (n);
+  for (std::size_t i = 0; i < n; ++i)
+    all[i] = int (i);
+  return all;
+}
+
+// CANDIDATE_HULL's refinement: the survivors in `alive` (positions in `alive_pts`) again, on
+// grids 2×, 4×, ... finer, at the same R. A finer triangle sags less below the surface (the
+// depth band it leaves ∝ R·(triangle size)²), so hidden points just behind the surface
+// (silhouettes, thin parts) are culled, and a point inside a tetrahedron of survivors is
+// inside the hull of all points: the test stays conservative (every hull vertex survives),
+// whichever survivors span it. Only the uncertain band goes on (survivors within one sector
+// of a culled point or of a silhouette, see interiorPoints): elsewhere the previous pass saw
+// front-surface points only; the rest are marked visible in `sub` as they settle. The band's
+// finer grid keeps the cell it would have had over all survivors (`cell0` halved per pass in
+// area). Survivors come in the previous grid's sector order, nearly the finer one's.
+void
+refineSurvivors (const MethodInput& in, double band_depth, double cell0, std::vector<int>& alive,
+                 std::vector<Eigen::Vector3d>& alive_pts, std::vector<int>& settled, VisibilityResult& sub)
+{
+  HPR_LAPS ();
+  const VisibilityOptions& opt = in.opt;
+  const bool reuse = in.ws && opt.method == VisibilityMethod::CANDIDATE_HULL;
+  AngularGrid local_fine;
+  std::vector<int> local_next;
+  std::vector<Eigen::Vector3d> local_next_pts;
+  std::vector<int>& next = reuse ? in.ws->next : local_next;
+  std::vector<Eigen::Vector3d>& next_pts = reuse ? in.ws->next_pts : local_next_pts;
+  for (int pass = 1; pass <= opt.refinement && alive.size () >= 4; ++pass)
+  {
+    HPR_PASS (pass);
+    const std::size_t kp = std::min ({in.k_cull << pass, kMaxSectors, 64 * alive.size ()});
+    AngularGrid& fine = reuse ? in.ws->fine : local_fine;
+    fine.setThreads (in.threads);
+    fine.setOutlineCandidates (true);
+    fine.setBandDepth (band_depth);
+    fine.setCellSize (cell0 / std::pow (std::sqrt (2.0), pass));
+    fine.build (alive_pts, in.centre, in.R, kp);
+    HPR_LAP ("build");
+    // No propagation in the first refinement pass: its sectors' own points span smaller
+    // triangles than candidates carried over from neighbours, and cull more hidden points
+    // just behind the surface. Later passes take one step (see docs/hpr.md).
+    if (pass > 1)
+      fine.propagateAdaptive (1);
+    HPR_LAP ("propagate");
+    fine.interiorPoints (alive_pts, &next, &next_pts, nullptr, pass < opt.refinement ? &settled : nullptr);
+    HPR_LAP ("interior");
+    for (int& j : next)
+      j = alive[j];
+    if (pass < opt.refinement)
+      for (int j : settled)
+        sub.visible[alive[j]] = 1;
+    alive.swap (next);
+    alive_pts.swap (next_pts);
+    HPR_LAP ("remap");
+  }
+}
+
+// CANDIDATE_HULL: every point not strictly inside a tetrahedron (C, a, b, c) of neighbouring
+// candidates of the culling grid, refined by refineSurvivors ().
+void
+runCandidateHull (MethodInput& in, AngularGrid& grid, VisibilityResult& sub, VisibilityResult& res)
+{
+  HPR_LAPS ();
+  const VisibilityOptions& opt = in.opt;
+  const std::vector<Eigen::Vector3d>& pts = in.pts;
+  const bool reuse = in.ws != nullptr;
+  const int cull_steps = opt.steps > 0 ? in.steps : 4;
+  grid.setOutlineCandidates (true);
+  grid.setCellSize (0);
+  // R from the culling grid's own solid angle: no calibration grid is needed here.
+  // The occlusion depth of this cloud: 0.8 × the option when clean, more when noisy.
+  NoiseProbe probe (pts, opt.radius > 0 ? 0 : kNoiseSeeds, kNoiseNeighbours);
+  const HPRCalibration dist = distancesOf (pts, in.centre, in.threads, &probe);
+  HPR_LAP ("distances");
+  const double noise = probe.active () ? probe.finish (pts) : 0.0;
+  const double ch_depth = candidateHullDepth (opt.occlusion_depth, dist.cloud_radius, noise);
+  HPR_LAP ("noise");
+  const std::size_t k_cull = in.k_cull;
+  if (opt.radius > 0)
+    grid.build (pts, in.centre, in.R, k_cull);
+  else
+  {
+    grid.build (pts, in.centre,
+                [&] (double area) {
+                  HPRCalibration c = dist;
+                  c.grid_area = area;
+                  return radiusForSeparation (c, std::sqrt (2.0 * area / double (k_cull)), ch_depth);
+                },
+                k_cull);
+    in.R = grid.radius ();
+    res.radius = in.R;
+  }
+  HPR_LAP ("build");
+  // The uncertain band is seeded only by culls less than kBandDepths occlusion depths behind
+  // the nearest candidate around them: on a closed object every sector has a culled far-side
+  // point, and the band would be (nearly) every survivor (see docs/hpr.md).
+  constexpr double kBandDepths = 4.0;
+  const double band_depth = kBandDepths * ch_depth * dist.cloud_radius;
+  grid.setBandDepth (band_depth);
+  grid.propagateAdaptive (cull_steps);
+  HPR_LAP ("propagate");
+  std::vector<int> local_alive, local_settled;
+  std::vector<Eigen::Vector3d> local_alive_pts;
+  std::vector<int>& alive = reuse ? in.ws->alive : local_alive;
+  std::vector<Eigen::Vector3d>& alive_pts = reuse ? in.ws->alive_pts : local_alive_pts;
+  std::vector<int>& settled = reuse ? in.ws->settled : local_settled;  // survivors outside the band: visible
+  settled.clear ();
+  grid.interiorPoints (pts, &alive, &alive_pts, nullptr, opt.refinement > 0 ? &settled : nullptr);
+  for (int i : settled)
+    sub.visible[i] = 1;
+  HPR_LAP ("interior");
+  res.sectors = grid.sectorCount ();
+  res.steps = cull_steps;
+  refineSurvivors (in, band_depth, grid.cellAngle (), alive, alive_pts, settled, sub);
+  HPR_PASS (9);
+  for (int i : alive)
+    sub.visible[i] = 1;
+  HPR_LAP ("mark_visible");
+  // The grid's triangulation spans the candidates; other visible points get normals
+  // facing the viewer (meshNormals' fallback). Triangles with a vertex a refinement pass
+  // culled are dropped.
+  if (opt.triangles || opt.normals)
+  {
+    sub.triangles = grid.triangulate (pts, -1.f);
+    sub.triangles.erase (std::remove_if (sub.triangles.begin (), sub.triangles.end (),
+                                         [&] (const Eigen::Vector3i& t) {
+                                           return !sub.visible[t[0]] || !sub.visible[t[1]] || !sub.visible[t[2]];
+                                         }),
+                         sub.triangles.end ());
+  }
+}
+
+// ANGULAR_GRID, KAVAN and HYBRID: the grid's sector candidates after propagation (angular
+// grid) or global refinement (Kavan), visible as they are or through their exact hull (hybrid).
+bool
+runGridSampling (const MethodInput& in, AngularGrid& grid, VisibilityResult& sub, VisibilityResult& res)
+{
+  const VisibilityOptions& opt = in.opt;
+  const std::vector<Eigen::Vector3d>& pts = in.pts;
+  grid.build (pts, in.centre, in.R, in.k);
+  if (opt.method == VisibilityMethod::KAVAN)
+    grid.refineGlobal ();
+  else if (opt.method == VisibilityMethod::ANGULAR_GRID)
+  {
+    if (opt.fixed_propagation)
+    {
+      grid.propagateFixed (in.steps);
+      res.steps = in.steps;
+    }
+    else
+      res.steps = grid.propagateAdaptive (in.steps);
+  }
+  const std::vector<int> cands = grid.candidates ();
+  if (opt.method == VisibilityMethod::HYBRID)
+  {
+    if (!hullVisibility (pts, cands, in.R, opt.triangles || opt.normals, sub, in.threads))
+      return false;
+  }
+  else
+  {
+    for (int c : cands)
+      sub.visible[c] = 1;
+    if (opt.triangles)
+      sub.triangles = grid.triangulate (pts, -1.f);
+    if (opt.normals)
+      grid.normalsAndSplats (pts, sub.normals, sub.splat_radius);
+  }
+  res.sectors = grid.sectorCount ();
+  return true;
+}
+
+// BENTLEY_FAUST_PREPARATA (Machado e Silva 2012, §3.1): the extremes along the viewing axis x
+// in a g × g grid over the (y, z) plane of the flipped cloud, then their exact hull.
+bool
+runBentleyFaustPreparata (const MethodInput& in, VisibilityResult& sub, VisibilityResult& res)
+{
+  const VisibilityOptions& opt = in.opt;
+  const std::vector<Eigen::Vector3d>& pts = in.pts;
+  const std::vector<Eigen::Vector3d> f = flip (pts, everyPoint (pts.size ()), in.R, in.threads);
+  const Eigen::Vector3d x = in.centre.cast<double> ().normalized ();
+  const Eigen::Vector3d e = std::abs (x.z ()) > 0.9 ? Eigen::Vector3d::UnitY () : Eigen::Vector3d::UnitZ ();
+  const Eigen::Vector3d z = (e - e.dot (x) * x).normalized (), y = z.cross (x);
+  const int g = std::max (1, int (std::lround (std::sqrt (double (in.k)))));
+  double y0 = 1e300, y1 = -1e300, z0 = 1e300, z1 = -1e300;
+  for (const auto& q : f)
+  {
+    y0 = std::min (y0, q.dot (y));
+    y1 = std::max (y1, q.dot (y));
+    z0 = std::min (z0, q.dot (z));
+    z1 = std::max (z1, q.dot (z));
+  }
+  const double sy = g / std::max (y1 - y0, 1e-300), sz = g / std::max (z1 - z0, 1e-300);
+  std::vector<int> lo (std::size_t (g) * g, -1), hi (std::size_t (g) * g, -1);
+  for (std::size_t i = 0; i < f.size (); ++i)
+  {
+    const int a = std::clamp (int ((f[i].dot (y) - y0) * sy), 0, g - 1);
+    const int b = std::clamp (int ((f[i].dot (z) - z0) * sz), 0, g - 1);
+    const std::size_t c = std::size_t (a) * g + b;
+    const double v = f[i].dot (x);
+    if (lo[c] < 0 || v < f[lo[c]].dot (x))
+      lo[c] = int (i);
+    if (hi[c] < 0 || v > f[hi[c]].dot (x))
+      hi[c] = int (i);
+  }
+  std::vector<int> sel;
+  for (std::size_t c = 0; c < lo.size (); ++c)
+  {
+    if (lo[c] >= 0)
+      sel.push_back (lo[c]);
+    if (hi[c] >= 0 && hi[c] != lo[c])
+      sel.push_back (hi[c]);
+  }
+  if (!hullVisibility (pts, sel, in.R, opt.triangles || opt.normals, sub, in.threads))
+    return false;
+  res.sectors = std::size_t (g) * g;
+  return true;
+}
+
+// The method's answer on the compacted points (`sub`) back on the input points of `res`:
+// long edges dropped, normals from the triangles where the method gave none, duplicates
+// of visible points made visible. id (i) is the input index of compacted point i.
+template <typename IdOf>
+void
+writeResult (const std::vector<Eigen::Vector3d>& pts, const VisibilityOptions& opt, std::size_t n, IdOf id,
+             VisibilityResult& sub, VisibilityResult& res)
+{
+  res.warning += sub.warning;
+  if (opt.triangles)
+    filterLongEdges (pts, opt.max_edge, sub.triangles);
+  if (opt.normals && sub.normals.empty ())
+    meshNormals (pts, sub.triangles, sub);
+  // Exact duplicates pass the candidate-hull test together; the other methods pick one
+  // point per hull vertex or sector.
+  if (opt.method != VisibilityMethod::CANDIDATE_HULL)
+    shareWithDuplicates (pts, sub);
+  for (std::size_t i = 0; i < pts.size (); ++i)
+    res.visible[id (i)] = sub.visible[i];
+  for (const auto& t : sub.triangles)
+    res.triangles.emplace_back (id (t[0]), id (t[1]), id (t[2]));
+  if (opt.normals)
+  {
+    res.normals.assign (n, Eigen::Vector3f::Constant (std::numeric_limits<float>::quiet_NaN ()));
+    res.splat_radius.assign (n, 0.f);
+    for (std::size_t i = 0; i < pts.size (); ++i)
+      if (res.visible[id (i)])
+      {
+        res.normals[id (i)] = sub.normals[i];
+        res.splat_radius[id (i)] = sub.splat_radius[i];
+      }
+  }
+}
+
+}  // namespace
+
 VisibilityResult
 computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityOptions& opt, VisibilityWorkspace* ws)
 {
@@ -613,47 +976,15 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
   res.visible.assign (n, 0);
   if (n == 0)
     return res;
-  // Extremes of ρ and the centroid in one pass (they were two serial passes), unless the
-  // caller gathered them. The sums are per fixed block, added in block order: the centroid
-  // does not depend on the thread count.
   const int threads = opt.threads > 0 ? opt.threads : autoThreads (n);
-  const std::size_t blocks = (n + kStatsBlock - 1) / kStatsBlock;
-  double max_rho2 = 0, min_rho2 = std::numeric_limits<double>::infinity ();
-  Eigen::Vector3d point_sum = Eigen::Vector3d::Zero ();
-  if (opt.stats && opt.stats->block_sum.size () == blocks)
-  {
-    max_rho2 = opt.stats->max_rho2;
-    min_rho2 = opt.stats->min_rho2;
-    for (const auto& b : opt.stats->block_sum)
-      point_sum += b;
-  }
-  else
-  {
-    std::vector<Eigen::Vector3d> block_sum (blocks, Eigen::Vector3d::Zero ());
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) reduction(max : max_rho2) reduction(min : min_rho2)
-    for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
-    {
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero ();
-      for (std::size_t i = std::size_t (b) * kStatsBlock, e = std::min (n, i + kStatsBlock); i < e; ++i)
-      {
-        const Eigen::Vector3d& p = points[i];
-        const double r2 = p.squaredNorm ();
-        max_rho2 = std::max (max_rho2, r2);
-        min_rho2 = std::min (min_rho2, r2);
-        sum += p;
-      }
-      block_sum[b] = sum;
-    }
-    for (const auto& b : block_sum)
-      point_sum += b;
-  }
-  const double max_rho = std::sqrt (max_rho2);
+  const PointSums sums = sumPoints (points, opt.stats, threads);
+  const double max_rho = std::sqrt (sums.max_rho2);
   HPR_LAP ("min_max_rho");
 
   // A point at the viewpoint is seen (and cannot be flipped): keep it out of the hull.
   const double eye_eps = 1e-9 * std::max (max_rho, 1e-30);
   std::size_t at_eye = 0;
-  if (std::sqrt (min_rho2) <= eye_eps)  // rare: a second pass only then
+  if (std::sqrt (sums.min_rho2) <= eye_eps)  // rare: a second pass only then
     for (std::size_t i = 0; i < n; ++i)
       if (points[i].norm () <= eye_eps)
       {
@@ -710,296 +1041,49 @@ computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityO
     }
     return res;
   }
-  // Calibration only where something calibrated is used (the grid-sampling methods' k and ℓ).
-  const bool grid_sampled = opt.method == VisibilityMethod::ANGULAR_GRID || opt.method == VisibilityMethod::KAVAN ||
-                            opt.method == VisibilityMethod::HYBRID ||
-                            opt.method == VisibilityMethod::BENTLEY_FAUST_PREPARATA;
-  // The candidate hull calibrates R on its own culling grid (below), from distances only.
-  const bool ch_only = opt.method == VisibilityMethod::CANDIDATE_HULL;
-  const bool need_cal = (opt.radius <= 0 && !ch_only) || (grid_sampled && opt.sectors == 0) ||
-                        (opt.method == VisibilityMethod::ANGULAR_GRID && opt.steps == 0 && !opt.fixed_propagation);
-  HPRCalibration cal;
-  res.threads = threads;
-  if (need_cal)
-  {
-    VisibilityOptions copt = opt;
-    copt.threads = threads;
-    cal = calibrateHPR (pts, copt);
-  }
-  // The culling grid of CANDIDATE_HULL and of the exact pre-filter: k = 2·n^0.7 was the best
-  // on the bench (bunny and torus scene, 100k–3M points): finer grids make smaller triangles
-  // that cover fewer points, coarser ones sag. Its triangles span a cell diagonal, not the
-  // spacing of visible points, so CANDIDATE_HULL's own R makes such a triangle hide a point
-  // one occlusion depth behind it.
-  const std::size_t k_cull_default = std::size_t (std::max (64.0, 2.0 * std::pow (double (pts.size ()), 0.7)));
-  const std::size_t k_cull =
-      opt.sectors > 0 ? std::min ({opt.sectors, kMaxSectors, 64 * pts.size ()}) : k_cull_default;
-  double R = opt.radius > 0 ? opt.radius : cal.radius;
-  std::size_t k = opt.sectors > 0 ? opt.sectors : cal.sectors;
-  // More than 64 sectors per point only adds empty sectors (the visible count saturates
-  // near a few sectors per point, seed §7.2).
-  const std::size_t k_cap = std::min (kMaxSectors, 64 * pts.size ());
-  if (k > k_cap)
-  {
-    res.warning += "k = " + std::to_string (k) + " clamped to " + std::to_string (k_cap) + "; ";
-    k = k_cap;
-  }
-  const int steps = opt.steps > 0 ? opt.steps : (need_cal ? propagationSteps (cal, k) : 0);
-  res.radius = R;
+  MethodInput in (pts, opt, ws);
+  in.threads = threads;
+  planMethod (in, res);
   VisibilityResult sub;
   sub.visible.assign (pts.size (), 0);
-  const Eigen::Vector3d centre = at_eye > 0 ? centroidOf (pts) : Eigen::Vector3d (point_sum / double (n));
+  in.centre = at_eye > 0 ? centroidOf (pts) : Eigen::Vector3d (sums.sum / double (n));
   HPR_LAP ("centroid");
-  // The candidate hull reuses the workspace's grids (every setting is made again below).
-  AngularGrid local_grid, local_fine;
+  // The candidate hull reuses the workspace's grids (every setting is made again).
+  AngularGrid local_grid;
   const bool reuse = ws && opt.method == VisibilityMethod::CANDIDATE_HULL;
   AngularGrid& grid = reuse ? ws->grid : local_grid;
   grid.setThreads (threads);
+  if (!reuse)
+    in.ws = nullptr;
 
-  auto everyPoint = [&pts] {
-    std::vector<int> all (pts.size ());
-    for (std::size_t i = 0; i < pts.size (); ++i)
-      all[i] = int (i);
-    return all;
-  };
-
+  bool ok = true;
   switch (opt.method)
   {
-  case VisibilityMethod::CANDIDATE_HULL:
-  {
-    const int cull_steps = opt.steps > 0 ? steps : 4;
-    grid.setOutlineCandidates (true);
-    grid.setCellSize (0);
-    // R from the culling grid's own solid angle: no calibration grid is needed here.
-    // The occlusion depth of this cloud: 0.8 × the option when clean, more when noisy.
-    NoiseProbe probe (pts, opt.radius > 0 ? 0 : kNoiseSeeds, kNoiseNeighbours);
-    const HPRCalibration dist = distancesOf (pts, centre, threads, &probe);
-    HPR_LAP ("distances");
-    const double noise = probe.active () ? probe.finish (pts) : 0.0;
-    const double ch_depth = candidateHullDepth (opt.occlusion_depth, dist.cloud_radius, noise);
-    HPR_LAP ("noise");
-    if (opt.radius > 0)
-      grid.build (pts, centre, R, k_cull);
-    else
-    {
-      grid.build (pts, centre,
-                  [&] (double area) {
-                    HPRCalibration c = dist;
-                    c.grid_area = area;
-                    return radiusForSeparation (c, std::sqrt (2.0 * area / double (k_cull)), ch_depth);
-                  },
-                  k_cull);
-      R = grid.radius ();
-      res.radius = R;
-    }
-    HPR_LAP ("build");
-    // The uncertain band is seeded only by culls less than 4 occlusion depths behind the
-    // nearest candidate around them: on a closed object every sector has a culled far-side
-    // point, and the band was (nearly) every survivor. Wide bench, 1M points: bunny CPU per
-    // call −11…−19 % (alternating A/B, 5 rounds), fins ±5 %; F1 within ±0.002 on all 16 views
-    // at 100k and 1M. 2 depths lost up to 0.01 at 100k (torus scene).
-    constexpr double kBandDepths = 4.0;
-    const double band_depth = kBandDepths * ch_depth * dist.cloud_radius;
-    grid.setBandDepth (band_depth);
-    grid.propagateAdaptive (cull_steps);
-    HPR_LAP ("propagate");
-    std::vector<int> local_alive, local_settled, local_next;
-    std::vector<Eigen::Vector3d> local_alive_pts, local_next_pts;
-    std::vector<int>& alive = reuse ? ws->alive : local_alive;
-    std::vector<Eigen::Vector3d>& alive_pts = reuse ? ws->alive_pts : local_alive_pts;
-    std::vector<int>& settled = reuse ? ws->settled : local_settled;  // survivors outside the band: visible
-    settled.clear ();
-    grid.interiorPoints (pts, &alive, &alive_pts, nullptr, opt.refinement > 0 ? &settled : nullptr);
-    for (int i : settled)
-      sub.visible[i] = 1;
-    HPR_LAP ("interior");
-    res.sectors = grid.sectorCount ();
-    res.steps = cull_steps;
-    // Refinement: the survivors again, on grids 2×, 4×, ... finer, at the same R. A finer
-    // triangle sags less below the surface (the depth band it leaves ∝ R·(triangle size)²),
-    // so hidden points just behind the surface (silhouettes, thin parts) are culled, and a
-    // point inside a tetrahedron of survivors is inside the hull of all points: the test
-    // stays conservative (every hull vertex survives), whichever survivors span it.
-    // Only the uncertain band goes on (survivors within one sector of a culled point or of
-    // a silhouette, see interiorPoints): elsewhere the previous pass saw front-surface
-    // points only, and the band's finer grid keeps the cell it would have had over all
-    // survivors. Survivors come in the previous grid's sector order, nearly the finer one's.
-    const double cell0 = grid.cellAngle ();
-    std::vector<int>& next = reuse ? ws->next : local_next;
-    std::vector<Eigen::Vector3d>& next_pts = reuse ? ws->next_pts : local_next_pts;
-    for (int pass = 1; pass <= opt.refinement && alive.size () >= 4; ++pass)
-    {
-      HPR_PASS (pass);
-      const std::size_t kp = std::min ({k_cull << pass, kMaxSectors, 64 * alive.size ()});
-      AngularGrid& fine = reuse ? ws->fine : local_fine;
-      fine.setThreads (threads);
-      fine.setOutlineCandidates (true);
-      fine.setBandDepth (band_depth);
-      fine.setCellSize (cell0 / std::pow (std::sqrt (2.0), pass));
-      fine.build (alive_pts, centre, R, kp);
-      HPR_LAP ("build");
-      // No propagation in the first refinement pass: its sectors' own points span smaller
-      // triangles than candidates carried over from neighbours, and cull more hidden points
-      // just behind the surface. F1 rose on all 24 wide cases (4 shapes × 2 views × 100k / 1M /
-      // 3M; +0.0000–0.0028, fins view 1 at 1M 0.95092 → 0.95136), and the pass costs less.
-      // Later passes take one step: without it fins view 1 lost 0.003 (1M).
-      if (pass > 1)
-        fine.propagateAdaptive (1);
-      HPR_LAP ("propagate");
-      fine.interiorPoints (alive_pts, &next, &next_pts, nullptr, pass < opt.refinement ? &settled : nullptr);
-      HPR_LAP ("interior");
-      for (int& j : next)
-        j = alive[j];
-      if (pass < opt.refinement)
-        for (int j : settled)
-          sub.visible[alive[j]] = 1;
-      alive.swap (next);
-      alive_pts.swap (next_pts);
-      HPR_LAP ("remap");
-    }
-    HPR_PASS (9);
-    for (int i : alive)
-      sub.visible[i] = 1;
-    HPR_LAP ("mark_visible");
-    // The grid's triangulation spans the candidates; other visible points get normals
-    // facing the viewer (meshNormals' fallback). Triangles with a vertex a refinement pass
-    // culled are dropped.
-    if (opt.triangles || opt.normals)
-    {
-      sub.triangles = grid.triangulate (pts, -1.f);
-      sub.triangles.erase (std::remove_if (sub.triangles.begin (), sub.triangles.end (),
-                                           [&] (const Eigen::Vector3i& t) {
-                                             return !sub.visible[t[0]] || !sub.visible[t[1]] || !sub.visible[t[2]];
-                                           }),
-                           sub.triangles.end ());
-    }
-    break;
-  }
+  case VisibilityMethod::CANDIDATE_HULL: runCandidateHull (in, grid, sub, res); break;
   case VisibilityMethod::EXACT:
   {
     const std::vector<int> keep = opt.exact_prefilter && pts.size () >= 2000
-                                      ? cullInterior (grid, pts, centre, R, k_cull_default, 4)
-                                      : everyPoint ();
+                                      ? cullInterior (grid, pts, in.centre, in.R, in.k_cull_default, 4)
+                                      : everyPoint (pts.size ());
     res.prefilter_kept = keep.size ();
-    if (!hullVisibility (pts, keep, R, opt.triangles || opt.normals, sub, threads))
-    {
-      res.error = sub.error;
-      return res;
-    }
+    ok = hullVisibility (pts, keep, in.R, opt.triangles || opt.normals, sub, threads);
     break;
   }
   case VisibilityMethod::ANGULAR_GRID:
   case VisibilityMethod::KAVAN:
-  case VisibilityMethod::HYBRID:
+  case VisibilityMethod::HYBRID: ok = runGridSampling (in, grid, sub, res); break;
+  case VisibilityMethod::BENTLEY_FAUST_PREPARATA: ok = runBentleyFaustPreparata (in, sub, res); break;
+  }
+  if (!ok)
   {
-    grid.build (pts, centre, R, k);
-    if (opt.method == VisibilityMethod::KAVAN)
-      grid.refineGlobal ();
-    else if (opt.method == VisibilityMethod::ANGULAR_GRID)
-    {
-      if (opt.fixed_propagation)
-      {
-        grid.propagateFixed (steps);
-        res.steps = steps;
-      }
-      else
-        res.steps = grid.propagateAdaptive (steps);
-    }
-    const std::vector<int> cands = grid.candidates ();
-    if (opt.method == VisibilityMethod::HYBRID)
-    {
-      if (!hullVisibility (pts, cands, R, opt.triangles || opt.normals, sub, threads))
-      {
-        res.error = sub.error;
-        return res;
-      }
-    }
-    else
-    {
-      for (int c : cands)
-        sub.visible[c] = 1;
-      if (opt.triangles)
-        sub.triangles = grid.triangulate (pts, -1.f);
-      if (opt.normals)
-        grid.normalsAndSplats (pts, sub.normals, sub.splat_radius);
-    }
-    res.sectors = grid.sectorCount ();
-    break;
+    res.error = sub.error;
+    return res;
   }
-  case VisibilityMethod::BENTLEY_FAUST_PREPARATA:
-  {
-    // Extremes along the viewing axis x in a g × g grid over the (y, z) plane of the flipped cloud.
-    const std::vector<Eigen::Vector3d> f = flip (pts, everyPoint (), R, threads);
-    const Eigen::Vector3d x = centre.cast<double> ().normalized ();
-    const Eigen::Vector3d e = std::abs (x.z ()) > 0.9 ? Eigen::Vector3d::UnitY () : Eigen::Vector3d::UnitZ ();
-    const Eigen::Vector3d z = (e - e.dot (x) * x).normalized (), y = z.cross (x);
-    const int g = std::max (1, int (std::lround (std::sqrt (double (k)))));
-    double y0 = 1e300, y1 = -1e300, z0 = 1e300, z1 = -1e300;
-    for (const auto& q : f)
-    {
-      y0 = std::min (y0, q.dot (y));
-      y1 = std::max (y1, q.dot (y));
-      z0 = std::min (z0, q.dot (z));
-      z1 = std::max (z1, q.dot (z));
-    }
-    const double sy = g / std::max (y1 - y0, 1e-300), sz = g / std::max (z1 - z0, 1e-300);
-    std::vector<int> lo (std::size_t (g) * g, -1), hi (std::size_t (g) * g, -1);
-    for (std::size_t i = 0; i < f.size (); ++i)
-    {
-      const int a = std::clamp (int ((f[i].dot (y) - y0) * sy), 0, g - 1);
-      const int b = std::clamp (int ((f[i].dot (z) - z0) * sz), 0, g - 1);
-      const std::size_t c = std::size_t (a) * g + b;
-      const double v = f[i].dot (x);
-      if (lo[c] < 0 || v < f[lo[c]].dot (x))
-        lo[c] = int (i);
-      if (hi[c] < 0 || v > f[hi[c]].dot (x))
-        hi[c] = int (i);
-    }
-    std::vector<int> sel;
-    for (std::size_t c = 0; c < lo.size (); ++c)
-    {
-      if (lo[c] >= 0)
-        sel.push_back (lo[c]);
-      if (hi[c] >= 0 && hi[c] != lo[c])
-        sel.push_back (hi[c]);
-    }
-    if (!hullVisibility (pts, sel, R, opt.triangles || opt.normals, sub, threads))
-    {
-      res.error = sub.error;
-      return res;
-    }
-    res.sectors = std::size_t (g) * g;
-    break;
-  }
-  }
-  res.warning += sub.warning;
-
-  if (opt.triangles)
-    filterLongEdges (pts, opt.max_edge, sub.triangles);
-  if (opt.normals && sub.normals.empty ())
-    meshNormals (pts, sub.triangles, sub);
-  // Exact duplicates pass the candidate-hull test together; the other methods pick one
-  // point per hull vertex or sector.
-  if (opt.method != VisibilityMethod::CANDIDATE_HULL)
-    shareWithDuplicates (pts, sub);
-  for (std::size_t i = 0; i < pts.size (); ++i)
-    res.visible[id (i)] = sub.visible[i];
-  for (const auto& t : sub.triangles)
-    res.triangles.emplace_back (id (t[0]), id (t[1]), id (t[2]));
-  if (opt.normals)
-  {
-    res.normals.assign (n, Eigen::Vector3f::Constant (std::numeric_limits<float>::quiet_NaN ()));
-    res.splat_radius.assign (n, 0.f);
-    for (std::size_t i = 0; i < pts.size (); ++i)
-      if (res.visible[id (i)])
-      {
-        res.normals[id (i)] = sub.normals[i];
-        res.splat_radius[id (i)] = sub.splat_radius[i];
-      }
-  }
+  writeResult (pts, opt, n, id, sub, res);
   HPR_LAP ("output");
   return res;
 }
 
+}  // namespace detail
 }  // namespace hpr
-}  // namespace pcl
+}  // namespace pclx

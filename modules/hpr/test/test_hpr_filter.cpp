@@ -414,30 +414,56 @@ TEST (HPRBadInput, BadRadiusViewpointAndPropagationAreRejected)
   Filter f (true);
   f.setInputCloud (cloud);
   f.setViewPoint (Eigen::Vector3f (0, 0, 3));
+  // An R the cloud cannot use is refused by filter (): nothing kept, the reason kept.
   f.setRadius (2.0);  // farthest point is at distance 4
   EXPECT_TRUE (run (f).empty ());
   EXPECT_EQ (f.getRemovedIndices ()->size (), cloud->size ());
+  EXPECT_FALSE (f.getLastError ().empty ());
+  f.setRadius (5.0);
+  const pcl::Indices reference = run (f);
+  EXPECT_FALSE (reference.empty ());
+  EXPECT_TRUE (f.getLastError ().empty ());  // cleared by a call that succeeds
+
+  // Bad setter arguments are refused (PCL_ERROR) and the previous setting is kept: the
+  // filter gives the answer of that setting.
+  auto unchanged = [&] (const char* what) {
+    EXPECT_EQ (f.getRadiusMode (), Filter::RadiusMode::ABSOLUTE) << what;
+    EXPECT_EQ (run (f), reference) << what;
+    EXPECT_TRUE (f.getLastError ().empty ()) << what;
+  };
   f.setRadius (-1.0);
-  EXPECT_TRUE (run (f).empty ());
+  unchanged ("R < 0");
+  f.setRadius (std::numeric_limits<double>::infinity ());
+  unchanged ("R infinite");
   f.setGamma (0.0);
-  EXPECT_TRUE (run (f).empty ());
-  f.setGamma (2.0);
-  f.setViewPoint (Eigen::Vector3f (kNaN, 0, 0));
-  EXPECT_TRUE (run (f).empty ());
-  f.setViewPoint (Eigen::Vector3f (0, 0, 3));
-  f.setMethod (Filter::Method::ANGULAR_GRID);
-  f.setPropagation (Filter::Propagation::FIXED, 4);  // m must be odd
-  EXPECT_TRUE (run (f).empty ());
-  f.setPropagation (Filter::Propagation::ADAPTIVE, -2);
-  EXPECT_TRUE (run (f).empty ());
-  f.setPropagation (Filter::Propagation::ADAPTIVE, 0);
-  f.setGridOversampling (0.0);
-  EXPECT_TRUE (run (f).empty ());
-  f.setGridOversampling (4.0);
+  unchanged ("gamma = 0");
+  f.setGamma (kNaN);
+  unchanged ("gamma NaN");
   f.setAutoRadius (-1.0);
-  EXPECT_TRUE (run (f).empty ());
+  unchanged ("occlusion depth < 0");
+  f.setViewPoint (Eigen::Vector3f (kNaN, 0, 0));
+  EXPECT_EQ (f.getViewPoint (), Eigen::Vector3f (0, 0, 3));
+  unchanged ("viewpoint NaN");
+  f.setGridOversampling (0.0);
+  unchanged ("oversampling 0");
+  f.setViewResolution (800, 0.0);
+  unchanged ("field of view 0");
+
+  f.setMethod (Filter::Method::ANGULAR_GRID);
+  f.setSectorCount (2000);
+  f.setPropagation (Filter::Propagation::FIXED, 3);
+  const pcl::Indices fixed3 = run (f);
+  EXPECT_FALSE (fixed3.empty ());
+  f.setPropagation (Filter::Propagation::FIXED, 4);  // m must be odd
+  EXPECT_EQ (run (f), fixed3);
+  f.setPropagation (Filter::Propagation::FIXED, 0);
+  EXPECT_EQ (run (f), fixed3);
+  f.setPropagation (Filter::Propagation::ADAPTIVE, -2);
+  EXPECT_EQ (run (f), fixed3);
+  EXPECT_EQ (f.getPropagationStepsUsed (), 3);
   f.setAutoRadius ();
-  EXPECT_FALSE (run (f).empty ());  // and it recovers
+  EXPECT_EQ (f.getRadiusMode (), Filter::RadiusMode::AUTO);
+  EXPECT_FALSE (run (f).empty ());
 }
 
 TEST (HPRBadInput, ViewpointInsideTheCloud)

@@ -2,9 +2,9 @@
 // calibration, the partial triangulation, grid normals and the other hulls.
 #include "hpr_test_util.h"
 
-#include <pclx/hpr/angular_grid.h>
+#include <pclx/hpr/detail/angular_grid.h>
 #include <pclx/hpr/hpr_filter.h>
-#include <pclx/hpr/visibility.h>
+#include <pclx/hpr/detail/visibility.h>
 #include <pclx/testing/ray_caster.h>
 #include <pclx/testing/shapes.h>
 
@@ -256,7 +256,7 @@ TEST (AngularGrid, SectorsCoverTheCloudAndCandidatesAreExtreme)
       pts.emplace_back (5.0, (i - 25) * 0.02, (j - 25) * 0.02);
       pts.emplace_back (6.0, (i - 25) * 0.024 + 0.001, (j - 25) * 0.024 + 0.001);
     }
-  pcl::hpr::AngularGrid g;
+  pclx::hpr::detail::AngularGrid g;
   g.build (pts, Eigen::Vector3d (5.5, 0, 0), 1e4, 400);
   EXPECT_NEAR (double (g.sectorCount ()), 400.0, 60.0);
   // Every candidate is on the front patch: it is the nearer, so the more extreme when flipped.
@@ -332,8 +332,8 @@ TEST (HPRThreads, SameAnswerForAnyThreadCountAndAutomaticCountIsSane)
       EXPECT_EQ (out[i], out[0]) << "method " << int (m) << ", run " << i;
   }
   // Small clouds never pay for a parallel region.
-  EXPECT_EQ (pcl::hpr::autoThreads (1000), 1);
-  EXPECT_GE (pcl::hpr::autoThreads (10000000), 1);
+  EXPECT_EQ (pclx::hpr::detail::autoThreads (1000), 1);
+  EXPECT_GE (pclx::hpr::detail::autoThreads (10000000), 1);
 }
 
 // The refinement passes go on only over the uncertain band (interiorPoints' survivor_in_band):
@@ -350,7 +350,7 @@ TEST (AngularGrid, UncertainBandIsAroundCulledPointsAndTheOutline)
   for (int i = 0; i < 10; ++i)
     for (int j = 0; j < 10; ++j)
       pts.emplace_back (5.5, (i - 5) * 0.02 + 0.011, (j - 5) * 0.02 + 0.013);
-  pcl::hpr::AngularGrid g;
+  pclx::hpr::detail::AngularGrid g;
   g.build (pts, Eigen::Vector3d (5.0, 0, 0), 1e4, 400);
   std::vector<int> survivors;
   std::vector<Eigen::Vector3d> survivor_points;
@@ -407,7 +407,7 @@ TEST (AngularGrid, BandDepthKeepsDeepCullsOutOfTheBand)
     }
   for (const double depth : {0.0, 0.2})
   {
-    pcl::hpr::AngularGrid g;
+    pclx::hpr::detail::AngularGrid g;
     g.setBandDepth (depth);
     g.build (pts, Eigen::Vector3d (5.0, 0, 0), 20.0, 400);
     std::vector<int> survivors, settled;
@@ -462,20 +462,20 @@ TEST (AngularGrid, FixedCellSizeIsKeptOverASubsetAndCappedByK)
       if (i < 20 && j < 30)
         part.push_back (all.back ());
     }
-  pcl::hpr::AngularGrid full;
+  pclx::hpr::detail::AngularGrid full;
   full.build (all, Eigen::Vector3d (5.0, 0, 0), 1e4, 1600);
   const double cell = full.cellAngle ();
-  pcl::hpr::AngularGrid sub;
+  pclx::hpr::detail::AngularGrid sub;
   sub.setCellSize (cell);
   sub.build (part, Eigen::Vector3d (5.0, 0, 0), 1e4, 1600);
   EXPECT_NEAR (sub.cellAngle (), cell, 1e-9 * cell);
   EXPECT_LT (sub.sectorCount (), 1600u / 4);  // the subset spans under a tenth of the extent
   // Without it, k is spread over the subset: cells ~3x smaller.
-  pcl::hpr::AngularGrid spread;
+  pclx::hpr::detail::AngularGrid spread;
   spread.build (part, Eigen::Vector3d (5.0, 0, 0), 1e4, 1600);
   EXPECT_LT (spread.cellAngle (), 0.5 * cell);
   // A cell finer than k allows is capped by k.
-  pcl::hpr::AngularGrid capped;
+  pclx::hpr::detail::AngularGrid capped;
   capped.setCellSize (cell / 100);
   capped.build (part, Eigen::Vector3d (5.0, 0, 0), 1e4, 100);
   EXPECT_LE (capped.sectorCount (), 120u);
@@ -504,7 +504,7 @@ TEST (AngularGrid, DepthCutCullsTheFarSideAndStaysConservative)
   const std::size_t k = std::size_t (2.0 * std::pow (double (pts.size ()), 0.7));
   auto cull = [&] (const std::vector<Eigen::Vector3d>& p, int threads, std::size_t* cut,
                    std::vector<int>* survivors = nullptr) {
-    pcl::hpr::AngularGrid g;
+    pclx::hpr::detail::AngularGrid g;
     g.setThreads (threads);
     g.setOutlineCandidates (true);
     g.build (p, &p == &pts ? centre : centre_inside, R, k);
@@ -535,12 +535,12 @@ TEST (AngularGrid, DepthCutCullsTheFarSideAndStaysConservative)
       kept.push_back (int (i));
   EXPECT_EQ (survivors, kept);
   // Conservative: no vertex of the exact hull at the same R is culled.
-  pcl::hpr::VisibilityOptions opt;
-  opt.method = pcl::hpr::VisibilityMethod::EXACT;
+  pclx::hpr::detail::VisibilityOptions opt;
+  opt.method = pclx::hpr::detail::VisibilityMethod::EXACT;
   opt.radius = R;
   opt.exact_prefilter = false;
   opt.threads = 1;
-  const pcl::hpr::VisibilityResult exact = pcl::hpr::computeVisibility (pts, opt);
+  const pclx::hpr::detail::VisibilityResult exact = pclx::hpr::detail::computeVisibility (pts, opt);
   ASSERT_TRUE (exact.error.empty ()) << exact.error;
   std::size_t lost = 0, exact_visible = 0;
   for (std::size_t i = 0; i < pts.size (); ++i)

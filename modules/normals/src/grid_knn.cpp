@@ -1,4 +1,4 @@
-#include <pclx/normals/grid_knn.h>
+#include <pclx/normals/detail/grid_knn.h>
 
 #include <algorithm>
 #include <cmath>
@@ -7,6 +7,7 @@
 
 namespace pclx {
 namespace normals {
+namespace detail {
 
 namespace {
 constexpr std::int64_t kAxisCells = (std::int64_t (1) << 21) - 1;  // 21 bits per axis in a key
@@ -82,7 +83,7 @@ GridKnn::build (const std::vector<Eigen::Vector3f>& points, int points_per_cell,
     dims_[a] = std::min<std::int64_t> (kAxisCells, static_cast<std::int64_t> (std::floor ((hi[a] - lo[a]) / cell)) + 1);
 
   // Cell keys, then an LSD radix sort (11-bit digits, only as many as the keys use: 3 passes
-  // for a million points on a surface) instead of a comparison sort, which was most of
+  // for a million points on a surface) instead of a comparison sort, which would dominate
   // the build. Each pass counts and scatters by thread over contiguous chunks, the
   // threads' slots of a digit in chunk order: stable, so the order is the serial one.
   std::vector<std::uint64_t> keys (n), keys2 (n);
@@ -342,5 +343,6 @@ GridKnn::nearestK (const Eigen::Vector3f& q, int k, std::vector<int>& indices, s
   }
 }
 
+}  // namespace detail
 }  // namespace normals
 }  // namespace pclx

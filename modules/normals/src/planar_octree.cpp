@@ -1,5 +1,5 @@
-#include <pclx/normals/planar_octree.h>
-#include <pclx/normals/plane_pca.h>
+#include <pclx/normals/detail/planar_octree.h>
+#include <pclx/normals/detail/plane_pca.h>
 
 #include <Eigen/Dense>
 #include <pcl/common/eigen.h>
@@ -12,6 +12,7 @@
 
 namespace pclx {
 namespace normals {
+namespace detail {
 
 namespace {
 
@@ -71,7 +72,7 @@ fitSurface (std::vector<Eigen::Vector3f>& pts, const Eigen::Vector3f& c, double 
   if (n < 3)
     return false;
   // One pass of sums shifted by c (the support's centre, so nothing cancels), as PCL's
-  // computeMeanAndCovarianceMatrix does (was two passes: the mean, then the covariance).
+  // computeMeanAndCovarianceMatrix does.
   Eigen::Vector3d s1 = Eigen::Vector3d::Zero ();
   Eigen::Matrix3d s2 = Eigen::Matrix3d::Zero ();
   for (const auto& q : pts)
@@ -613,23 +614,35 @@ PlanarOctree::patchPointsInBox (int leaf, const Eigen::Vector3f& lo, const Eigen
   });
 }
 
-void
-PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, int scales, int support_points)
+// Per-thread scratch of fitPatches ().
+struct PlanarOctree::PatchScratch
 {
-  patches_.clear ();
-  const int n = static_cast<int> (order_.size ());
-  patch_of_point_.assign (n, -1);
-  leaf_slot_.assign (nodes_.size (), -1);
-  std::vector<int> leaves;
-  for (int id = 0; id < static_cast<int> (nodes_.size ()); ++id)
-    if (nodes_[id].isLeaf () && nodes_[id].planar)
-      leaves.push_back (id);
-  const int nl = static_cast<int> (leaves.size ());
-  const int threads = threadCount (threads_);
-  max_points = std::max (max_points, 1);
+  std::vector<int> near, candidates, bucket_start, bucket_points, bucket_of;
+  std::vector<Eigen::Vector3f> support, local;
+};
 
+// A planar leaf's setting for its patches' fits: the first ball radius, the leaf's plane
+// (e1, e2) and the D × D bucket grid of edge g over it that holds the first scale's
+// candidate points (PatchScratch::local, bucket_start, bucket_points).
+struct PlanarOctree::PatchLeafFrame
+{
+  float half0 = 0;
+  Eigen::Vector3f e1, e2;
+  int D = 1;
+  float span = 0, g = 1;
+  int
+  bucket (float t) const
+  {
+    return std::min (D - 1, std::max (0, static_cast<int> ((t + 0.5f * span) / g)));
+  }
+};
+
+void
+PlanarOctree::cutPatchCells (const std::vector<int>& leaves, int max_points, int threads)
+{
   // Cut every planar leaf into a tree of cells of <= max_points (octants again; the
   // leaves' ranges are disjoint). Each leaf keeps its own tree; child ids are local to it.
+  const int nl = static_cast<int> (leaves.size ());
   leaf_cells_.assign (nl, {});
   for (int l = 0; l < nl; ++l)
     leaf_slot_[leaves[l]] = l;
@@ -663,8 +676,14 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
       }
     }
   }
+}
+
+void
+PlanarOctree::numberPatches (int threads)
+{
   // Patch ids in leaf order, each leaf's from a prefix sum, so the (random) writes of
-  // every point's patch run in parallel (serially they were ~5 % of the time at 1M).
+  // every point's patch run in parallel.
+  const int nl = static_cast<int> (leaf_cells_.size ());
   auto fitted = [] (const PatchCell& C) { return C.first_child < 0 && C.end > C.begin; };
   std::vector<int> first_fit (nl + 1, 0);
   for (int l = 0; l < nl; ++l)
@@ -684,6 +703,135 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
         patch_of_point_[order_[i]] = C.fit;
     }
   }
+}
+
+PlanarOctree::PatchLeafFrame
+PlanarOctree::gatherLeafCandidates (int leaf, int scales, int support_points, PatchScratch& s) const
+{
+  const OctreeNode& L = nodes_[leaf];
+  PatchLeafFrame f;
+  // Area per point from the leaf's spread (a uniform rectangle has variance w² / 12).
+  const double area = 12.0 * std::sqrt (L.eigenvalues (0) * L.eigenvalues (1));
+  // Radius of the disc that holds support_points points (a kNN-like ball; the box
+  // queries below only bound it).
+  f.half0 = std::max (static_cast<float> (std::sqrt (support_points * area / (M_PI * L.size ()))),
+                      1e-6f * nodes_[0].half);
+  const float reach = f.half0 * static_cast<float> (1 << (scales - 1));
+  const Eigen::Vector3f margin = Eigen::Vector3f::Constant (reach + L.half);
+  leavesInBox (L.center - margin, L.center + margin, s.near);
+  s.candidates.clear ();
+  for (int other : s.near)
+    if (leaf_slot_[other] >= 0 && (other == leaf || (L.region >= 0 && nodes_[other].region == L.region)))
+      s.candidates.push_back (other);
+  // The leaf's plane (it passed Algorithm 1) carries the bucket grid.
+  const Eigen::Matrix3d frame = frameOfNormal (L.normal);
+  f.e1 = frame.col (0).cast<float> ();
+  f.e2 = frame.col (1).cast<float> ();
+
+  // Scale-0 candidates on a D × D grid of bucket edge ≈ half0 over the plane.
+  const Eigen::Vector3f box0 = Eigen::Vector3f::Constant (L.half + f.half0);
+  s.local.clear ();
+  for (int other : s.candidates)
+    patchPointsInBox (other, L.center - box0, L.center + box0, s.local);
+  f.span = 2.f * (L.half + f.half0) * std::sqrt (2.f);  // in-plane extent of the box, any tilt
+  f.D = std::max (1, std::min (256, static_cast<int> (std::ceil (f.span / f.half0))));
+  f.g = f.span / f.D;
+  const int D = f.D;
+  s.bucket_start.assign (D * D + 1, 0);
+  s.bucket_of.resize (s.local.size ());
+  for (std::size_t i = 0; i < s.local.size (); ++i)
+  {
+    const Eigen::Vector3f d = s.local[i] - L.center;
+    s.bucket_of[i] = f.bucket (d.dot (f.e1)) * D + f.bucket (d.dot (f.e2));
+    ++s.bucket_start[s.bucket_of[i] + 1];
+  }
+  std::partial_sum (s.bucket_start.begin (), s.bucket_start.end (), s.bucket_start.begin ());
+  s.bucket_points.resize (s.local.size ());
+  s.near.assign (s.bucket_start.begin (), s.bucket_start.end () - 1);  // fill positions
+  for (std::size_t i = 0; i < s.local.size (); ++i)
+    s.bucket_points[s.near[s.bucket_of[i]]++] = static_cast<int> (i);
+  return f;
+}
+
+void
+PlanarOctree::fitPatch (const PatchCell& C, const OctreeNode& L, const PatchLeafFrame& f, bool quadric,
+                        double max_slope_sigma, int scales, PatchScratch& s)
+{
+  SurfaceFit& P = patches_[C.fit];
+  Eigen::Vector3f centre = Eigen::Vector3f::Zero ();
+  for (int i = C.begin; i < C.end; ++i)
+    centre += sorted_[i];
+  centre /= static_cast<float> (C.end - C.begin);
+  Eigen::Vector3f previous = Eigen::Vector3f::Zero ();
+  float previous_sigma = 0;
+  for (int sc = 0; sc < scales && !P.valid; ++sc)
+  {
+    const float half = f.half0 * static_cast<float> (1 << sc);
+    const Eigen::Vector3f lo = centre - Eigen::Vector3f::Constant (half),
+                          hi = centre + Eigen::Vector3f::Constant (half);
+    s.support.clear ();
+    if (sc == 0)
+    {
+      const Eigen::Vector3f d = centre - L.center;
+      const float u = d.dot (f.e1), v = d.dot (f.e2);
+      // A point within `half` of the centre is within `half` of it along e1 and e2
+      // (unit vectors), so these buckets hold the whole ball, in the same order.
+      const int u0 = f.bucket (u - half), u1 = f.bucket (u + half);
+      const int v0 = f.bucket (v - half), v1 = f.bucket (v + half);
+      for (int bu = u0; bu <= u1; ++bu)
+        for (int b = bu * f.D + v0; b <= bu * f.D + v1; ++b)
+          for (int k = s.bucket_start[b]; k < s.bucket_start[b + 1]; ++k)
+          {
+            const Eigen::Vector3f& q = s.local[s.bucket_points[k]];
+            if ((q - centre).squaredNorm () <= half * half)
+              s.support.push_back (q);
+          }
+    }
+    else
+      for (int other : s.candidates)
+      {
+        const OctreeNode& O = nodes_[other];
+        if (((O.center.array () - O.half) > hi.array ()).any () || ((O.center.array () + O.half) < lo.array ()).any ())
+          continue;
+        patchPointsInBox (other, lo, hi, s.support);
+      }
+    if (sc > 0)  // the ball inside the box
+      s.support.erase (std::remove_if (s.support.begin (), s.support.end (),
+                                       [&] (const Eigen::Vector3f& q) { return (q - centre).squaredNorm () > half * half; }),
+                       s.support.end ());
+    SurfaceFit trial = P;
+    if (!fitSurface (s.support, centre, half, L.normal, quadric, trial))
+      continue;
+    // Lepski's rule: a larger support is only taken while its normal agrees with the
+    // smaller one's within their uncertainties; otherwise the larger box sees other
+    // shape (an edge, a fold), not less noise, and the patch stays unfitted.
+    const Eigen::Vector3f normal = normalAtFit (trial, centre);
+    if (sc > 0 && previous.squaredNorm () > 0 &&
+        std::acos (std::min (1.f, std::abs (normal.dot (previous)))) > 2.f * (previous_sigma + trial.slope_sigma))
+      break;
+    P = trial;
+    P.valid = P.slope_sigma <= max_slope_sigma;
+    previous = normal;
+    previous_sigma = P.slope_sigma;
+  }
+}
+
+void
+PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, int scales, int support_points)
+{
+  patches_.clear ();
+  const int n = static_cast<int> (order_.size ());
+  patch_of_point_.assign (n, -1);
+  leaf_slot_.assign (nodes_.size (), -1);
+  std::vector<int> leaves;
+  for (int id = 0; id < static_cast<int> (nodes_.size ()); ++id)
+    if (nodes_[id].isLeaf () && nodes_[id].planar)
+      leaves.push_back (id);
+  const int nl = static_cast<int> (leaves.size ());
+  const int threads = threadCount (threads_);
+  max_points = std::max (max_points, 1);
+  cutPatchCells (leaves, max_points, threads);
+  numberPatches (threads);
 
   // Fit each patch over a ball around its points' centroid that holds about support_points
   // points at the leaf's density (doubling while the slope is uncertain), taking the
@@ -696,116 +844,14 @@ PlanarOctree::fitPatches (int max_points, bool quadric, double max_slope_sigma, 
   support_points = std::max (support_points, 3);
 #pragma omp parallel num_threads(threads)
   {
-    std::vector<int> near, candidates, bucket_start, bucket_points, bucket_of;
-    std::vector<Eigen::Vector3f> support, local;
+    PatchScratch scratch;
 #pragma omp for schedule(dynamic, 4)
     for (int l = 0; l < nl; ++l)
     {
-      const int leaf = leaves[l];
-      const OctreeNode& L = nodes_[leaf];
-      const auto& tree = leaf_cells_[l];
-      // Area per point from the leaf's spread (a uniform rectangle has variance w² / 12).
-      const double area = 12.0 * std::sqrt (L.eigenvalues (0) * L.eigenvalues (1));
-      // Radius of the disc that holds support_points points (a kNN-like ball; the box
-      // queries below only bound it).
-      const float half0 = std::max (static_cast<float> (std::sqrt (support_points * area / (M_PI * L.size ()))),
-                                    1e-6f * nodes_[0].half);
-      const float reach = half0 * static_cast<float> (1 << (scales - 1));
-      const Eigen::Vector3f margin = Eigen::Vector3f::Constant (reach + L.half);
-      leavesInBox (L.center - margin, L.center + margin, near);
-      candidates.clear ();
-      for (int other : near)
-        if (leaf_slot_[other] >= 0 && (other == leaf || (L.region >= 0 && nodes_[other].region == L.region)))
-          candidates.push_back (other);
-      // The leaf's plane (it passed Algorithm 1) carries the bucket grid.
-      const Eigen::Matrix3d frame = frameOfNormal (L.normal);
-      const Eigen::Vector3f e1 = frame.col (0).cast<float> (), e2 = frame.col (1).cast<float> ();
-
-      // Scale-0 candidates on a D × D grid of bucket edge ≈ half0 over the plane.
-      const Eigen::Vector3f box0 = Eigen::Vector3f::Constant (L.half + half0);
-      local.clear ();
-      for (int other : candidates)
-        patchPointsInBox (other, L.center - box0, L.center + box0, local);
-      const float span = 2.f * (L.half + half0) * std::sqrt (2.f);  // in-plane extent of the box, any tilt
-      const int D = std::max (1, std::min (256, static_cast<int> (std::ceil (span / half0))));
-      const float g = span / D;
-      auto bucket = [&] (float t) { return std::min (D - 1, std::max (0, static_cast<int> ((t + 0.5f * span) / g))); };
-      bucket_start.assign (D * D + 1, 0);
-      bucket_of.resize (local.size ());
-      for (std::size_t i = 0; i < local.size (); ++i)
-      {
-        const Eigen::Vector3f d = local[i] - L.center;
-        bucket_of[i] = bucket (d.dot (e1)) * D + bucket (d.dot (e2));
-        ++bucket_start[bucket_of[i] + 1];
-      }
-      std::partial_sum (bucket_start.begin (), bucket_start.end (), bucket_start.begin ());
-      bucket_points.resize (local.size ());
-      near.assign (bucket_start.begin (), bucket_start.end () - 1);  // fill positions
-      for (std::size_t i = 0; i < local.size (); ++i)
-        bucket_points[near[bucket_of[i]]++] = static_cast<int> (i);
-
-      for (const PatchCell& C : tree)
-      {
-        if (C.fit < 0)
-          continue;
-        SurfaceFit& P = patches_[C.fit];
-        Eigen::Vector3f centre = Eigen::Vector3f::Zero ();
-        for (int i = C.begin; i < C.end; ++i)
-          centre += sorted_[i];
-        centre /= static_cast<float> (C.end - C.begin);
-        Eigen::Vector3f previous = Eigen::Vector3f::Zero ();
-        float previous_sigma = 0;
-        for (int s = 0; s < scales && !P.valid; ++s)
-        {
-          const float half = half0 * static_cast<float> (1 << s);
-          const Eigen::Vector3f lo = centre - Eigen::Vector3f::Constant (half),
-                                hi = centre + Eigen::Vector3f::Constant (half);
-          support.clear ();
-          if (s == 0)
-          {
-            const Eigen::Vector3f d = centre - L.center;
-            const float u = d.dot (e1), v = d.dot (e2);
-            // A point within `half` of the centre is within `half` of it along e1 and e2
-            // (unit vectors), so these buckets hold the whole ball, in the same order.
-            const int u0 = bucket (u - half), u1 = bucket (u + half);
-            const int v0 = bucket (v - half), v1 = bucket (v + half);
-            for (int bu = u0; bu <= u1; ++bu)
-              for (int b = bu * D + v0; b <= bu * D + v1; ++b)
-                for (int k = bucket_start[b]; k < bucket_start[b + 1]; ++k)
-                {
-                  const Eigen::Vector3f& q = local[bucket_points[k]];
-                  if ((q - centre).squaredNorm () <= half * half)
-                    support.push_back (q);
-                }
-          }
-          else
-            for (int other : candidates)
-            {
-              const OctreeNode& O = nodes_[other];
-              if (((O.center.array () - O.half) > hi.array ()).any () || ((O.center.array () + O.half) < lo.array ()).any ())
-                continue;
-              patchPointsInBox (other, lo, hi, support);
-            }
-          if (s > 0)  // the ball inside the box
-            support.erase (std::remove_if (support.begin (), support.end (),
-                                           [&] (const Eigen::Vector3f& q) { return (q - centre).squaredNorm () > half * half; }),
-                           support.end ());
-          SurfaceFit trial = P;
-          if (!fitSurface (support, centre, half, L.normal, quadric, trial))
-            continue;
-          // Lepski's rule: a larger support is only taken while its normal agrees with the
-          // smaller one's within their uncertainties; otherwise the larger box sees other
-          // shape (an edge, a fold), not less noise, and the patch stays unfitted.
-          const Eigen::Vector3f normal = normalAtFit (trial, centre);
-          if (s > 0 && previous.squaredNorm () > 0 &&
-              std::acos (std::min (1.f, std::abs (normal.dot (previous)))) > 2.f * (previous_sigma + trial.slope_sigma))
-            break;
-          P = trial;
-          P.valid = P.slope_sigma <= max_slope_sigma;
-          previous = normal;
-          previous_sigma = P.slope_sigma;
-        }
-      }
+      const PatchLeafFrame frame = gatherLeafCandidates (leaves[l], scales, support_points, scratch);
+      for (const PatchCell& C : leaf_cells_[l])
+        if (C.fit >= 0)
+          fitPatch (C, nodes_[leaves[l]], frame, quadric, max_slope_sigma, scales, scratch);
     }
   }
 }
@@ -863,5 +909,6 @@ PlanarOctree::regionResidual (int r, const Eigen::Vector3f& p) const
   return residualOfFit (regions_[r].surface, p);
 }
 
+}  // namespace detail
 }  // namespace normals
 }  // namespace pclx

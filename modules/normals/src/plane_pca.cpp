@@ -1,4 +1,4 @@
-#include <pclx/normals/plane_pca.h>
+#include <pclx/normals/detail/plane_pca.h>
 
 #include <pcl/common/eigen.h>
 
@@ -6,6 +6,7 @@
 
 namespace pclx {
 namespace normals {
+namespace detail {
 
 PlanePca
 planePca (const Eigen::Matrix3d& cov)
@@ -36,5 +37,6 @@ planePca (const Eigen::Matrix3d& cov)
   return r;
 }
 
+}  // namespace detail
 }  // namespace normals
 }  // namespace pclx

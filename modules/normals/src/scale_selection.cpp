@@ -1,6 +1,6 @@
-#include <pclx/normals/scale_selection.h>
-#include <pclx/normals/plane_pca.h>
-#include <pclx/normals/grid_knn.h>
+#include <pclx/normals/detail/scale_selection.h>
+#include <pclx/normals/detail/plane_pca.h>
+#include <pclx/normals/detail/grid_knn.h>
 
 #include <pcl/common/eigen.h>
 
@@ -12,6 +12,7 @@
 
 namespace pclx {
 namespace normals {
+namespace detail {
 
 namespace {
 
@@ -31,8 +32,7 @@ constexpr double kResidualError = 0.1;
 // Residual growth, in relative sampling errors √(2/dof), that stops the growth.
 constexpr double kResidualZ = 2.0;
 // ... from rungs of at least this many points (over fewer, the residual's few degrees of
-// freedom make √(2/dof) a poor guide; on the wide set's noisy clouds reading from 30 was
-// as good as from 12, or up to 0.05° better).
+// freedom make √(2/dof) a poor guide).
 constexpr int kResidualMinCount = 30;
 
 // Standard error (radians) of a PCA normal over count points whose covariance has the
@@ -58,8 +58,8 @@ oneSided (const Eigen::Vector3d& mean, const Eigen::Vector3d& normal, double rad
 
 // Lepski's agreement of a larger support's normal (error err_q) with a smaller one's (err_a),
 // nested: the difference has variance err_a² − err_q² (the larger support is the more
-// efficient estimate), not (err_a + err_q)², which let slowly growing bias through (bunny
-// σ = 0.0012: 200 taken where 50 was best). A noise-dominated smaller support (error ≥
+// efficient estimate), not (err_a + err_q)², which lets slowly growing bias
+// through. A noise-dominated smaller support (error ≥
 // kCompareError) says nothing about the bias of the larger one.
 bool
 agrees (const Eigen::Vector3d& na, double err_a, const Eigen::Vector3d& nq, double err_q, double tau)
@@ -89,7 +89,7 @@ fitSums (const Eigen::Vector3d& s1, const Eigen::Matrix3d& s2, int count, Eigen:
 // (6 unknowns) over the plane with normal nz (u, w scaled by `scale`), over nested
 // prefixes of a support: the moments of the monomials up to degree 4 (the normal
 // equations' entries) are summed point by point, by hand: Eigen's rank update of the
-// 6 × 6 matrix was 3/4 of the selection's time.
+// 6 × 6 matrix is much slower here.
 class QuadricMoments
 {
 public:
@@ -420,8 +420,8 @@ selectScale (const Eigen::Vector3f& x, const std::vector<Eigen::Vector3f>& sorte
         }
         // Agreement with every smaller, well-defined rung. Prefixes are nested, so the two
         // normals share their errors: the difference has variance err_a² − err_q² (the
-        // larger support is the more efficient estimate), not (err_a + err_q)², which let
-        // slowly growing bias through (bunny σ = 0.0012: 200 taken where 50 was best).
+        // larger support is the more efficient estimate), not (err_a + err_q)², which lets
+        // slowly growing bias through.
         for (int a = 0; a < j && q.agrees; ++a)
           q.agrees = agrees (fitted[a].normal, fitted[a].error, q.normal, q.error, tau);
       }
@@ -479,5 +479,6 @@ selectScale (const Eigen::Vector3f& x, const std::vector<Eigen::Vector3f>& sorte
   return out;
 }
 
+}  // namespace detail
 }  // namespace normals
 }  // namespace pclx

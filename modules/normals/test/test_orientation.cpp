@@ -15,7 +15,7 @@
 #include <limits>
 #include <random>
 
-using pclx::normals::compareNormals;
+using pcl::compareNormals;
 using namespace normals_test;
 using pclx::testing::positions;
 
@@ -441,6 +441,7 @@ TEST (MSTOrientation, BadInputIsRejected)
   n.resize (100);
   mst.setKSearch (0);
   EXPECT_FALSE (mst.orient (n));
+  EXPECT_NE (mst.getLastError ().find ("k must be >= 1"), std::string::npos) << mst.getLastError ();
   mst.setKSearch (10);
   for (const double bad : {std::numeric_limits<double>::quiet_NaN (), std::numeric_limits<double>::infinity ()})
   {
@@ -461,6 +462,7 @@ TEST (MSTOrientation, BadInputIsRejected)
   }
   mst.setVisibilityWeight (0);
   EXPECT_TRUE (mst.orient (n));
+  EXPECT_TRUE (mst.getLastError ().empty ());
   mst.setVisibilityWeight (1);
   EXPECT_TRUE (mst.orient (n));
   pcl::PointCloud<pcl::PointXYZ>::Ptr empty (new pcl::PointCloud<pcl::PointXYZ>);
@@ -485,4 +487,19 @@ TEST (ViewpointOrientation, NormalsFaceTheViewpoint)
     EXPECT_GT (n[i].getNormalVector3fMap ().dot (vp - (*cloud)[i].getVector3fMap ()), 0.f);
   pcl::PointCloud<pcl::Normal> wrong (3, 1);
   EXPECT_FALSE (pcl::orientNormalsTowardsViewpoint (*cloud, wrong, vp));
+}
+
+TEST (NormalError, CloudsOfDifferentSizesAreRejected)
+{
+  pcl::PointCloud<pcl::Normal> estimate (3, 1), truth (4, 1);
+  for (auto& n : estimate)
+    n.getNormalVector3fMap () = Eigen::Vector3f::UnitZ ();
+  for (auto& n : truth)
+    n.getNormalVector3fMap () = Eigen::Vector3f::UnitZ ();
+  EXPECT_TRUE (pcl::angleErrorsDeg (estimate, truth).empty ());
+  const pcl::NormalErrorStats s = compareNormals (estimate, truth);
+  EXPECT_EQ (s.count, 0u);
+  EXPECT_EQ (s.rms_deg, 0.0);
+  truth.resize (3);
+  EXPECT_EQ (compareNormals (estimate, truth).count, 3u);
 }

@@ -2,7 +2,7 @@
 // behaviour, hybrid borders, merging, PCL feature semantics and bad inputs.
 #include "test_util.h"
 
-#include <pclx/normals/grid_knn.h>
+#include <pclx/normals/detail/grid_knn.h>
 #include <pclx/normals/normal_error.h>
 #include <pclx/normals/planar_octree_normal_estimation.h>
 #include <pclx/testing/degradation.h>
@@ -22,7 +22,7 @@
 
 using Estimator = pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal>;
 using Method = Estimator::Method;
-using pclx::normals::compareNormals;
+using pcl::compareNormals;
 using namespace normals_test;
 using pclx::testing::positions;
 
@@ -95,13 +95,13 @@ TEST (PlanarOctreeNormals, SphereMergedQuadricCloseToExactAndNoWorseThanPca)
 
 TEST (PlanarOctreeNormals, SphereOctreeLeafPlanesAreBoundedByCellSize)
 {
-  // Seed Algorithm 2: one plane per leaf, so the error grows with the leaf's angular size
+  // Musmanno's Algorithm 2: one plane per leaf, so the error grows with the leaf's angular size
   // but a leaf that passed λ2 > 6.25·λ3 cannot span a hemisphere.
   const auto truth = analyticSphere (20000, 1.f, Eigen::Vector3f::Zero ());
   const auto n = estimate (positions (truth), Method::OCTREE);
   const auto s = compareNormals (n, truth);
   EXPECT_LT (s.max_deg, 60.0);
-  EXPECT_GT (s.mean_deg, 0.5);  // and it is visibly worse than exact: the seed's finding
+  EXPECT_GT (s.mean_deg, 0.5);  // and it is visibly worse than exact: Musmanno's finding
 }
 
 // --- Algorithm 1 split behaviour -------------------------------------------------
@@ -121,7 +121,7 @@ TEST (PlanarOctreeSplit, StricterThresholdsNeverGiveFewerLeaves)
   }
 }
 
-TEST (PlanarOctreeSplit, PlanarLeavesPassTheSeedCriterionAndOthersDoNot)
+TEST (PlanarOctreeSplit, PlanarLeavesPassMusmannosCriterionAndOthersDoNot)
 {
   const auto s = pclx::testing::sampleUniform (pclx::testing::makeBox (Eigen::Vector3f::Ones (), 8), 20000);
   Estimator ne;
@@ -181,22 +181,22 @@ minorityShare (const pclx::testing::SampledCloud& s, Group group_of)
 TEST (PlanarOctreeSplit, CellsAcrossABoxEdgeAreSplitAndPlanarLeavesAreMostlyOneFace)
 {
   const auto s = pclx::testing::sampleUniform (pclx::testing::makeBox (Eigen::Vector3f::Ones (), 8), 20000);
-  Estimator seed, strict;
-  estimate (positions (s.cloud), Method::OCTREE, &seed);
+  Estimator octree, strict;
+  estimate (positions (s.cloud), Method::OCTREE, &octree);
   estimate (positions (s.cloud), Method::MERGED, &strict);  // sα = 25 + residual split
-  EXPECT_FALSE (seed.getOctree ().nodes ()[0].planar);
+  EXPECT_FALSE (octree.getOctree ().nodes ()[0].planar);
   auto leafGroup = [] (const Estimator& e) {
     return [&e] (std::size_t i) {
       const int leaf = e.getOctree ().leafOfPoint ()[i];
       return e.getOctree ().nodes ()[leaf].planar ? leaf : -1;
     };
   };
-  // The seed's criterion tolerates a thin strip of the neighbouring face in a "planar"
+  // Musmanno's criterion tolerates a thin strip of the neighbouring face in a "planar"
   // leaf (a known weakness); the stricter MERGED octree must hold less of it.
-  const double seed_minority = minorityShare (s, leafGroup (seed));
+  const double octree_minority = minorityShare (s, leafGroup (octree));
   const double strict_minority = minorityShare (s, leafGroup (strict));
-  EXPECT_LT (seed_minority, 0.05);
-  EXPECT_LE (strict_minority, seed_minority);
+  EXPECT_LT (octree_minority, 0.05);
+  EXPECT_LE (strict_minority, octree_minority);
   EXPECT_LT (strict_minority, 0.01);
 }
 
@@ -261,7 +261,7 @@ TEST (PlanarOctreeHybrid, ZeroBorderRatioKeepsEveryPlanarLeafPoint)
       EXPECT_EQ (ne.getPointStatus ()[i], Estimator::LEAF_PLANE);
 }
 
-// --- merge (seed ch. 7) ----------------------------------------------------------
+// --- merge (Musmanno 2016, ch. 7) ----------------------------------------------------------
 
 TEST (PlanarOctreeMerge, BoxFacesBecomeOneRegionEachWithoutMixingFaces)
 {
@@ -493,7 +493,7 @@ TEST (PlanarOctreeScale, SharedRungIsCheckedByEachMemberWhenAsked)
     ASSERT_GT (noise.ratio (), 1.0);  // share mode
     pcl::search::KdTree<pcl::PointXYZ> tree;
     tree.setInputCloud (cloud);
-    const std::vector<int> rungs = pclx::normals::ladderRungs (Estimator::kDefaultNeighbours, ne.getMaxAdaptiveNeighbours ());
+    const std::vector<int> rungs = pclx::normals::detail::ladderRungs (Estimator::kDefaultNeighbours, ne.getMaxAdaptiveNeighbours ());
     int checked = 0, larger = 0;
     pcl::Indices nn;
     std::vector<float> d2;
@@ -506,7 +506,7 @@ TEST (PlanarOctreeScale, SharedRungIsCheckedByEachMemberWhenAsked)
       sorted.clear ();
       for (const auto j : nn)
         sorted.push_back ((*cloud)[j].getVector3fMap ());
-      const auto own = pclx::normals::selectScale ((*cloud)[i].getVector3fMap (), sorted, rungs,
+      const auto own = pclx::normals::detail::selectScale ((*cloud)[i].getVector3fMap (), sorted, rungs,
                                                    noise.sigma * noise.sigma, ne.getScaleAgreement ());
       ++checked;
       larger += own.ok && ne.getSupportSizes ()[i] > own.support;
@@ -521,7 +521,7 @@ TEST (PlanarOctreeScale, SharedRungIsCheckedByEachMemberWhenAsked)
 
 TEST (PlanarOctreeScale, LadderRungs)
 {
-  using pclx::normals::ladderRungs;
+  using pclx::normals::detail::ladderRungs;
   EXPECT_EQ (ladderRungs (18, 200), (std::vector<int>{12, 18, 30, 50, 100, 200}));
   EXPECT_EQ (ladderRungs (6, 50), (std::vector<int>{6, 12, 18, 30, 50}));
   EXPECT_EQ (ladderRungs (18, 1000), (std::vector<int>{12, 18, 30, 50, 100, 200, 400, 800, 1000}));
@@ -757,7 +757,7 @@ TEST (PlanarOctreeFeature, DefaultSearchMatchesAUserKdTreeAndBuildsNoTreeOnClean
   const auto cloud = positions (analyticSphere (20000, 1.f, Eigen::Vector3f::Zero ()));
   Estimator lazy;
   const auto a = estimate (cloud, Method::MERGED, &lazy);
-  const auto tree = std::dynamic_pointer_cast<pcl::search::LazyKdTree<pcl::PointXYZ>> (lazy.getSearchMethod ());
+  const auto tree = std::dynamic_pointer_cast<pclx::normals::detail::LazyKdTree<pcl::PointXYZ>> (lazy.getSearchMethod ());
   ASSERT_TRUE (tree);
   EXPECT_FALSE (tree->isBuilt ());
   const int knn = static_cast<int> (std::count (lazy.getPointStatus ().begin (), lazy.getPointStatus ().end (),
@@ -791,7 +791,7 @@ TEST (GridKnn, MatchesBruteForce)
   for (int i = 0; i < 3000; ++i)
     pts.push_back (Eigen::Vector3f (0.5f, 0.f, 0.f) + 1e-3f * Eigen::Vector3f (g (rng), g (rng), g (rng)));
   pts.push_back (Eigen::Vector3f (40.f, -7.f, 3.f));
-  pclx::normals::GridKnn grid;
+  pclx::normals::detail::GridKnn grid;
   grid.build (pts, 16, 2);
   std::vector<int> ids;
   std::vector<float> d2;
@@ -817,7 +817,7 @@ TEST (GridKnn, MatchesBruteForce)
   }
   // More than the cloud holds: all of it; a query far away still terminates.
   EXPECT_EQ (grid.nearestK (Eigen::Vector3f (1e6f, 1e6f, -1e6f), 30000, ids, d2, scratch), static_cast<int> (pts.size ()));
-  pclx::normals::GridKnn empty;
+  pclx::normals::detail::GridKnn empty;
   empty.build ({}, 16, 1);
   EXPECT_EQ (empty.nearestK (Eigen::Vector3f::Zero (), 5, ids, d2, scratch), 0);
 }
@@ -835,7 +835,7 @@ TEST (GridKnn, RadiusHintGivesTheSameNeighbours)
   for (int i = 0; i < 2000; ++i)  // a dense cluster: the hint from a sparse region is far too large there
     pts.push_back (Eigen::Vector3f (0.f, 0.f, 1.f) + 1e-3f * Eigen::Vector3f (g (rng), g (rng), g (rng)));
   // Small cells (many per ball): a cell missed at the ball's rim would show.
-  pclx::normals::GridKnn grid;
+  pclx::normals::detail::GridKnn grid;
   grid.build (pts, 3, 2);
   std::vector<int> ids0, ids1;
   std::vector<float> d0, d1;
@@ -883,7 +883,7 @@ TEST (GridKnn, ThreadCountDoesNotChangeTheOrder)
   std::vector<Eigen::Vector3f> pts;
   for (int i = 0; i < 30000; ++i)
     pts.push_back (Eigen::Vector3f (g (rng), g (rng), 0.3f * g (rng)).normalized () * (1.f + 0.01f * g (rng)));
-  pclx::normals::GridKnn serial, parallel;
+  pclx::normals::detail::GridKnn serial, parallel;
   serial.build (pts, 24, 1);
   std::vector<int> ids1, ids3;
   std::vector<float> d1, d3;
@@ -902,8 +902,8 @@ TEST (GridKnn, ThreadCountDoesNotChangeTheOrder)
       EXPECT_EQ (pos1, pos3);
     }
   }
-  pclx::normals::PlanarOctreeParams params;
-  pclx::normals::PlanarOctree a, b;
+  pclx::normals::detail::PlanarOctreeParams params;
+  pclx::normals::detail::PlanarOctree a, b;
   params.threads = 1;
   a.build (pts, params);
   params.threads = 3;
@@ -928,13 +928,13 @@ TEST (GridKnn, DistanceSlotKeysOrderLikePairs)
   pairs.emplace_back (3e38f, 0xffffffffu);
   std::vector<std::uint64_t> keys;
   for (const auto& [d, slot] : pairs)
-    keys.push_back (pclx::normals::distanceSlotKey (d, slot));
+    keys.push_back (pclx::normals::detail::distanceSlotKey (d, slot));
   std::sort (pairs.begin (), pairs.end ());
   std::sort (keys.begin (), keys.end ());
   for (std::size_t i = 0; i < keys.size (); ++i)
   {
-    EXPECT_EQ (pclx::normals::distanceOfKey (keys[i]), pairs[i].first);
-    EXPECT_EQ (pclx::normals::slotOfKey (keys[i]), pairs[i].second);
+    EXPECT_EQ (pclx::normals::detail::distanceOfKey (keys[i]), pairs[i].first);
+    EXPECT_EQ (pclx::normals::detail::slotOfKey (keys[i]), pairs[i].second);
   }
 }
 
@@ -1034,6 +1034,23 @@ TEST (PlanarOctreeBadInput, BadThresholdsAreErrors)
   EXPECT_EQ (run ([] (Estimator&) {}), cloud->size ());  // and the defaults work
 }
 
+TEST (PlanarOctreeBadInput, LastErrorKeepsTheRefusal)
+{
+  const auto cloud = positions (analyticSphere (500, 1.f, Eigen::Vector3f::Zero ()));
+  Estimator ne;
+  ne.setMergeAngle (0);
+  EXPECT_EQ (estimate (cloud, ne.getMethod (), &ne).size (), 0u);
+  EXPECT_NE (ne.getLastError ().find ("merge angle"), std::string::npos) << ne.getLastError ();
+  ne.setMergeAngle (15);
+  EXPECT_EQ (estimate (cloud, ne.getMethod (), &ne).size (), cloud->size ());
+  EXPECT_TRUE (ne.getLastError ().empty ());
+  pcl::PointCloud<pcl::PointXYZ>::Ptr line (new pcl::PointCloud<pcl::PointXYZ>);
+  for (int i = 0; i < 100; ++i)
+    line->push_back (pcl::PointXYZ (0.1f * i, 0.2f * i, -0.05f * i));
+  EXPECT_TRUE (estimate (line, ne.getMethod (), &ne).empty ());
+  EXPECT_NE (ne.getLastError ().find ("do not span a plane"), std::string::npos) << ne.getLastError ();
+}
+
 TEST (PlanarOctreeBadInput, DegenerateLocalCellsFallBackAndAreFlagged)
 {
   // A plane plus a far tight cluster of duplicates and a short line: locally nothing
@@ -1101,7 +1118,7 @@ TEST (PlanarOctreeSearch, PclDefaultsAndARadiusAloneAsInPclFeature)
     expectAllFinite (n);
     EXPECT_EQ (radius.getKSearch (), 0);
     if (m != Method::MERGED)
-      continue;  // the seed's leaf planes are coarse on 3000 points whatever the search
+      continue;  // Musmanno's leaf planes are coarse on 3000 points whatever the search
     std::size_t off = 0;
     for (std::size_t i = 0; i < n.size (); ++i)
       off += std::abs (n[i].getNormalVector3fMap ().dot ((*cloud)[i].getVector3fMap ().normalized ())) < 0.95f;

@@ -1,8 +1,8 @@
-// pclx::normals::selectScale on generated neighbourhoods with an analytic truth: the rule
+// pclx::normals::detail::selectScale on generated neighbourhoods with an analytic truth: the rule
 // must stop before bias sets in (a rippled patch), and must keep growing where more points
 // only average noise (a plane, a sphere: curvature alone does not bias a centred support).
-#include <pclx/normals/grid_knn.h>
-#include <pclx/normals/scale_selection.h>
+#include <pclx/normals/detail/grid_knn.h>
+#include <pclx/normals/detail/scale_selection.h>
 
 #include <Eigen/Dense>
 
@@ -16,8 +16,8 @@
 
 namespace {
 
-using pclx::normals::ladderRungs;
-using pclx::normals::selectScale;
+using pclx::normals::detail::ladderRungs;
+using pclx::normals::detail::selectScale;
 
 // A noisy surface patch around the origin: points uniform in [-1, 1]² lifted by height(u, v),
 // Gaussian noise of sigma on every coordinate.
@@ -232,10 +232,10 @@ TEST (ScaleSelection, KeepsLargerRungIsTheLaddersStepBetweenTwoRungs)
         // Keys of the k nearest, in any order.
         std::vector<std::uint64_t> keys;
         for (int i = 0; i < k; ++i)
-          keys.push_back (pclx::normals::distanceSlotKey ((sorted[i] - x).squaredNorm (), static_cast<std::uint32_t> (i)));
+          keys.push_back (pclx::normals::detail::distanceSlotKey ((sorted[i] - x).squaredNorm (), static_cast<std::uint32_t> (i)));
         std::shuffle (keys.begin (), keys.end (), rng);
-        pclx::normals::ScaleChoice c;
-        const bool keep = pclx::normals::keepsLargerRung (x, keys.data (), sorted, k1, k, sigma * sigma, 2.5, c);
+        pclx::normals::detail::ScaleChoice c;
+        const bool keep = pclx::normals::detail::keepsLargerRung (x, keys.data (), sorted, k1, k, sigma * sigma, 2.5, c);
         const auto ladder = selectScale (x, sorted, {k1, k}, sigma * sigma, 2.5);
         ASSERT_TRUE (c.ok && ladder.ok);
         EXPECT_EQ (keep, ladder.support == k) << "patch " << s << " rungs " << k1 << ", " << k;

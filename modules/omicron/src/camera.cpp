@@ -5,7 +5,6 @@
 #include <cmath>
 
 namespace pcl {
-namespace omicron {
 
 Eigen::Matrix4f
 perspectiveLookAt (const Eigen::Vector3f& eye, const Eigen::Vector3f& target, float vertical_fov, float aspect,
@@ -31,5 +30,4 @@ perspectiveLookAt (const Eigen::Vector3f& eye, const Eigen::Vector3f& target, fl
   return proj * view;
 }
 
-}  // namespace omicron
 }  // namespace pcl

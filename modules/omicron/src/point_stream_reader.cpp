@@ -1,6 +1,6 @@
 #include <pclx/omicron/point_stream_reader.h>
 
-#include <pcl/exceptions.h>
+#include <pcl/console/print.h>
 #include <pcl/io/lzf.h>
 
 #include <algorithm>
@@ -11,6 +11,7 @@
 #include <cstring>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
 
 namespace {
 std::string
@@ -45,10 +46,52 @@ pcl::PointStreamReader::~PointStreamReader ()
   close ();
 }
 
+// Parsing errors unwind (std::runtime_error) to open (), rewind () and read (), which turn
+// them into false + PCL_ERROR; nothing is thrown past this class.
 void
 pcl::PointStreamReader::fail (const std::string& what) const
 {
-  throw pcl::IOException (path_ + ": " + what, __FILE__, "PointStreamReader", __LINE__);
+  throw std::runtime_error (path_ + ": " + what);
+}
+
+bool
+pcl::PointStreamReader::error (const char* method, const std::string& why)
+{
+  PCL_ERROR ("[pcl::PointStreamReader::%s] %s\n", method, why.c_str ());
+  last_error_ = why;
+  close ();
+  return false;
+}
+
+bool
+pcl::PointStreamReader::open (const std::string& path)
+{
+  last_error_.clear ();
+  try
+  {
+    openImpl (path);
+    return true;
+  }
+  catch (const std::exception& e)
+  {
+    return error ("open", e.what ());
+  }
+}
+
+bool
+pcl::PointStreamReader::rewind ()
+{
+  if (!file_)
+    return error ("rewind", path_ + ": not open");
+  try
+  {
+    rewindImpl ();
+    return true;
+  }
+  catch (const std::exception& e)
+  {
+    return error ("rewind", e.what ());
+  }
 }
 
 void
@@ -83,7 +126,7 @@ pcl::PointStreamReader::nextLine (std::string& line)
 }
 
 void
-pcl::PointStreamReader::open (const std::string& path)
+pcl::PointStreamReader::openImpl (const std::string& path)
 {
   close ();
   path_ = path;
@@ -155,14 +198,12 @@ pcl::PointStreamReader::open (const std::string& path)
     for (std::size_t f = 0; f < field_sizes_.size (); ++f)
       soa_field_offset_[f + 1] = soa_field_offset_[f] + field_sizes_[f] * declared_;
   }
-  rewind ();
+  rewindImpl ();
 }
 
 void
-pcl::PointStreamReader::rewind ()
+pcl::PointStreamReader::rewindImpl ()
 {
-  if (!file_)
-    fail ("not open");
   if (std::fseek (file_, static_cast<long> (data_offset_), SEEK_SET) != 0)
     fail ("cannot seek");
   consumed_ = read_ = dropped_ = 0;
@@ -625,13 +666,28 @@ pcl::PointStreamReader::read (std::size_t max_points, pcl::PointCloud<pcl::Point
 {
   out.clear ();
   if (!file_)
-    fail ("not open");
+    return error ("read", path_ + ": not open");
   if (max_points == 0)
-    throw std::invalid_argument ("PointStreamReader::read: max_points must be >= 1");
-  if (binary_)
-    readBinary (max_points, out);
-  else
-    readText (max_points, out);
+  {
+    // A refused argument: the reader stays open.
+    PCL_ERROR ("[pcl::PointStreamReader::read] max_points must be >= 1\n");
+    last_error_ = "max_points must be >= 1";
+    return false;
+  }
+  try
+  {
+    if (binary_)
+      readBinary (max_points, out);
+    else
+      readText (max_points, out);
+  }
+  catch (const std::exception& e)
+  {
+    out.clear ();
+    out.width = 0;
+    out.height = 1;
+    return error ("read", e.what ());
+  }
   out.width = static_cast<std::uint32_t> (out.size ());
   out.height = 1;
   return !out.empty ();

@@ -1,6 +1,4 @@
-#include <pclx/omicron/potree_format.h>
-
-#include <pcl/exceptions.h>
+#include <pclx/omicron/detail/potree_format.h>
 
 #include <nlohmann/json.hpp>
 
@@ -15,15 +13,16 @@
 #include <stdexcept>
 #include <utility>
 
-namespace pcl {
+namespace pclx {
 namespace omicron {
+namespace detail {
 namespace potree {
 
 namespace {
 [[noreturn]] void
 fail (const std::string& msg)
 {
-  throw pcl::IOException (msg, __FILE__, "", __LINE__);
+  throw std::runtime_error (msg);
 }
 
 template <typename T> void
@@ -53,12 +52,12 @@ MortonCode
 codeFromName (const std::string& name)
 {
   if (name.empty () || name[0] != 'r' || name.size () > MortonCode::kMaxDepth + 1u)
-    throw std::invalid_argument ("potree: bad node name '" + name + "'");
+    throw std::runtime_error ("potree: bad node name '" + name + "'");
   MortonCode c = MortonCode::root ();
   for (std::size_t i = 1; i < name.size (); ++i)
   {
     if (name[i] < '0' || name[i] > '7')
-      throw std::invalid_argument ("potree: bad node name '" + name + "'");
+      throw std::runtime_error ("potree: bad node name '" + name + "'");
     c = c.child (name[i] - '0');
   }
   return c;
@@ -256,15 +255,15 @@ readMetadata (const std::string& path)
 {
   std::ifstream in (path);
   if (!in)
-    fail ("PotreeReader: cannot open '" + path + "'");
+    fail ("cannot open '" + path + "'");
   Metadata m;
   try
   {
     const nlohmann::json j = nlohmann::json::parse (in);
     if (j.at ("version").get<std::string> () != "2.0")
-      fail ("PotreeReader: '" + path + "' is version " + j.at ("version").get<std::string> () + ", not 2.0");
+      fail ("'" + path + "' is version " + j.at ("version").get<std::string> () + ", not 2.0");
     if (j.value ("encoding", "DEFAULT") != "DEFAULT")
-      fail ("PotreeReader: only the DEFAULT encoding is read (got " + j.value ("encoding", "") + ")");
+      fail ("only the DEFAULT encoding is read (got " + j.value ("encoding", "") + ")");
     const auto v3 = [] (const nlohmann::json& a) {
       return Eigen::Vector3d (a.at (0).get<double> (), a.at (1).get<double> (), a.at (2).get<double> ());
     };
@@ -282,7 +281,7 @@ readMetadata (const std::string& path)
     m.box_max = v3 (j.at ("boundingBox").at ("max"));
     const auto& attrs = j.at ("attributes");
     if (attrs.empty () || attrs.at (0).at ("name") != "position" || attrs.at (0).at ("type") != "int32")
-      fail ("PotreeReader: the first attribute must be position int32 × 3");
+      fail ("the first attribute must be position int32 × 3");
     m.position_min = v3 (attrs.at (0).at ("min"));
     m.position_max = v3 (attrs.at (0).at ("max"));
     for (std::size_t i = 1; i < attrs.size (); ++i)
@@ -290,19 +289,20 @@ readMetadata (const std::string& path)
       if (attrs[i].at ("name") == "rgb" && attrs[i].at ("type") == "uint16" && i == 1)
         m.rgb = true;
       else
-        fail ("PotreeReader: unsupported attribute " + attrs[i].at ("name").get<std::string> () +
+        fail ("unsupported attribute " + attrs[i].at ("name").get<std::string> () +
               " (position and rgb are read)");
     }
   }
   catch (const nlohmann::json::exception& e)
   {
-    fail ("PotreeReader: malformed '" + path + "': " + e.what ());
+    fail ("malformed '" + path + "': " + e.what ());
   }
   if (m.step_size < 1 || m.depth < 0 || m.depth > MortonCode::kMaxDepth || !(m.scale.array () > 0).all ())
-    fail ("PotreeReader: '" + path + "' has an out-of-range stepSize, depth or scale");
+    fail ("'" + path + "' has an out-of-range stepSize, depth or scale");
   return m;
 }
 
 }  // namespace potree
+}  // namespace detail
 }  // namespace omicron
-}  // namespace pcl
+}  // namespace pclx

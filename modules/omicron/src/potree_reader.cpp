@@ -1,6 +1,6 @@
 #include <pclx/omicron/potree_reader.h>
 
-#include <pcl/exceptions.h>
+#include <pcl/console/print.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -9,12 +9,15 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <stdexcept>
 
 namespace {
+// Errors deep in the parsing unwind to the public entry points, which turn them into false
+// + PCL_ERROR; nothing is thrown past this file.
 [[noreturn]] void
 fail (const std::string& msg)
 {
-  throw pcl::IOException (msg, __FILE__, "", __LINE__);
+  throw std::runtime_error (msg);
 }
 template <typename T> T
 get (const std::vector<std::uint8_t>& buf, std::size_t at)
@@ -25,20 +28,45 @@ get (const std::vector<std::uint8_t>& buf, std::size_t at)
 }
 }  // namespace
 
-void
+bool
 pcl::PotreeReader::open (const std::string& directory)
 {
-  namespace potree = omicron::potree;
+  last_error_.clear ();
+  try
+  {
+    openImpl (directory);
+    return true;
+  }
+  catch (const std::exception& e)
+  {
+    nodes_.clear ();
+    meta_ = pclx::omicron::detail::potree::Metadata ();
+    return refuse ("open", e.what ());
+  }
+}
+
+bool
+pcl::PotreeReader::refuse (const char* method, const std::string& why) const
+{
+  PCL_ERROR ("[pcl::PotreeReader::%s] %s\n", method, why.c_str ());
+  last_error_ = why;
+  return false;
+}
+
+void
+pcl::PotreeReader::openImpl (const std::string& directory)
+{
+  namespace potree = pclx::omicron::detail::potree;
   directory_ = directory;
   nodes_.clear ();
   meta_ = potree::readMetadata (directory + "/metadata.json");
   std::error_code ec;
   octree_bytes_ = std::filesystem::file_size (directory + "/octree.bin", ec);
   if (ec)
-    fail ("PotreeReader: cannot read '" + directory + "/octree.bin': " + ec.message ());
+    fail ("cannot read '" + directory + "/octree.bin': " + ec.message ());
   std::ifstream in (directory + "/hierarchy.bin", std::ios::binary);
   if (!in)
-    fail ("PotreeReader: cannot open '" + directory + "/hierarchy.bin'");
+    fail ("cannot open '" + directory + "/hierarchy.bin'");
   const std::vector<std::uint8_t> h ((std::istreambuf_iterator<char> (in)), std::istreambuf_iterator<char> ());
 
   // As OctreeLoader.parseHierarchy: a chunk's records are its root followed by the children
@@ -56,7 +84,7 @@ pcl::PotreeReader::open (const std::string& directory)
     const Pending c = chunks.front ();
     chunks.pop_front ();
     if (c.size == 0 || c.size % potree::kRecordBytes != 0 || c.offset > h.size () || c.size > h.size () - c.offset)
-      fail ("PotreeReader: hierarchy chunk of node " + nodes_[c.node].name + " (bytes " + std::to_string (c.offset) +
+      fail ("hierarchy chunk of node " + nodes_[c.node].name + " (bytes " + std::to_string (c.offset) +
             "+" + std::to_string (c.size) + ") lies outside hierarchy.bin (" + std::to_string (h.size ()) +
             " bytes) or is not a whole number of 22-byte records");
     const std::size_t count = c.size / potree::kRecordBytes;
@@ -64,7 +92,7 @@ pcl::PotreeReader::open (const std::string& directory)
     for (std::size_t i = 0; i < count; ++i)
     {
       if (i >= order.size ())
-        fail ("PotreeReader: hierarchy chunk of node " + nodes_[c.node].name + " has records that no child mask names");
+        fail ("hierarchy chunk of node " + nodes_[c.node].name + " has records that no child mask names");
       const std::size_t at = c.offset + i * potree::kRecordBytes;
       NodeInfo& n = nodes_[order[i]];
       const std::uint8_t type = h[at];
@@ -72,7 +100,7 @@ pcl::PotreeReader::open (const std::string& directory)
       n.num_points = get<std::uint32_t> (h, at + 2);
       const std::uint64_t off = get<std::uint64_t> (h, at + 6), size = get<std::uint64_t> (h, at + 14);
       if (type > potree::kProxy || (i == 0 && type == potree::kProxy))
-        fail ("PotreeReader: node " + n.name + " has record type " + std::to_string (type));
+        fail ("node " + n.name + " has record type " + std::to_string (type));
       if (type == potree::kProxy)
       {
         chunks.push_back ({order[i], off, size});
@@ -82,14 +110,14 @@ pcl::PotreeReader::open (const std::string& directory)
       n.byte_offset = off;
       n.byte_size = size;
       if (size != std::uint64_t (n.num_points) * bpp || off > octree_bytes_ || size > octree_bytes_ - off)
-        fail ("PotreeReader: node " + n.name + " (" + std::to_string (n.num_points) + " points, bytes " +
+        fail ("node " + n.name + " (" + std::to_string (n.num_points) + " points, bytes " +
               std::to_string (off) + "+" + std::to_string (size) + ") does not match octree.bin (" +
               std::to_string (octree_bytes_) + " bytes, " + std::to_string (bpp) + " bytes per point)");
       const MortonCode code = n.code;
       const std::string name = n.name;
       const std::uint8_t mask = n.child_mask;
       if (mask && code.level () >= MortonCode::kMaxDepth)
-        fail ("PotreeReader: node " + name + " is deeper than 21 levels");
+        fail ("node " + name + " is deeper than 21 levels");
       for (int k = 0; k < 8; ++k)
         if (mask & (1u << k))
         {
@@ -98,7 +126,7 @@ pcl::PotreeReader::open (const std::string& directory)
         }
     }
     if (order.size () != count)
-      fail ("PotreeReader: hierarchy chunk of node " + nodes_[c.node].name + " names " + std::to_string (order.size ()) +
+      fail ("hierarchy chunk of node " + nodes_[c.node].name + " names " + std::to_string (order.size ()) +
             " nodes but holds " + std::to_string (count) + " records");
   }
   std::stable_sort (nodes_.begin (), nodes_.end (), [] (const NodeInfo& a, const NodeInfo& b) {
@@ -133,18 +161,36 @@ pcl::PotreeReader::readRange (std::uint64_t offset, std::uint64_t size) const
   const std::string path = directory_ + "/octree.bin";
   std::FILE* f = std::fopen (path.c_str (), "rb");
   if (!f)
-    fail ("PotreeReader: cannot open '" + path + "'");
+    fail ("cannot open '" + path + "'");
   const bool ok = std::fseek (f, static_cast<long> (offset), SEEK_SET) == 0 && std::fread (buf.data (), 1, size, f) == size;
   std::fclose (f);
   if (!ok)
-    fail ("PotreeReader: '" + path + "' is shorter than its hierarchy says");
+    fail ("'" + path + "' is shorter than its hierarchy says");
   return buf;
 }
 
-void
+bool
 pcl::PotreeReader::readNode (std::size_t i, pcl::PointCloud<pcl::PointXYZRGB>& out) const
 {
-  const NodeInfo& n = nodes_.at (i);
+  out.clear ();
+  if (i >= nodes_.size ())
+    return refuse ("readNode", "node " + std::to_string (i) + " of " + std::to_string (nodes_.size ()));
+  try
+  {
+    readNodeImpl (i, out);
+    return true;
+  }
+  catch (const std::exception& e)
+  {
+    out.clear ();
+    return refuse ("readNode", e.what ());
+  }
+}
+
+void
+pcl::PotreeReader::readNodeImpl (std::size_t i, pcl::PointCloud<pcl::PointXYZRGB>& out) const
+{
+  const NodeInfo& n = nodes_[i];
   const std::vector<std::uint8_t> buf = readRange (n.byte_offset, n.byte_size);
   const std::uint32_t bpp = meta_.bytesPerPoint ();
   out.clear ();
@@ -163,13 +209,15 @@ pcl::PotreeReader::readNode (std::size_t i, pcl::PointCloud<pcl::PointXYZRGB>& o
   }
 }
 
-void
+bool
 pcl::PotreeReader::readNode (std::size_t i, pcl::PointCloud<pcl::PointXYZ>& out) const
 {
   pcl::PointCloud<pcl::PointXYZRGB> c;
-  readNode (i, c);
   out.clear ();
+  if (!readNode (i, c))
+    return false;
   out.resize (c.size ());
   for (std::size_t k = 0; k < c.size (); ++k)
     out[k] = pcl::PointXYZ (c[k].x, c[k].y, c[k].z);
+  return true;
 }

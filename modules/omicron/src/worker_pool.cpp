@@ -1,12 +1,12 @@
-#include <pclx/omicron/worker_pool.h>
+#include <pclx/omicron/detail/worker_pool.h>
 
-pcl::omicron::WorkerPool::WorkerPool (int threads)
+pclx::omicron::detail::WorkerPool::WorkerPool (int threads)
 {
   for (int w = 1; w < threads; ++w)
     threads_.emplace_back ([this, w] { loop (w); });
 }
 
-pcl::omicron::WorkerPool::~WorkerPool ()
+pclx::omicron::detail::WorkerPool::~WorkerPool ()
 {
   {
     std::lock_guard<std::mutex> g (mutex_);
@@ -18,7 +18,7 @@ pcl::omicron::WorkerPool::~WorkerPool ()
 }
 
 void
-pcl::omicron::WorkerPool::drain (const std::function<void (std::size_t, int)>& f, std::size_t n, int worker)
+pclx::omicron::detail::WorkerPool::drain (const std::function<void (std::size_t, int)>& f, std::size_t n, int worker)
 {
   for (std::size_t i = next_.fetch_add (1, std::memory_order_relaxed); i < n;
        i = next_.fetch_add (1, std::memory_order_relaxed))
@@ -26,7 +26,7 @@ pcl::omicron::WorkerPool::drain (const std::function<void (std::size_t, int)>& f
 }
 
 void
-pcl::omicron::WorkerPool::loop (int worker)
+pclx::omicron::detail::WorkerPool::loop (int worker)
 {
   std::size_t seen = 0;
   std::unique_lock<std::mutex> lk (mutex_);
@@ -50,7 +50,7 @@ pcl::omicron::WorkerPool::loop (int worker)
 }
 
 void
-pcl::omicron::WorkerPool::parallelFor (std::size_t n, const std::function<void (std::size_t, int)>& f)
+pclx::omicron::detail::WorkerPool::parallelFor (std::size_t n, const std::function<void (std::size_t, int)>& f)
 {
   if (n == 0)
     return;

@@ -19,8 +19,8 @@
 namespace omitest {
 
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
-using Node = pcl::omicron::Node<pcl::PointXYZ>;
-using CutNode = pcl::omicron::CutNode<pcl::PointXYZ>;
+using Node = pclx::omicron::detail::Node<pcl::PointXYZ>;
+using CutNode = pclx::omicron::detail::CutNode<pcl::PointXYZ>;
 
 enum class Shape
 {
@@ -141,9 +141,9 @@ refBuild (RefNode& node, std::vector<std::pair<pcl::MortonCode, pcl::PointXYZ>>&
   for (const RefNode& c : node.children)
   {
     const auto n = static_cast<std::uint32_t> (c.points.size ());
-    const std::uint32_t m = pcl::omicron::parentSampleCount (n, ratio);
+    const std::uint32_t m = pclx::omicron::detail::parentSampleCount (n, ratio);
     for (std::uint32_t t = 0; t < m; ++t)
-      node.points.push_back (c.points[pcl::omicron::parentSampleIndex (t, m, n)]);
+      node.points.push_back (c.points[pclx::omicron::detail::parentSampleIndex (t, m, n)]);
   }
 }
 
@@ -182,7 +182,7 @@ compareTrees (const Node& n, const RefNode& r)
   for (std::size_t i = 0; i < r.points.size (); ++i)
     if (!samePoint (n.points[i], r.points[i]))
       return where + ": point " + std::to_string (i) + " differs";
-  if (((n.flags & pcl::omicron::kCollapsed) != 0) != r.collapsed)
+  if (((n.flags & pclx::omicron::detail::kCollapsed) != 0) != r.collapsed)
     return where + ": collapse flag differs";
   for (std::size_t i = 0; i < r.children.size (); ++i)
   {
@@ -238,7 +238,7 @@ checkCutInvariants (const pcl::ObliqueCut<pcl::PointXYZ>::Snapshot& s, int lmax,
       if (!c.isPlaceholder ())
       {
         in_cut.emplace (l, c.code.bits ());
-        if (c.flags & pcl::omicron::kCollapsed)
+        if (c.flags & pclx::omicron::detail::kCollapsed)
           collapsed.emplace (l, c.code.bits ());
         std::vector<const Node*> ns;
         for (int j = 0; j < c.num_children; ++j)
@@ -248,7 +248,7 @@ checkCutInvariants (const pcl::ObliqueCut<pcl::PointXYZ>::Snapshot& s, int lmax,
           const Node* n = ns.back ();
           ns.pop_back ();
           ASSERT_TRUE (in_cut.emplace (n->level, n->code.bits ()).second) << "1.3 node in two subtrees";
-          if (n->flags & pcl::omicron::kCollapsed)
+          if (n->flags & pclx::omicron::detail::kCollapsed)
             collapsed.emplace (n->level, n->code.bits ());
           for (int j = 0; j < n->num_children; ++j)
             ns.push_back (n->children + j);

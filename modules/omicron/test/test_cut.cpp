@@ -2,7 +2,7 @@
 // a plain top-down octree, placeholders, leaf collapse, the parallel fix, and bad input.
 #include "omicron_test_util.h"
 
-#include <pclx/omicron/morton_sorter.h>
+#include <pclx/omicron/detail/morton_sorter.h>
 #include <pclx/omicron/oblique_cut.h>
 #include <pclx/omicron/oblique_cut_front.h>
 
@@ -22,7 +22,7 @@ Sorted
 sortAll (const Cloud& c, int depth)
 {
   Sorted s;
-  pcl::MortonSorter<pcl::PointXYZ> sorter;
+  pclx::omicron::detail::MortonSorter<pcl::PointXYZ> sorter;
   sorter.setMaxDepth (depth);
   sorter.setChunks (3);
   sorter.sort (c, s.points, [&] (std::size_t, std::size_t, const std::vector<MortonCode>& codes) {
@@ -276,11 +276,33 @@ TEST (ObliqueCut, EmptyInputFinishesWithoutRoot)
 
 TEST (ObliqueCut, RejectsBadParameters)
 {
-  EXPECT_THROW (Cut (params (0, 0.2f, false, 8, 1)), std::invalid_argument);
-  EXPECT_THROW (Cut (params (22, 0.2f, false, 8, 1)), std::invalid_argument);
-  EXPECT_THROW (Cut (params (7, 0.f, false, 8, 1)), std::invalid_argument);
-  EXPECT_THROW (Cut (params (7, 1.5f, false, 8, 1)), std::invalid_argument);
-  EXPECT_THROW (Cut (params (7, 0.2f, false, 0, 1)), std::invalid_argument);
-  EXPECT_THROW (Cut (params (7, 0.2f, false, 8, 0)), std::invalid_argument);
-  EXPECT_NO_THROW (Cut (params (21, 1.f, true, 1, 1)));
+  // A parameter out of range is refused (PCL_ERROR) and its default used; the others stay.
+  const Cut::Parameters d;
+  EXPECT_EQ (Cut (params (0, 0.3f, false, 8, 2)).getParameters ().max_depth, d.max_depth);
+  EXPECT_EQ (Cut (params (22, 0.3f, false, 8, 2)).getParameters ().max_depth, d.max_depth);
+  EXPECT_FLOAT_EQ (Cut (params (5, 0.f, false, 8, 2)).getParameters ().parent_ratio, d.parent_ratio);
+  EXPECT_FLOAT_EQ (Cut (params (5, 1.5f, false, 8, 2)).getParameters ().parent_ratio, d.parent_ratio);
+  EXPECT_EQ (Cut (params (5, 0.3f, false, 0, 2)).getParameters ().worklist_size, d.worklist_size);
+  EXPECT_EQ (Cut (params (5, 0.3f, false, 8, 0)).getParameters ().threads, d.threads);
+  const Cut mixed (params (0, 0.3f, false, 8, 2));
+  EXPECT_FLOAT_EQ (mixed.getParameters ().parent_ratio, 0.3f);
+  EXPECT_EQ (mixed.getParameters ().worklist_size, 8u);
+  EXPECT_EQ (mixed.getParameters ().threads, 2);
+  const Cut edge (params (21, 1.f, true, 1, 1));
+  EXPECT_EQ (edge.getParameters ().max_depth, 21);
+  EXPECT_FLOAT_EQ (edge.getParameters ().parent_ratio, 1.f);
+  EXPECT_EQ (edge.getParameters ().worklist_size, 1u);
+}
+
+TEST (ObliqueCut, RefusesABadSpill)
+{
+  // setSpill returns false (PCL_ERROR) and leaves the cut without a spill level.
+  Cut cut (params (6, 0.2f, true, 8, 1));
+  const auto sink = [] (const Cut::Node&) {};
+  EXPECT_FALSE (cut.setSpill (0, sink));
+  EXPECT_FALSE (cut.setSpill (5, sink));  // >= l_max - 1 with leaf collapse
+  EXPECT_FALSE (cut.setSpill (2, nullptr));
+  EXPECT_EQ (cut.getSpillLevel (), -1);
+  EXPECT_TRUE (cut.setSpill (2, sink));
+  EXPECT_EQ (cut.getSpillLevel (), 2);
 }

@@ -2,7 +2,7 @@
 #include "omicron_test_util.h"
 
 #include <pclx/omicron/morton_code.h>
-#include <pclx/omicron/morton_sorter.h>
+#include <pclx/omicron/detail/morton_sorter.h>
 
 #include <limits>
 
@@ -138,7 +138,7 @@ struct SortResult
 SortResult
 sortCloud (const Cloud& c, int depth, std::size_t chunks, int threads)
 {
-  pcl::MortonSorter<pcl::PointXYZ> s;
+  pclx::omicron::detail::MortonSorter<pcl::PointXYZ> s;
   s.setMaxDepth (depth);
   s.setChunks (chunks);
   s.setThreads (threads);
@@ -230,9 +230,19 @@ TEST (MortonSorter, SameOutputForAnyThreadCount)
 
 TEST (MortonSorter, RejectsBadParameters)
 {
-  pcl::MortonSorter<pcl::PointXYZ> s;
-  EXPECT_THROW (s.setMaxDepth (0), std::invalid_argument);
-  EXPECT_THROW (s.setMaxDepth (22), std::invalid_argument);
-  EXPECT_THROW (s.setChunks (0), std::invalid_argument);
-  EXPECT_THROW (s.setRootCube (Eigen::Vector3d::Zero (), 0.0), std::invalid_argument);
+  // Each bad value is refused (PCL_ERROR) and the previous one kept.
+  pclx::omicron::detail::MortonSorter<pcl::PointXYZ> s;
+  s.setMaxDepth (9);
+  s.setChunks (5);
+  s.setMaxDepth (0);
+  EXPECT_EQ (s.getMaxDepth (), 9);
+  s.setMaxDepth (22);
+  EXPECT_EQ (s.getMaxDepth (), 9);
+  s.setChunks (0);
+  EXPECT_EQ (s.getChunks (), 5u);
+  const Eigen::Vector3d origin = s.getOrigin ();
+  const double edge = s.getEdge ();
+  s.setRootCube (Eigen::Vector3d::Constant (1.0), 0.0);
+  EXPECT_EQ (s.getOrigin (), origin);
+  EXPECT_EQ (s.getEdge (), edge);
 }

@@ -164,8 +164,10 @@ TEST (ObliqueCutOctree, EmptyCloudIsAClearErrorAndAnEmptyResult)
   Octree o;
   std::vector<Octree::Item> items;
   EXPECT_FALSE (o.build ());  // no input
+  EXPECT_NE (o.getLastError ().find ("no input"), std::string::npos) << o.getLastError ();
   o.setInputCloud (Cloud::Ptr (new Cloud));
   EXPECT_FALSE (o.build ());
+  EXPECT_NE (o.getLastError ().find ("no finite point"), std::string::npos) << o.getLastError ();
   EXPECT_EQ (o.getRoot (), nullptr);
   o.evaluate (Octree::Camera (), items);
   EXPECT_TRUE (items.empty ());
@@ -213,7 +215,7 @@ TEST (ObliqueCutOctree, AllIdenticalPointsMakeOneChain)
     EXPECT_EQ (st.points_per_level[collapse ? 5 : 6], 1000u);
     // Each parent keeps round (0.2 · n), at least one: 1000, 200, 40, 8, 2, 1, 1.
     for (int l = collapse ? 4 : 5; l >= 0; --l)
-      EXPECT_EQ (st.points_per_level[l], pcl::omicron::parentSampleCount (static_cast<std::uint32_t> (st.points_per_level[l + 1]), 0.2f));
+      EXPECT_EQ (st.points_per_level[l], pclx::omicron::detail::parentSampleCount (static_cast<std::uint32_t> (st.points_per_level[l + 1]), 0.2f));
     EXPECT_EQ (st.points_per_level[0], 1u);
   }
 }
@@ -251,19 +253,70 @@ TEST (ObliqueCutOctree, DefaultsAreTheViewersAndTheReadmes)
 
 TEST (ObliqueCutOctree, RejectsBadParameters)
 {
+  // Each bad value is refused (PCL_ERROR) and the previous one kept.
   Octree o;
-  EXPECT_THROW (o.setMaxDepth (0), std::invalid_argument);
-  EXPECT_THROW (o.setMaxDepth (22), std::invalid_argument);
-  EXPECT_NO_THROW (o.setMaxDepth (21));
-  EXPECT_NO_THROW (o.setMaxDepth (1));
-  EXPECT_THROW (o.setParentPointRatio (0.f), std::invalid_argument);
-  EXPECT_THROW (o.setParentPointRatio (1.01f), std::invalid_argument);
-  EXPECT_THROW (o.setWorklistSize (0), std::invalid_argument);
-  EXPECT_THROW (o.setSortChunks (0), std::invalid_argument);
-  EXPECT_THROW (o.setThreads (0), std::invalid_argument);
-  EXPECT_THROW (o.setRootCube (Eigen::Vector3d::Zero (), -1.0), std::invalid_argument);
-  EXPECT_THROW (o.setSplatMultipliers ({}), std::invalid_argument);
-  EXPECT_THROW (o.setProjectionThreshold (-1.f), std::invalid_argument);
+  o.setMaxDepth (21);
+  EXPECT_EQ (o.getMaxDepth (), 21);
+  o.setMaxDepth (1);
+  EXPECT_EQ (o.getMaxDepth (), 1);
+  o.setMaxDepth (0);
+  EXPECT_EQ (o.getMaxDepth (), 1);
+  o.setMaxDepth (22);
+  EXPECT_EQ (o.getMaxDepth (), 1);
+  o.setParentPointRatio (0.f);
+  EXPECT_FLOAT_EQ (o.getParentPointRatio (), 0.2f);
+  o.setParentPointRatio (1.01f);
+  EXPECT_FLOAT_EQ (o.getParentPointRatio (), 0.2f);
+  o.setWorklistSize (0);
+  EXPECT_EQ (o.getWorklistSize (), 32u);
+  o.setSortChunks (0);
+  EXPECT_EQ (o.getSortChunks (), 16u);
+  o.setThreads (3);
+  o.setThreads (0);
+  EXPECT_EQ (o.getThreads (), 3);
+  const std::vector<float> m = o.getSplatMultipliers ();
+  o.setSplatMultipliers ({});
+  EXPECT_EQ (o.getSplatMultipliers (), m);
+  o.setSplatMultipliers ({2.f, -1.f});
+  EXPECT_EQ (o.getSplatMultipliers (), m);
+  o.setProjectionThreshold (-1.f);
+  EXPECT_FLOAT_EQ (o.getFront ().getProjectionThreshold (), 0.2f);
+  // A refused root cube keeps the one set before: the build uses it.
+  const auto cloud = makeCloud (Shape::UNIFORM, 2000, 5);
+  o.setMaxDepth (5);
+  o.setInputCloud (cloud);
+  o.setRootCube (Eigen::Vector3d::Constant (-1.0), 4.0);
+  o.setRootCube (Eigen::Vector3d::Zero (), -1.0);
+  o.setRootCube (Eigen::Vector3d::Constant (std::numeric_limits<double>::quiet_NaN ()), 1.0);
+  ASSERT_TRUE (o.build ());
+  EXPECT_DOUBLE_EQ (o.getRootEdge (), 4.0);
+  EXPECT_EQ (o.getRootOrigin (), Eigen::Vector3d::Constant (-1.0));
+}
+
+TEST (ObliqueCutOctree, RefusesChangesWhileBuilding)
+{
+  // Setters called during a build print PCL_ERROR and change nothing; statistics are empty
+  // until the build ends. The build takes far longer than the calls right after startBuild.
+  const auto cloud = makeCloud (Shape::UNIFORM, 400000, 6);
+  Octree o;
+  o.setInputCloud (cloud);
+  o.setThreads (2);
+  ASSERT_TRUE (o.startBuild ());
+  o.setMaxDepth (3);
+  o.setParentPointRatio (0.5f);
+  o.setThreads (1);
+  o.setMemoryBudget (1u << 30);
+  o.setInputCloud (nullptr);
+  const Octree::Statistics during = o.getStatistics ();
+  ASSERT_TRUE (o.wait ()) << o.getLastError ();
+  if (during.kept_points == 0)  // the calls came while it ran (as they almost always do)
+  {
+    EXPECT_EQ (o.getMaxDepth (), 7);
+    EXPECT_FLOAT_EQ (o.getParentPointRatio (), 0.2f);
+    EXPECT_EQ (o.getThreads (), 2);
+    EXPECT_EQ (o.getMemoryBudget (), 0u);
+  }
+  EXPECT_EQ (o.getStatistics ().kept_points, cloud->size ());
 }
 
 TEST (ObliqueCutOctree, SplatRadiiFollowTheMultipliers)

@@ -131,7 +131,7 @@ CoupledSimplification::checkPose (const Eigen::Matrix4d& T)
 }
 
 std::string
-CoupledSimplification::checkIntrinsics (const pclx::surface::DepthIntrinsics& K)
+CoupledSimplification::checkIntrinsics (const pcl::DepthIntrinsics& K)
 {
   if (!std::isfinite (K.fx) || !std::isfinite (K.fy) || !std::isfinite (K.cx) || !std::isfinite (K.cy))
     return "intrinsics have NaN / Inf entries";
@@ -142,7 +142,7 @@ CoupledSimplification::checkIntrinsics (const pclx::surface::DepthIntrinsics& K)
 
 bool
 CoupledSimplification::backProject (const float* depth, int width, int height,
-                                    const pclx::surface::DepthIntrinsics& K, const Eigen::Matrix4d& pose)
+                                    const pcl::DepthIntrinsics& K, const Eigen::Matrix4d& pose)
 {
   if (!depth)
     return fail ("depth image is null");
@@ -239,8 +239,8 @@ CoupledSimplification::takePoints (const Eigen::Vector3f* pts, int width, int he
 
 bool
 CoupledSimplification::compute (const float* depth_m, int width, int height,
-                                const pclx::surface::DepthIntrinsics& K,
-                                const Eigen::Matrix4d& camera_to_world, pclx::surface::FrameMesh& out)
+                                const pcl::DepthIntrinsics& K,
+                                const Eigen::Matrix4d& camera_to_world, pcl::FrameMesh& out)
 {
   const auto t0 = Clock::now ();
   if (!backProject (depth_m, width, height, K, camera_to_world))
@@ -251,7 +251,7 @@ CoupledSimplification::compute (const float* depth_m, int width, int height,
 
 bool
 CoupledSimplification::compute (const Eigen::Vector3f* camera_points, int width, int height,
-                                const Eigen::Matrix4d& camera_to_world, pclx::surface::FrameMesh& out)
+                                const Eigen::Matrix4d& camera_to_world, pcl::FrameMesh& out)
 {
   const auto t0 = Clock::now ();
   if (!takePoints (camera_points, width, height, camera_to_world))
@@ -262,9 +262,9 @@ CoupledSimplification::compute (const Eigen::Vector3f* camera_points, int width,
 
 bool
 CoupledSimplification::computeConnectedCloud (const float* depth_m, int width, int height,
-                                              const pclx::surface::DepthIntrinsics& K,
+                                              const pcl::DepthIntrinsics& K,
                                               const Eigen::Matrix4d& camera_to_world,
-                                              pclx::surface::FrameMesh& out)
+                                              pcl::FrameMesh& out)
 {
   const auto t0 = Clock::now ();
   if (!backProject (depth_m, width, height, K, camera_to_world))
@@ -276,7 +276,7 @@ CoupledSimplification::computeConnectedCloud (const float* depth_m, int width, i
 bool
 CoupledSimplification::computeConnectedCloud (const Eigen::Vector3f* camera_points, int width, int height,
                                               const Eigen::Matrix4d& camera_to_world,
-                                              pclx::surface::FrameMesh& out)
+                                              pcl::FrameMesh& out)
 {
   const auto t0 = Clock::now ();
   if (!takePoints (camera_points, width, height, camera_to_world))
@@ -286,7 +286,7 @@ CoupledSimplification::computeConnectedCloud (const Eigen::Vector3f* camera_poin
 }
 
 bool
-CoupledSimplification::run (const Eigen::Matrix4d& pose, bool dense_only, pclx::surface::FrameMesh& out)
+CoupledSimplification::run (const Eigen::Matrix4d& pose, bool dense_only, pcl::FrameMesh& out)
 {
   if (!(edge_factor_ > 0) && !(edge_abs_ > 0))
     return fail ("edge threshold: factor or absolute threshold must be > 0");
@@ -563,11 +563,37 @@ CoupledSimplification::connect (bool dense_only)
   stats_.dense_triangles = dense;
 }
 
-void
-CoupledSimplification::collapse ()
+// Working state of the Garland–Heckbert edge collapse on the clustered mesh.
+struct CoupledSimplification::CollapseState
 {
+  // A candidate collapse of edge (a, b); stale once a or b changed (stamps differ).
+  struct Entry
+  {
+    double key;
+    std::int32_t a, b;
+    std::uint32_t sa, sb;
+    bool operator> (const Entry& o) const { return key > o.key; }
+  };
+
+  double facing = 1;  // +1 / −1: the orientation of the faces that look at the camera
+  std::vector<char> face_alive, vert_alive, locked;
+  std::vector<std::uint32_t> stamp;
+  std::vector<std::pair<std::int32_t, std::int32_t>> unique_edges;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
+  std::vector<std::int32_t> na, nb;  // neighbour buffers of the link test, reused
+
+  bool
+  facesCamera (const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) const
+  {
+    return facing * (b - a).cross (c - a).dot (-a) > 0;
+  }
+};
+
+void
+CoupledSimplification::placeRepresentatives ()
+{
+  // The cluster quadric's minimiser, kept near the cluster.
   const std::size_t nc = ccount_.size ();
-  // Representatives (first phase): the cluster quadric's minimiser, kept near the cluster.
   cpos_.resize (nc);
   for (std::size_t c = 0; c < nc; ++c)
   {
@@ -592,43 +618,43 @@ CoupledSimplification::collapse ()
     }
     cpos_[c] = x;
   }
+}
 
-  // Clustered faces: drop those that turned their back to the camera (every surface a depth
-  // frame sees faces it, so these are clustering fold-overs) and duplicates (two dense faces
-  // between the same three clusters).
-  const double facing = orientation_vote_ < 0 ? -1.0 : 1.0;
-  auto faces_camera = [&] (const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-    return facing * (b - a).cross (c - a).dot (-a) > 0;
-  };
+void
+CoupledSimplification::dropBackfacingAndDuplicateFaces (const CollapseState& s)
+{
+  // Every surface a depth frame sees faces it, so faces turned away are clustering fold-overs;
+  // duplicates are two dense faces between the same three clusters.
   {
     std::size_t k = 0;
     for (std::size_t f = 0; f < ctris_.size (); ++f)
-      if (faces_camera (cpos_[ctris_[f][0]], cpos_[ctris_[f][1]], cpos_[ctris_[f][2]]))
+      if (s.facesCamera (cpos_[ctris_[f][0]], cpos_[ctris_[f][1]], cpos_[ctris_[f][2]]))
         ctris_[k++] = ctris_[f];
       else
         ++stats_.backfacing;
     ctris_.resize (k);
   }
-  {
-    auto& keys = tri_keys_;
-    keys.resize (ctris_.size ());
-    for (std::size_t f = 0; f < ctris_.size (); ++f)
-      keys[f] = {triKey (ctris_[f][0], ctris_[f][1], ctris_[f][2]), static_cast<std::int32_t> (f)};
-    std::sort (keys.begin (), keys.end ());
-    std::size_t k = 0;
-    for (std::size_t i = 0; i < keys.size (); ++i)
-      if (i == 0 || keys[i].first != keys[i - 1].first)
-        keys[k++].second = keys[i].second;
-    // Keep the first face of each key, in the original order.
-    std::sort (keys.begin (), keys.begin () + k,
-               [] (const auto& x, const auto& y) { return x.second < y.second; });
-    for (std::size_t i = 0; i < k; ++i)
-      ctris_[i] = ctris_[keys[i].second];
-    ctris_.resize (k);
-  }
-  stats_.clustered_triangles = ctris_.size ();
+  auto& keys = tri_keys_;
+  keys.resize (ctris_.size ());
+  for (std::size_t f = 0; f < ctris_.size (); ++f)
+    keys[f] = {triKey (ctris_[f][0], ctris_[f][1], ctris_[f][2]), static_cast<std::int32_t> (f)};
+  std::sort (keys.begin (), keys.end ());
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < keys.size (); ++i)
+    if (i == 0 || keys[i].first != keys[i - 1].first)
+      keys[k++].second = keys[i].second;
+  // Keep the first face of each key, in the original order.
+  std::sort (keys.begin (), keys.begin () + k,
+             [] (const auto& x, const auto& y) { return x.second < y.second; });
+  for (std::size_t i = 0; i < k; ++i)
+    ctris_[i] = ctris_[keys[i].second];
+  ctris_.resize (k);
+}
 
-  // Second phase: edge collapse with the original (dense) quadrics.
+void
+CoupledSimplification::buildCollapseConnectivity (CollapseState& s)
+{
+  const std::size_t nc = ccount_.size ();
   if (vf_.size () < nc)
     vf_.resize (nc);
   for (std::size_t v = 0; v < nc; ++v)
@@ -637,8 +663,10 @@ CoupledSimplification::collapse ()
   for (std::size_t f = 0; f < ctris_.size (); ++f)
     for (int k = 0; k < 3; ++k)
       vf[ctris_[f][k]].push_back (static_cast<std::int32_t> (f));
-  std::vector<char> face_alive (ctris_.size (), 1), vert_alive (nc, 1), locked (nc, 0);
-  std::vector<std::uint32_t> stamp (nc, 0);
+  s.face_alive.assign (ctris_.size (), 1);
+  s.vert_alive.assign (nc, 1);
+  s.locked.assign (nc, 0);
+  s.stamp.assign (nc, 0);
   cb_.assign (nc, Quadric::Zero ());
 
   auto& edges = edges_;
@@ -650,7 +678,6 @@ CoupledSimplification::collapse ()
       edges.push_back ((static_cast<std::uint64_t> (std::min (a, b)) << 32) | std::max (a, b));
     }
   std::sort (edges.begin (), edges.end ());
-  std::vector<std::pair<std::int32_t, std::int32_t>> unique_edges;
   for (std::size_t k = 0; k < edges.size ();)
   {
     std::size_t j = k;
@@ -658,213 +685,257 @@ CoupledSimplification::collapse ()
     const std::int32_t a = static_cast<std::int32_t> (edges[k] >> 32), b = static_cast<std::int32_t> (edges[k] & 0xffffffffu);
     const std::size_t count = j - k;
     if (count > 2)
-      locked[a] = locked[b] = 1;  // non-manifold: leave as it is
+      s.locked[a] = s.locked[b] = 1;  // non-manifold: leave as it is
     else if (count == 1)
-    {
-      // Boundary: a plane through the edge, perpendicular to its face (Garland–Heckbert).
-      for (std::int32_t f : vf[a])
-      {
-        const auto& t = ctris_[f];
-        if ((t[0] == b || t[1] == b || t[2] == b))
-        {
-          const Eigen::Vector3d e = cpos_[b] - cpos_[a];
-          const Eigen::Vector3d fn = (cpos_[t[1]] - cpos_[t[0]]).cross (cpos_[t[2]] - cpos_[t[0]]);
-          Eigen::Vector3d n = e.cross (fn);
-          if (n.norm () > 0)
-          {
-            n.normalize ();
-            const double w = boundary_weight_ * e.squaredNorm ();
-            addPlane (cb_[a], n, -n.dot (cpos_[a]), w);
-            addPlane (cb_[b], n, -n.dot (cpos_[a]), w);
-          }
-          break;
-        }
-      }
-    }
-    unique_edges.emplace_back (a, b);
+      addBoundaryConstraint (a, b);
+    s.unique_edges.emplace_back (a, b);
     k = j;
   }
+}
 
+void
+CoupledSimplification::addBoundaryConstraint (std::int32_t a, std::int32_t b)
+{
+  // A plane through the boundary edge, perpendicular to its face (Garland–Heckbert).
+  for (std::int32_t f : vf_[a])
+  {
+    const auto& t = ctris_[f];
+    if ((t[0] == b || t[1] == b || t[2] == b))
+    {
+      const Eigen::Vector3d e = cpos_[b] - cpos_[a];
+      const Eigen::Vector3d fn = (cpos_[t[1]] - cpos_[t[0]]).cross (cpos_[t[2]] - cpos_[t[0]]);
+      Eigen::Vector3d n = e.cross (fn);
+      if (n.norm () > 0)
+      {
+        n.normalize ();
+        const double w = boundary_weight_ * e.squaredNorm ();
+        addPlane (cb_[a], n, -n.dot (cpos_[a]), w);
+        addPlane (cb_[b], n, -n.dot (cpos_[a]), w);
+      }
+      break;
+    }
+  }
+}
+
+Eigen::Vector3d
+CoupledSimplification::placeCollapse (std::int32_t a, std::int32_t b, double& err) const
+{
+  Quadric q = cq_[a] + cq_[b] + cb_[a] + cb_[b];
+  const Eigen::Vector3d m = 0.5 * (cpos_[a] + cpos_[b]);
+  Eigen::Vector3d x = minimiseEdge (q);
+  if (!x.allFinite () || (x - m).squaredNorm () > (cpos_[a] - cpos_[b]).squaredNorm ())
+  {
+    // Best of the endpoints and the midpoint (Garland–Heckbert's fallback).
+    const double ea = evaluate (q, cpos_[a]), eb = evaluate (q, cpos_[b]), em = evaluate (q, m);
+    x = ea < eb ? (ea < em ? cpos_[a] : m) : (eb < em ? cpos_[b] : m);
+  }
+  const double wsum = weightOf (cq_[a]) + weightOf (cq_[b]);
+  err = std::sqrt (std::max (0.0, evaluate (q, x)) / std::max (wsum, 1e-30));
+  return x;
+}
+
+double
+CoupledSimplification::collapseBound (std::int32_t a, std::int32_t b) const
+{
+  if (max_error_ > 0)
+    return max_error_;
+  if (max_error_ < 0)
+    return std::numeric_limits<double>::infinity ();
+  return 0.05 * (cscale_[a] + cscale_[b]);  // 0.1 × the mean cell size
+}
+
+void
+CoupledSimplification::pushCollapse (CollapseState& s, std::int32_t a, std::int32_t b) const
+{
+  if (s.locked[a] || s.locked[b])
+    return;
+  double err;
+  placeCollapse (a, b, err);
+  const double bnd = collapseBound (a, b);
+  const double key = std::isinf (bnd) ? err : err / bnd;
+  s.heap.push ({key, a, b, s.stamp[a], s.stamp[b]});
+}
+
+bool
+CoupledSimplification::linkConditionHolds (CollapseState& s, std::int32_t a, std::int32_t b) const
+{
+  // The common neighbours of a and b are exactly the opposite corners of the faces on the
+  // edge, otherwise the collapse pinches the surface.
+  auto& na = s.na;
+  auto& nb = s.nb;
+  na.clear (); nb.clear ();
+  int shared = 0;
+  for (std::int32_t f : vf_[a])
+  {
+    if (!s.face_alive[f]) continue;
+    const auto& t = ctris_[f];
+    bool has_b = false;
+    for (int k = 0; k < 3; ++k)
+    {
+      if (t[k] == b) has_b = true;
+      if (t[k] != a) na.push_back (t[k]);
+    }
+    shared += has_b;
+  }
+  for (std::int32_t f : vf_[b])
+  {
+    if (!s.face_alive[f]) continue;
+    const auto& t = ctris_[f];
+    for (int k = 0; k < 3; ++k)
+      if (t[k] != b) nb.push_back (t[k]);
+  }
+  std::sort (na.begin (), na.end ()); na.erase (std::unique (na.begin (), na.end ()), na.end ());
+  std::sort (nb.begin (), nb.end ()); nb.erase (std::unique (nb.begin (), nb.end ()), nb.end ());
+  int common = 0;
+  for (std::size_t i = 0, j = 0; i < na.size () && j < nb.size ();)
+  {
+    if (na[i] < nb[j]) ++i;
+    else if (nb[j] < na[i]) ++j;
+    else { common += (na[i] != a && na[i] != b); ++i; ++j; }
+  }
+  return shared != 0 && common == shared;
+}
+
+bool
+CoupledSimplification::foldsOver (const CollapseState& s, std::int32_t a, std::int32_t b, const Eigen::Vector3d& x,
+                                  double cos_turn) const
+{
+  // No remaining face of a or b may turn by more than the limit, degenerate, or turn away
+  // from the camera.
+  for (std::int32_t v : {a, b})
+  {
+    for (std::int32_t f : vf_[v])
+    {
+      if (!s.face_alive[f]) continue;
+      const auto& t = ctris_[f];
+      if ((t[0] == a || t[1] == a || t[2] == a) && (t[0] == b || t[1] == b || t[2] == b))
+        continue;
+      Eigen::Vector3d p[3], q[3];
+      for (int k = 0; k < 3; ++k)
+      {
+        p[k] = cpos_[t[k]];
+        q[k] = (t[k] == v) ? x : p[k];
+      }
+      const Eigen::Vector3d n0 = (p[1] - p[0]).cross (p[2] - p[0]);
+      const Eigen::Vector3d n1 = (q[1] - q[0]).cross (q[2] - q[0]);
+      const double l0 = n0.norm (), l1 = n1.norm ();
+      if (!(l1 > 1e-12 * std::max (l0, 1e-30)) || n0.dot (n1) < cos_turn * l0 * l1 ||
+          !s.facesCamera (q[0], q[1], q[2]))
+        return true;
+    }
+  }
+  return false;
+}
+
+std::size_t
+CoupledSimplification::collapseInto (CollapseState& s, std::int32_t a, std::int32_t b, const Eigen::Vector3d& x)
+{
+  // Collapse b into a; returns the number of faces removed.
+  auto& vf = vf_;
+  std::size_t removed = 0;
+  cpos_[a] = x;
+  cq_[a] += cq_[b];
+  cb_[a] += cb_[b];
+  s.vert_alive[b] = 0;
+  ++s.stamp[a];
+  for (std::int32_t f : vf[b])
+  {
+    if (!s.face_alive[f]) continue;
+    auto& t = ctris_[f];
+    if (t[0] == a || t[1] == a || t[2] == a)
+    {
+      s.face_alive[f] = 0;
+      ++removed;
+      continue;
+    }
+    for (int k = 0; k < 3; ++k)
+      if (t[k] == b) t[k] = a;
+    vf[a].push_back (f);
+  }
+  vf[b].clear ();
+  vf[a].erase (std::remove_if (vf[a].begin (), vf[a].end (), [&] (std::int32_t f) { return !s.face_alive[f]; }),
+               vf[a].end ());
+  // New candidates: a with each of its neighbours.
+  auto& na = s.na;
+  na.clear ();
+  for (std::int32_t f : vf[a])
+    for (int k = 0; k < 3; ++k)
+      if (ctris_[f][k] != a) na.push_back (ctris_[f][k]);
+  std::sort (na.begin (), na.end ()); na.erase (std::unique (na.begin (), na.end ()), na.end ());
+  for (std::int32_t n : na)
+    pushCollapse (s, a, n);
+  return removed;
+}
+
+void
+CoupledSimplification::collapseEdges (CollapseState& s, bool count_stop, bool error_stop)
+{
   std::size_t faces = ctris_.size ();
   const std::size_t target = static_cast<std::size_t> (std::ceil (target_ratio_ * faces));
-  const bool count_stop = target_ratio_ > 0 && target_ratio_ < 1;
-  const bool error_stop = max_error_ >= 0;
-  if (target_ratio_ >= 1 || (!count_stop && !error_stop))
-  {
-    // No collapse: the clustered mesh is the result.
-    stats_.triangles = faces;
-    return;
-  }
-
-  struct Entry
-  {
-    double key;
-    std::int32_t a, b;
-    std::uint32_t sa, sb;
-    bool operator> (const Entry& o) const { return key > o.key; }
-  };
-  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
-  auto place = [&] (std::int32_t a, std::int32_t b, double& err) -> Eigen::Vector3d {
-    Quadric q = cq_[a] + cq_[b] + cb_[a] + cb_[b];
-    const Eigen::Vector3d m = 0.5 * (cpos_[a] + cpos_[b]);
-    Eigen::Vector3d x = minimiseEdge (q);
-    if (!x.allFinite () || (x - m).squaredNorm () > (cpos_[a] - cpos_[b]).squaredNorm ())
-    {
-      // Best of the endpoints and the midpoint (Garland–Heckbert's fallback).
-      const double ea = evaluate (q, cpos_[a]), eb = evaluate (q, cpos_[b]), em = evaluate (q, m);
-      x = ea < eb ? (ea < em ? cpos_[a] : m) : (eb < em ? cpos_[b] : m);
-    }
-    const double wsum = weightOf (cq_[a]) + weightOf (cq_[b]);
-    err = std::sqrt (std::max (0.0, evaluate (q, x)) / std::max (wsum, 1e-30));
-    return x;
-  };
-  auto bound = [&] (std::int32_t a, std::int32_t b) {
-    if (max_error_ > 0)
-      return max_error_;
-    if (max_error_ < 0)
-      return std::numeric_limits<double>::infinity ();
-    return 0.05 * (cscale_[a] + cscale_[b]);  // 0.1 × the mean cell size
-  };
-  auto push = [&] (std::int32_t a, std::int32_t b) {
-    if (locked[a] || locked[b])
-      return;
-    double err;
-    place (a, b, err);
-    const double bnd = bound (a, b);
-    const double key = std::isinf (bnd) ? err : err / bnd;
-    heap.push ({key, a, b, stamp[a], stamp[b]});
-  };
-  for (const auto& e : unique_edges)
-    push (e.first, e.second);
+  for (const auto& e : s.unique_edges)
+    pushCollapse (s, e.first, e.second);
 
   const double cos_turn = std::cos (max_turn_deg_ * M_PI / 180.0);
-  std::vector<std::int32_t> na, nb;
-  while (!heap.empty ())
+  while (!s.heap.empty ())
   {
     if (count_stop && faces <= target)
       break;
-    const Entry e = heap.top ();
-    heap.pop ();
+    const CollapseState::Entry e = s.heap.top ();
+    s.heap.pop ();
     const std::int32_t a = e.a, b = e.b;
-    if (!vert_alive[a] || !vert_alive[b] || e.sa != stamp[a] || e.sb != stamp[b])
+    if (!s.vert_alive[a] || !s.vert_alive[b] || e.sa != s.stamp[a] || e.sb != s.stamp[b])
       continue;
-    if (error_stop && !std::isinf (bound (a, b)) && e.key > 1.0)
+    if (error_stop && !std::isinf (collapseBound (a, b)) && e.key > 1.0)
       break;
-    // Link condition: the common neighbours of a and b are exactly the opposite corners of
-    // the faces on the edge, otherwise the collapse pinches the surface.
-    na.clear (); nb.clear ();
-    int shared = 0;
-    for (std::int32_t f : vf[a])
-    {
-      if (!face_alive[f]) continue;
-      const auto& t = ctris_[f];
-      bool has_b = false;
-      for (int k = 0; k < 3; ++k)
-      {
-        if (t[k] == b) has_b = true;
-        if (t[k] != a) na.push_back (t[k]);
-      }
-      shared += has_b;
-    }
-    for (std::int32_t f : vf[b])
-    {
-      if (!face_alive[f]) continue;
-      const auto& t = ctris_[f];
-      for (int k = 0; k < 3; ++k)
-        if (t[k] != b) nb.push_back (t[k]);
-    }
-    std::sort (na.begin (), na.end ()); na.erase (std::unique (na.begin (), na.end ()), na.end ());
-    std::sort (nb.begin (), nb.end ()); nb.erase (std::unique (nb.begin (), nb.end ()), nb.end ());
-    int common = 0;
-    for (std::size_t i = 0, j = 0; i < na.size () && j < nb.size ();)
-    {
-      if (na[i] < nb[j]) ++i;
-      else if (nb[j] < na[i]) ++j;
-      else { common += (na[i] != a && na[i] != b); ++i; ++j; }
-    }
-    if (shared == 0 || common != shared)
+    if (!linkConditionHolds (s, a, b))
     {
       ++stats_.rejected_topology;
       continue;
     }
     double err;
-    const Eigen::Vector3d x = place (a, b, err);
-    // Fold-overs: no remaining face of a or b may turn by more than the limit.
-    bool fold = false;
-    for (std::int32_t v : {a, b})
-    {
-      for (std::int32_t f : vf[v])
-      {
-        if (!face_alive[f]) continue;
-        const auto& t = ctris_[f];
-        if ((t[0] == a || t[1] == a || t[2] == a) && (t[0] == b || t[1] == b || t[2] == b))
-          continue;
-        Eigen::Vector3d p[3], q[3];
-        for (int k = 0; k < 3; ++k)
-        {
-          p[k] = cpos_[t[k]];
-          q[k] = (t[k] == v) ? x : p[k];
-        }
-        const Eigen::Vector3d n0 = (p[1] - p[0]).cross (p[2] - p[0]);
-        const Eigen::Vector3d n1 = (q[1] - q[0]).cross (q[2] - q[0]);
-        const double l0 = n0.norm (), l1 = n1.norm ();
-        if (!(l1 > 1e-12 * std::max (l0, 1e-30)) || n0.dot (n1) < cos_turn * l0 * l1 ||
-            !faces_camera (q[0], q[1], q[2]))
-        {
-          fold = true;
-          break;
-        }
-      }
-      if (fold) break;
-    }
-    if (fold)
+    const Eigen::Vector3d x = placeCollapse (a, b, err);
+    if (foldsOver (s, a, b, x, cos_turn))
     {
       ++stats_.rejected_foldover;
       continue;
     }
-    // Collapse b into a.
-    cpos_[a] = x;
-    cq_[a] += cq_[b];
-    cb_[a] += cb_[b];
-    vert_alive[b] = 0;
-    ++stamp[a];
-    for (std::int32_t f : vf[b])
-    {
-      if (!face_alive[f]) continue;
-      auto& t = ctris_[f];
-      if (t[0] == a || t[1] == a || t[2] == a)
-      {
-        face_alive[f] = 0;
-        --faces;
-        continue;
-      }
-      for (int k = 0; k < 3; ++k)
-        if (t[k] == b) t[k] = a;
-      vf[a].push_back (f);
-    }
-    vf[b].clear ();
-    vf[a].erase (std::remove_if (vf[a].begin (), vf[a].end (), [&] (std::int32_t f) { return !face_alive[f]; }),
-                 vf[a].end ());
+    faces -= collapseInto (s, a, b, x);
     ++stats_.collapses;
     stats_.max_error = std::max (stats_.max_error, err);
-    na.clear ();
-    for (std::int32_t f : vf[a])
-      for (int k = 0; k < 3; ++k)
-        if (ctris_[f][k] != a) na.push_back (ctris_[f][k]);
-    std::sort (na.begin (), na.end ()); na.erase (std::unique (na.begin (), na.end ()), na.end ());
-    for (std::int32_t n : na)
-      push (a, n);
   }
+}
+
+void
+CoupledSimplification::collapse ()
+{
+  // First phase: cluster representatives; then the clustered faces.
+  placeRepresentatives ();
+  CollapseState s;
+  s.facing = orientation_vote_ < 0 ? -1.0 : 1.0;
+  dropBackfacingAndDuplicateFaces (s);
+  stats_.clustered_triangles = ctris_.size ();
+
+  // Second phase: edge collapse with the original (dense) quadrics.
+  buildCollapseConnectivity (s);
+  const bool count_stop = target_ratio_ > 0 && target_ratio_ < 1;
+  const bool error_stop = max_error_ >= 0;
+  if (target_ratio_ >= 1 || (!count_stop && !error_stop))
+  {
+    // No collapse: the clustered mesh is the result.
+    stats_.triangles = ctris_.size ();
+    return;
+  }
+  collapseEdges (s, count_stop, error_stop);
   // Keep the live faces only.
   std::size_t k = 0;
   for (std::size_t f = 0; f < ctris_.size (); ++f)
-    if (face_alive[f])
+    if (s.face_alive[f])
       ctris_[k++] = ctris_[f];
   ctris_.resize (k);
 }
 
 void
-CoupledSimplification::emit (const Eigen::Matrix4d& pose, bool dense_only, pclx::surface::FrameMesh& out)
+CoupledSimplification::emit (const Eigen::Matrix4d& pose, bool dense_only, pcl::FrameMesh& out)
 {
   const Eigen::Matrix3f R = pose.topLeftCorner<3, 3> ().cast<float> ();
   const Eigen::Vector3f t = pose.topRightCorner<3, 1> ().cast<float> ();
@@ -872,7 +943,7 @@ CoupledSimplification::emit (const Eigen::Matrix4d& pose, bool dense_only, pclx:
   inv.topLeftCorner<3, 3> () = pose.topLeftCorner<3, 3> ().transpose ();
   inv.topRightCorner<3, 1> () = -inv.topLeftCorner<3, 3> () * pose.topRightCorner<3, 1> ();
   const bool flip = orientation_vote_ < 0;  // e.g. an organized grid stored bottom-up
-  pclx::surface::FrameMesh m;
+  pcl::FrameMesh m;
   m.viewpoint = t;
   const std::vector<Eigen::Vector3i>& tris = dense_only ? dense_tris_ : ctris_;
   std::vector<std::int32_t> remap (cq_.size (), -1);

@@ -706,7 +706,7 @@ crossingWeight (const Eigen::Vector3d& centroid_m, const Eigen::Vector3d& normal
 // Crossings of every triangle with the lattice lines along the three axes, sorted by edge; a
 // top-left rule makes a line through a shared triangle edge hit once.
 std::vector<Crossing>
-intersectLattice (const pclx::surface::FrameMesh& mesh, const FrameTriangles& ft)
+intersectLattice (const pcl::FrameMesh& mesh, const FrameTriangles& ft)
 {
   std::vector<Crossing> crossings;
 #pragma omp parallel
@@ -990,7 +990,7 @@ private:
 }  // namespace
 
 bool
-DualContouringOctree::checkFrameTriangles (const pclx::surface::FrameMesh& mesh, FrameTriangles& ft)
+DualContouringOctree::checkFrameTriangles (const pcl::FrameMesh& mesh, FrameTriangles& ft)
 {
   Stats& st = stats_;
   const std::size_t nv = mesh.vertices.size ();
@@ -1082,7 +1082,7 @@ DualContouringOctree::checkFrameTriangles (const pclx::surface::FrameMesh& mesh,
 }
 
 bool
-DualContouringOctree::addFrameMesh (const pclx::surface::FrameMesh& mesh)
+DualContouringOctree::addFrameMesh (const pcl::FrameMesh& mesh)
 {
   const auto t0 = Clock::now ();
   Stats& st = stats_;
@@ -1126,12 +1126,14 @@ void
 DualContouringOctree::reconstruct (pcl::PolygonMesh& mesh)
 {
   polygonise (mesh, all_dirty_);
+  error_.clear ();  // always succeeds: an earlier refusal is no longer the last call
 }
 
 void
 DualContouringOctree::reconstructFromScratch (pcl::PolygonMesh& mesh)
 {
   polygonise (mesh, true);
+  error_.clear ();  // always succeeds: an earlier refusal is no longer the last call
 }
 
 namespace {

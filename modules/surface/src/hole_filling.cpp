@@ -1,6 +1,6 @@
 // Fairing solves a sparse system: CGAL's default solver is Eigen's.
 #define CGAL_EIGEN3_ENABLED
-#include <pclx/surface/hole_filling.h>
+#include <pclx/surface/detail/hole_filling.h>
 
 #include <pcl/console/print.h>
 
@@ -17,6 +17,7 @@
 
 namespace pclx {
 namespace surface {
+namespace detail {
 
 namespace {
 
@@ -109,7 +110,7 @@ fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<pcl::Vertice
   stats = HoleFillingStats ();
   if (!(max_diameter > 0) || !std::isfinite (max_diameter))
   {
-    PCL_ERROR ("[pclx::surface::fillSmallHoles] the largest hole must be positive and finite (got %g)\n",
+    PCL_ERROR ("[pclx::surface::detail::fillSmallHoles] the largest hole must be positive and finite (got %g)\n",
                max_diameter);
     return false;
   }
@@ -118,7 +119,7 @@ fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<pcl::Vertice
   Mesh mesh;
   if (!toMesh (vertices, triangles, mesh))
   {
-    PCL_ERROR ("[pclx::surface::fillSmallHoles] the mesh is not an oriented 2-manifold; no hole was filled\n");
+    PCL_ERROR ("[pclx::surface::detail::fillSmallHoles] the mesh is not an oriented 2-manifold; no hole was filled\n");
     return false;
   }
   const auto loops = boundaryLoops (mesh);
@@ -164,5 +165,6 @@ fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<pcl::Vertice
   return true;
 }
 
+}  // namespace detail
 }  // namespace surface
 }  // namespace pclx

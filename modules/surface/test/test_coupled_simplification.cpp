@@ -1,4 +1,4 @@
-// CoupledSimplification (seed 004 §3.2–3.3): the connected cloud, frustum clustering and the
+// CoupledSimplification (da Paz 2017, §3.2–3.3): the connected cloud, frustum clustering and the
 // coupled edge collapse on generated depth frames; orientation, discontinuities, bad input.
 #include <pclx/surface/coupled_simplification.h>
 #include <pclx/testing/depth_renderer.h>
@@ -12,8 +12,8 @@
 
 namespace {
 
-using pclx::surface::DepthIntrinsics;
-using pclx::surface::FrameMesh;
+using pcl::DepthIntrinsics;
+using pcl::FrameMesh;
 using Simplifier = pcl::CoupledSimplification;
 
 const DepthIntrinsics kK{525.f, 525.f, 319.5f, 239.5f};

@@ -1,5 +1,5 @@
-// pclx::surface::fillSmallHoles, and RBFPOUReconstruction's hole filling on scan-like input.
-#include <pclx/surface/hole_filling.h>
+// pclx::surface::detail::fillSmallHoles, and RBFPOUReconstruction's hole filling on scan-like input.
+#include <pclx/surface/detail/hole_filling.h>
 #include <pclx/surface/rbf_pou_reconstruction.h>
 #include <pclx/testing/degradation.h>
 #include <pclx/testing/mesh_sampling.h>
@@ -15,8 +15,8 @@
 
 namespace {
 
-using pclx::surface::fillSmallHoles;
-using pclx::surface::HoleFillingStats;
+using pclx::surface::detail::fillSmallHoles;
+using pclx::surface::detail::HoleFillingStats;
 
 struct Mesh
 {

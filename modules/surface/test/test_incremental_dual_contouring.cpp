@@ -18,7 +18,7 @@
 
 namespace {
 
-using pclx::surface::FrameMesh;
+using pcl::FrameMesh;
 using pclx::testing::TriangleMesh;
 using IDC = pcl::IncrementalDualContouring<pcl::PointXYZ>;
 
@@ -637,7 +637,7 @@ smallCamera ()
   return K;
 }
 
-pclx::surface::DepthIntrinsics
+pcl::DepthIntrinsics
 toK (const pclx::testing::PinholeIntrinsics& K)
 {
   return {K.fx, K.fy, K.cx, K.cy};
@@ -802,6 +802,16 @@ TEST (IncrementalDualContouring, LastErrorLoggedOnceAndClearedBySuccess)
   EXPECT_FALSE (idc.getLastError ().empty ());
   EXPECT_TRUE (idc.addFrame (depth.data (), 64, 48, {50.f, 50.f, 32.f, 24.f}, Eigen::Matrix4d::Identity ()));
   EXPECT_TRUE (idc.getLastError ().empty ());
+
+  // reconstruct () always succeeds, so it clears an earlier refusal too.
+  ::testing::internal::CaptureStderr ();
+  EXPECT_FALSE (idc.addFrameMesh (bad));
+  EXPECT_EQ (refusalLines (::testing::internal::GetCapturedStderr ()), 1u);
+  EXPECT_FALSE (idc.getLastError ().empty ());
+  pcl::PolygonMesh mesh;
+  idc.reconstruct (mesh);
+  EXPECT_TRUE (idc.getLastError ().empty ());
+  EXPECT_TRUE (idc.getOctree ().getLastError ().empty ());
 }
 
 // The organized-cloud entry (PointXYZ in the camera frame) works like the depth-image entry.
@@ -859,7 +869,7 @@ TEST (IncrementalDualContouring, BadFramesLeaveTheMapUnchanged)
   EXPECT_FALSE (idc.addFrame (nan.data (), depth.width, depth.height, toK (K), P));
   // Null data, zero intrinsics, a different frame size.
   EXPECT_FALSE (idc.addFrame (static_cast<const std::uint16_t*> (nullptr), depth.width, depth.height, toK (K), P));
-  EXPECT_FALSE (idc.addFrame (depth.depth_mm.data (), depth.width, depth.height, pclx::surface::DepthIntrinsics (), P));
+  EXPECT_FALSE (idc.addFrame (depth.depth_mm.data (), depth.width, depth.height, pcl::DepthIntrinsics (), P));
   EXPECT_FALSE (idc.addFrame (depth.depth_mm.data (), depth.width / 2, depth.height, toK (K), P));
   EXPECT_NE (idc.getLastError ().find ("differs"), std::string::npos);
   // Missing (NaN) and singular poses.

@@ -558,7 +558,11 @@ TEST (RBFPOUReconstruction, NoInputIsRefused)
   Recon rec;
   pcl::PolygonMesh mesh;
   mesh.polygons.resize (3);
+  ::testing::internal::CaptureStderr ();
   rec.reconstruct (mesh);
+  const std::string log = ::testing::internal::GetCapturedStderr ();
+  EXPECT_EQ (log.find ("[pcl::"), log.rfind ("[pcl::")) << log;  // one PCL_ERROR line
+  EXPECT_NE (log.find ("[pcl::"), std::string::npos) << log;
   EXPECT_TRUE (mesh.polygons.empty ());
   EXPECT_EQ (mesh.cloud.width * mesh.cloud.height, 0u);
   EXPECT_NE (rec.getLastError ().find ("input"), std::string::npos) << rec.getLastError ();

@@ -1,34 +1,55 @@
 #pragma once
-// Angle error statistics between estimated and ground-truth normals (seed 002 §6.2.1:
-// min / max / mean; plus RMS and the shares under 5° and 10°). Unoriented error is
-// acos|a·b| (use it when the truth is unoriented, e.g. PCPNet); oriented error also
-// reports the share of normals pointing against the truth.
+#include <pcl/console/print.h>
 #include <pcl/point_cloud.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
-#include <stdexcept>
 #include <vector>
 
-namespace pclx {
-namespace normals {
+namespace pcl {
 
+/** \brief Angle error statistics between estimated and ground-truth normals.
+  *
+  * The statistics of Musmanno's evaluation (min / max / mean angle) plus the RMS and the
+  * shares of errors under 5° and 10°. The unoriented error is acos |a·b| (use it when the
+  * truth is unoriented); the oriented error also reports the share of normals pointing
+  * against the truth.
+  *
+  * \note R. M. Musmanno, 2016, "Estimação de Normais em Nuvens de Pontos para Reconstrução
+  * de Superfícies 3D com Funções de Base Radial", MSc dissertation, UFF, §6.2.1.
+  * \ingroup normals
+  */
 struct NormalErrorStats
 {
-  std::size_t count = 0;    // compared pairs (finite ground truth)
-  std::size_t invalid = 0;  // estimates that are not finite or zero: counted as 90° error
-  double rms_deg = 0, mean_deg = 0, min_deg = 0, max_deg = 0;
-  double below5 = 0, below10 = 0;  // shares of errors < 5° and < 10°
-  double flipped = 0;              // share with a·b < 0 (meaningful for oriented truth only)
+  std::size_t count = 0;    ///< Compared pairs (those with a finite ground truth).
+  std::size_t invalid = 0;  ///< Estimates that are not finite or zero; counted as a 90° error.
+  double rms_deg = 0;       ///< Root mean square of the errors, in degrees.
+  double mean_deg = 0;      ///< Mean error, in degrees.
+  double min_deg = 0;       ///< Smallest error, in degrees.
+  double max_deg = 0;       ///< Largest error, in degrees.
+  double below5 = 0;        ///< Share of errors below 5°.
+  double below10 = 0;       ///< Share of errors below 10°.
+  double flipped = 0;       ///< Share with a·b < 0 (meaningful for an oriented truth only).
 };
 
-// Per-point unoriented (or oriented) angle errors in degrees; NaN where the truth is not finite.
+/** \brief Per-point angle errors between estimated and ground-truth normals.
+  * \param[in] estimate the estimated normals
+  * \param[in] truth the ground-truth normals, one per estimate
+  * \param[in] oriented false: acos |a·b| (sign ignored); true: acos (a·b)
+  * \return the error of every pair in degrees, NaN where the truth is not finite or zero and
+  * 90 where the estimate is; empty, with PCL_ERROR, when the clouds differ in size
+  * \ingroup normals
+  */
 template <typename NA, typename NB> std::vector<double>
 angleErrorsDeg (const pcl::PointCloud<NA>& estimate, const pcl::PointCloud<NB>& truth, bool oriented = false)
 {
   if (estimate.size () != truth.size ())
-    throw std::invalid_argument ("angleErrorsDeg: estimate and truth differ in size");
+  {
+    PCL_ERROR ("[pcl::angleErrorsDeg] %zu estimated normals but %zu ground-truth normals\n", estimate.size (),
+               truth.size ());
+    return {};
+  }
   std::vector<double> err (estimate.size ());
   for (std::size_t i = 0; i < estimate.size (); ++i)
   {
@@ -52,6 +73,14 @@ angleErrorsDeg (const pcl::PointCloud<NA>& estimate, const pcl::PointCloud<NB>& 
   return err;
 }
 
+/** \brief Error statistics of estimated normals against the ground truth.
+  * \param[in] estimate the estimated normals
+  * \param[in] truth the ground-truth normals, one per estimate
+  * \param[in] oriented false: unoriented errors; true: oriented errors (see angleErrorsDeg ())
+  * \return the statistics over the pairs with a finite truth; all zero when there is none, or
+  * (with PCL_ERROR) when the clouds differ in size
+  * \ingroup normals
+  */
 template <typename NA, typename NB> NormalErrorStats
 compareNormals (const pcl::PointCloud<NA>& estimate, const pcl::PointCloud<NB>& truth, bool oriented = false)
 {
@@ -85,5 +114,4 @@ compareNormals (const pcl::PointCloud<NA>& estimate, const pcl::PointCloud<NB>& 
   return s;
 }
 
-}  // namespace normals
-}  // namespace pclx
+}  // namespace pcl

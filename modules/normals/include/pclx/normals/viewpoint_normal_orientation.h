@@ -1,6 +1,4 @@
 #pragma once
-// Viewpoint orientation (seed 002 §5.4.2): when the capture position vp is known,
-// every normal is flipped so that ni · (vp − xi) > 0.
 #include <pcl/common/point_tests.h>
 #include <pcl/point_cloud.h>
 
@@ -9,8 +7,22 @@
 
 namespace pcl {
 
-// Returns false with PCL_ERROR when the clouds differ in size. Invalid points and
-// non-finite normals are left untouched. `flipped` (optional) receives the flip count.
+/** \brief Orient normals towards a known capture position.
+  *
+  * Every normal is flipped so that ni · (vp − xi) > 0 (Musmanno 2016, §5.4.2). Invalid points
+  * and non-finite normals are left untouched.
+  * \param[in] cloud the points
+  * \param[in,out] normals one normal per point, oriented in place
+  * \param[in] viewpoint the capture position vp
+  * \param[out] flipped optional: receives the number of flipped normals
+  * \return false, with PCL_ERROR and the normals untouched, when the clouds differ in size
+  *
+  * \note R. M. Musmanno, 2016, "Estimação de Normais em Nuvens de Pontos para Reconstrução
+  * de Superfícies 3D com Funções de Base Radial", MSc dissertation, UFF; and H. Hoppe,
+  * T. DeRose, T. Duchamp, J. McDonald, W. Stuetzle, 1992, "Surface Reconstruction from
+  * Unorganized Points", ACM SIGGRAPH.
+  * \ingroup normals
+  */
 template <typename PointT, typename NormalT> bool
 orientNormalsTowardsViewpoint (const PointCloud<PointT>& cloud, PointCloud<NormalT>& normals,
                                const Eigen::Vector3f& viewpoint, std::size_t* flipped = nullptr)

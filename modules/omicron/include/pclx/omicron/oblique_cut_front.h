@@ -1,23 +1,6 @@
 #pragma once
-// pcl::ObliqueCutFront: the Oblique Hierarchy Cut Front of OMiCroN (§3.2, Algorithms 5–8):
-// a rendering front over the part of the hierarchy the cut has finished, evaluated while fix
-// keeps building.
-//
-// Each evaluate (camera):
-//   1. takes the leaf list of the substitution level (the level with most pending leaves,
-//      §3.2.3), then appends the new placeholders at the end of the front (§3.2.1);
-//   2. walks the front once: a placeholder is replaced by the head of that list when the
-//      head is its ancestor (Algorithm 6, O(1)); a node whose parent is culled or projects
-//      below the threshold is pruned together with its siblings (Algorithm 7, siblings are
-//      adjacent by invariant 2.1); a visible node that projects above the threshold is
-//      branched into its children (Algorithm 8); the others are drawn.
-// Invariants: 2.1 spans strictly increase along the front; 2.2 only nodes that left L_C
-// enter it (nodes reach the front through leaf lists filled when their grandparent exists,
-// or through parent links set at the same moment). Placeholders are never pruned.
-//
-// Calls to evaluate() are serialized by a mutex (one front tracker). The node data it returns
-// stays valid as long as the octree that built it.
-#include <pclx/omicron/octree_node.h>
+// pcl::ObliqueCutFront: the rendering front of OMiCroN (da Silva 2018, §3.2), see the class.
+#include <pclx/omicron/detail/octree_node.h>
 
 #include <Eigen/Core>
 
@@ -30,60 +13,117 @@
 
 namespace pcl {
 
+/** \brief The Oblique Hierarchy Cut Front of OMiCroN (da Silva 2018, §3.2, Algorithms 5-8):
+  * a rendering front over the part of the hierarchy the cut has finished, evaluated while
+  * fix keeps building.
+  *
+  * Each evaluate (camera):
+  * 1. takes the leaf list of the substitution level (the level with most pending leaves,
+  *    §3.2.3), then appends the new placeholders at the end of the front (§3.2.1);
+  * 2. walks the front once: a placeholder is replaced by the head of that list when the head
+  *    is its ancestor (Algorithm 6, O(1)); a node whose parent is culled or projects below the
+  *    threshold is pruned together with its siblings (Algorithm 7, siblings are adjacent by
+  *    invariant 2.1); a visible node that projects above the threshold is branched into its
+  *    children (Algorithm 8); the others are drawn.
+  *
+  * Invariants: 2.1 spans strictly increase along the front; 2.2 only nodes that left L_C
+  * enter it (nodes reach the front through leaf lists filled when their grandparent exists,
+  * or through parent links set at the same moment). Placeholders are never pruned.
+  *
+  * Calls to evaluate () are serialized by a mutex (one front tracker). The node data it
+  * returns stays valid as long as the octree that built it.
+  *
+  * \note V. da Silva, 2018, "Concomitant Hierarchy Construction and Rendering of Large Point
+  * Clouds" (OMiCroN: Oblique Multipass Hierarchy Creation while Navigating), DSc thesis,
+  * UFRJ/COPPE.
+  * \ingroup omicron
+  */
 template <typename PointT>
 class ObliqueCutFront
 {
 public:
-  using Node = omicron::Node<PointT>;
+  using Node = pclx::omicron::detail::Node<PointT>;  ///< A node of the hierarchy.
 
+  /** \brief The view the front is evaluated for. */
   struct Camera
   {
-    Eigen::Matrix4f view_projection = Eigen::Matrix4f::Identity ();  // world → clip (OpenGL)
-    int width = 1, height = 1;  // viewport in pixels (splat sizes in pixels, for renderers)
+    Eigen::Matrix4f view_projection = Eigen::Matrix4f::Identity ();  ///< world to clip (OpenGL)
+    int width = 1;   ///< viewport width in pixels (splat sizes in pixels, for renderers)
+    int height = 1;  ///< viewport height in pixels
   };
-  // What to draw: a node's points with the splat radius of its level (world units).
+  /** \brief What to draw: a node's points with the splat radius of its level. */
   struct Item
   {
-    const Node* node = nullptr;
-    const PointT* points = nullptr;
-    std::uint32_t num_points = 0;
-    float splat_radius = 0.f;
+    const Node* node = nullptr;      ///< the node
+    const PointT* points = nullptr;  ///< its points
+    std::uint32_t num_points = 0;    ///< how many
+    float splat_radius = 0.f;        ///< splat radius of its level (world units)
   };
-  // A front entry: a node, or a placeholder (node == nullptr) with its leaf-level code.
+  /** \brief A front entry: a node, or a placeholder with its leaf-level code. */
   struct Entry
   {
-    const Node* node = nullptr;
-    MortonCode code;
+    const Node* node = nullptr;  ///< the node, nullptr for a placeholder
+    MortonCode code;             ///< the placeholder's code (leaf level)
   };
 
+  /** \brief An empty front. */
   ObliqueCutFront () = default;
   ObliqueCutFront (const ObliqueCutFront&) = delete;
   ObliqueCutFront& operator= (const ObliqueCutFront&) = delete;
 
-  // Starts an empty front for a hierarchy of depth `max_depth` over the root cube.
-  // `splat_radius[l]` is the splat radius of level l (max_depth + 1 values).
+  /** \brief Start an empty front for a hierarchy over a root cube.
+    * \param[in] max_depth the hierarchy's l_max
+    * \param[in] origin the root cube's min corner
+    * \param[in] edge the root cube's edge
+    * \param[in] splat_radius splat radius of each level l (max_depth + 1 values)
+    */
   void reset (int max_depth, const Eigen::Vector3d& origin, double edge, std::vector<float> splat_radius);
 
-  // Prune below / branch above this projected box diagonal in NDC (default 0.2, §4.3).
+  /** \brief Set the projection threshold: prune below it, branch above it.
+    * \param[in] t a projected box diagonal in NDC, finite and > 0; default 0.2 (thesis
+    * §4.3). Otherwise PCL_ERROR and the value is kept.
+    */
   void setProjectionThreshold (float t);
+  /** \brief The projection threshold.
+    * \return the projected box diagonal in NDC */
   float getProjectionThreshold () const { return threshold_; }
 
-  // Algorithm 5. `out` receives what to draw this frame.
+  /** \brief Algorithm 5: one front evaluation.
+    * \param[in] camera the view
+    * \param[out] out what to draw this frame
+    */
   void evaluate (const Camera& camera, std::vector<Item>& out);
 
-  // Fed by ObliqueCut (under the per-level mutexes).
+  /** \brief Receive new placeholders (called by ObliqueCut under its per-level mutexes).
+    * \param[in] placeholders leaf-level codes, in Morton order */
   void insertPlaceholders (std::vector<MortonCode>&& placeholders);
+  /** \brief Receive leaves that left L_C (called by ObliqueCut under its per-level mutexes).
+    * \param[in] level their level
+    * \param[in] leaves the leaves, in Morton order */
   void insertLeaves (int level, std::vector<const Node*>&& leaves);
 
+  /** \brief A copy of the front.
+    * \return its entries in order */
   std::vector<Entry> entries () const;
-  // Front entries plus placeholders waiting to enter (for memory accounting).
+  /** \brief Front entries plus placeholders waiting to enter (for memory accounting).
+    * \return the count */
   std::size_t entryCount () const;
+  /** \brief Leaves received and not yet substituted.
+    * \return the count */
   std::size_t pendingLeaves () const;
-  // Seconds from reset() to the first leaf handed to the front (< 0: none yet).
+  /** \brief Seconds from reset () to the first leaf handed to the front.
+    * \return them, < 0 when none yet */
   double secondsToFirstLeaf () const;
 
-  // Projected size (NDC diagonal) and culling of a node's box.
+  /** \brief Culling and projected size of a node's box.
+    * \param[in] n the node
+    * \param[in] camera the view
+    * \param[out] ndc_diagonal the box's projected diagonal in NDC
+    * \return true when the box is outside the view */
   bool culled (const Node& n, const Camera& camera, float& ndc_diagonal) const;
+  /** \brief The splat radius of a node's level.
+    * \param[in] n the node
+    * \return the radius (world units) */
   float splatRadius (const Node& n) const;
 
 private:

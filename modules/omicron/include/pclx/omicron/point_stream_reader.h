@@ -1,21 +1,5 @@
 #pragma once
-// pcl::PointStreamReader: reads a point cloud file in chunks, so a file larger than memory can
-// be streamed (the out-of-core build of pcl::ObliqueCutOctree reads its input twice through it).
-//
-//   pcl::PointStreamReader reader ("scan.ply");        // throws pcl::IOException
-//   pcl::PointCloud<pcl::PointXYZRGB> chunk;
-//   while (reader.read (1 << 20, chunk))
-//     use (chunk);                                      // finite points only
-//
-// Formats: PCD (ascii, binary; binary_compressed is decompressed whole, its format has no
-// smaller unit), PLY (ascii, binary little/big endian; vertex x/y/z of any scalar type plus
-// optional red/green/blue), and .xyz text ("x y z [r g b]" per line, commas or white space,
-// '#' comments). Positions and colour are read; other fields are skipped.
-//
-// The headers are parsed here rather than by pcl::PCDReader::readHeader: PCL 1.13 crashes on
-// 0- and 1-byte PCD files and trusts the declared counts (see apps/common/file_check.h).
-// Empty, truncated or malformed files throw pcl::IOException naming the file and the
-// problem (line number for text). Points with a NaN/Inf coordinate are dropped and counted.
+// pcl::PointStreamReader: PCD/PLY/XYZ files read in blocks, see the class.
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
@@ -27,45 +11,108 @@
 
 namespace pcl {
 
+/** \brief Reads a point cloud file in blocks, so a file larger than memory can be streamed
+  * (the out-of-core build of pcl::ObliqueCutOctree reads its input twice through it).
+  *
+  * \code
+  * pcl::PointStreamReader reader;
+  * if (!reader.open ("scan.ply"))                      // PCL_ERROR, getLastError ()
+  *   return;
+  * pcl::PointCloud<pcl::PointXYZRGB> block;
+  * while (reader.read (1 << 20, block))
+  *   use (block);                                      // finite points only
+  * if (!reader.getLastError ().empty ())
+  *   ...                                               // truncated or malformed data
+  * \endcode
+  *
+  * Formats: PCD (ascii, binary; binary_compressed is decompressed whole, its format has no
+  * smaller unit), PLY (ascii, binary little/big endian; vertex x/y/z of any scalar type plus
+  * optional red/green/blue), and .xyz text ("x y z [r g b]" per line, commas or white space,
+  * '#' comments). Positions and colour are read; other fields are skipped.
+  *
+  * The headers are parsed here rather than by pcl::PCDReader::readHeader, which crashes on
+  * 0- and 1-byte PCD files and trusts the declared counts. Empty, truncated or malformed files
+  * make open () or read () return false with PCL_ERROR naming the file and the problem (line
+  * number for text) and close the reader; getLastError () keeps the message. Points with a
+  * NaN/Inf coordinate are dropped and counted.
+  * \ingroup omicron
+  */
 class PointStreamReader
 {
 public:
+  /** \brief The file formats, chosen by the extension. */
   enum class Format
   {
-    PCD,
-    PLY,
-    XYZ
+    PCD,  ///< .pcd: ascii, binary or binary_compressed
+    PLY,  ///< .ply: ascii or binary (either endianness)
+    XYZ   ///< .xyz / .txt: "x y z [r g b]" per line
   };
 
+  /** \brief A reader with no file open. */
   PointStreamReader () = default;
-  // open (path).
+  /** \brief A reader that opens a file at once; check isOpen () or getLastError ().
+    * \param[in] path the file (see open ())
+    */
   explicit PointStreamReader (const std::string& path) { open (path); }
+  /** \brief Closes the file. */
   ~PointStreamReader ();
   PointStreamReader (const PointStreamReader&) = delete;
   PointStreamReader& operator= (const PointStreamReader&) = delete;
 
-  // Opens the file and parses its header (format from the extension; any case).
-  void open (const std::string& path);
+  /** \brief Open a file and parse its header (format from the extension, any case).
+    * \param[in] path the file
+    * \return false (PCL_ERROR, getLastError ()) on an unknown extension, an unreadable,
+    * empty, truncated or malformed file
+    */
+  bool open (const std::string& path);
+  /** \brief Close the file (open () may be called again). */
   void close ();
-  // Back to the first point (for a second pass).
-  void rewind ();
+  /** \brief Whether a file is open.
+    * \return whether a file is open */
+  bool isOpen () const { return file_ != nullptr; }
+  /** \brief Go back to the first point (for a second pass).
+    * \return false (PCL_ERROR, getLastError ()) when no file is open or it cannot seek
+    */
+  bool rewind ();
 
-  // Replaces `out` with the next up to `max_points` (>= 1) finite points. Returns false when
-  // the file has no more points (out is then empty).
+  /** \brief Replace `out` with the next points.
+    * \param[in] max_points at most this many finite points (>= 1)
+    * \param[out] out the points (empty at the end or on an error)
+    * \return false at the end of the file, and on an error (then getLastError () is not
+    * empty, PCL_ERROR was printed and the reader is closed)
+    */
   bool read (std::size_t max_points, pcl::PointCloud<pcl::PointXYZRGB>& out);
-  // The same for any point type with x/y/z (colour copied when both have it).
+  /** \brief The same for any point type with x/y/z (colour copied when both have it).
+    * \param[in] max_points at most this many finite points (>= 1)
+    * \param[out] out the points (empty at the end or on an error)
+    * \return false at the end of the file or on an error (see the PointXYZRGB overload)
+    */
   template <typename PointT> bool read (std::size_t max_points, pcl::PointCloud<PointT>& out);
 
+  /** \brief The file path.
+    * \return the file path */
   const std::string& getPath () const { return path_; }
+  /** \brief The file format.
+    * \return the file format */
   Format getFormat () const { return format_; }
+  /** \brief Whether the file has colour.
+    * \return whether the file has colour */
   bool hasColor () const { return color_; }
-  // Points the header declares (0 for .xyz, which has no header).
+  /** \brief Points the header declares (0 for .xyz, which has no header).
+    * \return points the header declares (0 for .xyz, which has no header) */
   std::uint64_t getDeclaredPoints () const { return declared_; }
-  // Since open () / rewind (): finite points returned, and points dropped as NaN/Inf.
+  /** \brief Finite points returned since open () / rewind ().
+    * \return finite points returned since open () / rewind () */
   std::uint64_t getPointsRead () const { return read_; }
+  /** \brief Points dropped as NaN/Inf since open () / rewind ().
+    * \return points dropped as NaN/Inf since open () / rewind () */
   std::uint64_t getDroppedInvalid () const { return dropped_; }
-  // Bytes of this reader's own buffers (for memory budgets).
+  /** \brief Bytes of this reader's own buffers (for memory budgets).
+    * \return bytes of this reader's own buffers (for memory budgets) */
   std::size_t bufferBytes () const;
+  /** \brief Why the last open (), rewind () or read () failed.
+    * \return the message, empty when none failed since the last open () */
+  const std::string& getLastError () const { return last_error_; }
 
 private:
   enum Type : std::uint8_t { I8, U8, I16, U16, I32, U32, F32, F64 };
@@ -74,7 +121,12 @@ private:
     int index = -1;          // byte offset (binary) or token index (text); -1: absent
     Type type = F32;
   };
+  // Throws std::runtime_error ("path: what"); caught by the public entry points.
   [[noreturn]] void fail (const std::string& what) const;
+  // PCL_ERROR, getLastError () and close (); returns false.
+  bool error (const char* method, const std::string& why);
+  void openImpl (const std::string& path);
+  void rewindImpl ();
   void parsePCDHeader ();
   void parsePLYHeader ();
   bool nextLine (std::string& line);
@@ -97,6 +149,7 @@ private:
   std::vector<std::size_t> soa_field_offset_;
   std::vector<std::size_t> field_sizes_;  // PCD: size × count per field, in record order
   pcl::PointCloud<pcl::PointXYZRGB> tmp_;
+  std::string last_error_;
 };
 
 template <typename PointT> bool

@@ -1,19 +1,4 @@
 #pragma once
-// IncrementalDualContouring: posed depth frames (or meshes) become an adaptive mesh that is
-// updated frame by frame (H. O. da Paz, "Reconstrução adaptativa de superfícies implícitas a
-// partir de imagens de profundidade", MSc dissertation, IMPA, 2017, ch. 3).
-//   §3.2–3.3  each frame → pcl::CoupledSimplification (connected cloud, coupled
-//             simplification, frustum cells of 2 leaves) → a small world-space FrameMesh;
-//   §3.4–3.5  the FrameMesh is fused into an extrinsic hashed octree of Hermite data averaged
-//             over frames and grid vertex signs (pcl::DualContouringOctree, see there);
-//   §3.6      reconstruct (): manifold dual contouring over minimal edges, optional
-//             topology-safe simplification within ε (flat regions get few triangles) and
-//             optional removal of the dominant plane (RANSAC) to isolate an object (§4.4).
-//             Only roots touched since the last call are re-polygonised.
-//
-// Bad input (no valid pixel, NaN / Inf, zero intrinsics, singular or non-finite pose, frames
-// of different sizes, empty meshes) gives false, PCL_ERROR and getLastError (); the map is left
-// as it was.
 #include <pcl/PolygonMesh.h>
 #include <pcl/point_cloud.h>
 
@@ -28,40 +13,81 @@
 
 namespace pcl {
 
+/** \brief Incremental dual contouring: posed depth frames (or meshes) become an adaptive
+  * triangle mesh that is updated frame by frame (da Paz 2017, ch. 3).
+  *
+  * - §3.2–3.3: each frame goes through pcl::CoupledSimplification (connected cloud, coupled
+  *   simplification in frustum cells of two leaves) and becomes a small world-space
+  *   pcl::FrameMesh;
+  * - §3.4–3.5: the FrameMesh is fused into an extrinsic hashed octree of Hermite data averaged
+  *   over frames and grid vertex signs (pcl::DualContouringOctree, see there);
+  * - §3.6: reconstruct () runs manifold dual contouring over minimal edges, an optional
+  *   topology-safe simplification within ε (flat regions get few triangles) and an optional
+  *   removal of the dominant plane (RANSAC) to isolate an object (§4.4). Only roots touched
+  *   since the last call are re-polygonised.
+  *
+  * Bad input (no valid pixel, NaN / Inf, zero intrinsics, a singular or non-finite pose,
+  * frames of different sizes, empty meshes) gives false, one PCL_ERROR and getLastError ();
+  * the map is left as it was.
+  *
+  * \code
+  * pcl::IncrementalDualContouring<pcl::PointXYZ> idc;
+  * idc.setLeafSize (0.01);
+  * for (const auto& frame : frames)
+  *   idc.addFrame (frame.depth_mm.data (), width, height, K, frame.camera_to_world);
+  * pcl::PolygonMesh mesh;
+  * idc.reconstruct (mesh);
+  * \endcode
+  *
+  * \note H. O. da Paz, 2017, "Reconstrução Adaptativa de Superfícies Implícitas a partir de
+  * Imagens de Profundidade", MSc dissertation, IMPA; T. Ju, F. Losasso, S. Schaefer, J. Warren,
+  * 2002, "Dual Contouring of Hermite Data", ACM SIGGRAPH.
+  * \tparam PointT the point type of organized input clouds (x, y, z are read)
+  * \ingroup surface
+  */
 template <typename PointT>
 class IncrementalDualContouring
 {
 public:
+  /** \brief Shared pointer. */
   using Ptr = shared_ptr<IncrementalDualContouring<PointT>>;
+  /** \brief Shared pointer to const. */
   using ConstPtr = shared_ptr<const IncrementalDualContouring<PointT>>;
+  /** \brief How conflicting sign votes are resolved (see DualContouringOctree::SignRule). */
   using SignRule = DualContouringOctree::SignRule;
 
+  /** \brief Counts and wall times of the map, the last frame and the last reconstruct. */
   struct Stats
   {
-    std::size_t frames = 0;
-    std::size_t cells = 0;         // cells with a dual vertex at the last reconstruct
-    std::size_t leaves = 0;        // leaves of the octree (map size)
-    std::size_t roots = 0;
-    std::size_t memory_bytes = 0;  // octree + cached polygons
-    std::size_t triangles = 0, vertices = 0;
-    std::size_t escaped_vertices = 0;   // QEF minimisers outside their cell (mass point used)
-    std::size_t ambiguous_vertices = 0;  // grid vertices whose votes cancel (taken as exterior)
-    std::size_t rim_cells = 0;           // cells whose surface reaches an unobserved vertex
-    std::size_t frame_triangles = 0;    // triangles of the last frame after §3.3
-    std::size_t repolygonised_roots = 0;
-    std::size_t removed_plane_triangles = 0;
-    // Last frame: front end (§3.2–3.3), octree update (§3.4–3.5), total.
-    double last_frame_ms = 0, last_frontend_ms = 0, last_octree_ms = 0;
-    // Last reconstruct (§3.6).
-    double last_reconstruct_ms = 0;
+    std::size_t frames = 0;        ///< frames fused
+    std::size_t cells = 0;         ///< cells with a dual vertex at the last reconstruct
+    std::size_t leaves = 0;        ///< leaves of the octree (map size)
+    std::size_t roots = 0;         ///< roots of the octree
+    std::size_t memory_bytes = 0;  ///< octree and cached polygons
+    std::size_t triangles = 0;     ///< triangles of the last reconstruct
+    std::size_t vertices = 0;      ///< vertices of the last reconstruct
+    std::size_t escaped_vertices = 0;    ///< QEF minimisers outside their cell (mass point used)
+    std::size_t ambiguous_vertices = 0;  ///< grid vertices whose votes cancel (taken as exterior)
+    std::size_t rim_cells = 0;           ///< cells whose surface reaches an unobserved vertex
+    std::size_t frame_triangles = 0;     ///< triangles of the last frame after §3.3
+    std::size_t repolygonised_roots = 0; ///< roots redone by the last reconstruct
+    std::size_t removed_plane_triangles = 0;  ///< triangles cut away with the dominant plane
+    double last_frame_ms = 0;       ///< last frame: total (ms)
+    double last_frontend_ms = 0;    ///< last frame: front end, §3.2–3.3 (ms)
+    double last_octree_ms = 0;      ///< last frame: octree update, §3.4–3.5 (ms)
+    double last_reconstruct_ms = 0; ///< last reconstruct, §3.6 (ms)
   };
 
-  // The front end's frustum cells follow the leaf size (kCellLeaves leaves at the frame's
-  // median range), so that a finer leaf gets finer frames.
+  /** \brief Empty map; the front end's frustum cells follow the leaf size (kCellLeaves leaves
+    * at the frame's median range), so that a finer leaf gets finer frames. */
   IncrementalDualContouring () { simplification_.setFrustumCellSize (kCellLeaves * octree_.getLeafSize ()); }
 
-  // "Detail": the leaf edge in metres (> 0, default 0.01 = 1 cm). Before the first frame. Frustum
-  // cells still at their default follow it.
+  /** \brief Set the detail: the leaf edge. Only before the first frame; frustum cells still at
+    * their default follow it.
+    * \param[in] h the edge in metres (> 0, default 0.01)
+    * \return false (with a PCL_ERROR and getLastError (), the old value kept) for a bad value or
+    * after the first frame
+    */
   bool
   setLeafSize (double h)
   {
@@ -73,57 +99,126 @@ public:
       simplification_.setFrustumCellSize (kCellLeaves * h);
     return true;
   }
-  // Default frustum cell side, in leaves.
+  /** \brief Default frustum cell side, in leaves. */
   static constexpr double kCellLeaves = 2.0;
+  /** \brief Get the leaf edge.
+    * \return the edge in metres
+    */
   double getLeafSize () const { return octree_.getLeafSize (); }
-  // Volume of interest; unset: from the first frame (§3.4.1). Growth (default on) adds roots
-  // for geometry outside it; off: such geometry is dropped and counted.
+  /** \brief Set the volume of interest; unset, it comes from the first frame (§3.4.1).
+    * \param[in] min the lower corner (metres)
+    * \param[in] max the upper corner (metres)
+    * \return false (with a PCL_ERROR and getLastError (), the old volume kept) when the volume
+    * is empty or not finite
+    */
   bool setVolume (const Eigen::Vector3d& min, const Eigen::Vector3d& max) { return settled (octree_.setVolume (min, max)); }
+  /** \brief Let the volume grow with the geometry.
+    * \param[in] on true (default): geometry outside the volume adds roots; false: it is dropped
+    * and counted
+    */
   void setGrowVolume (bool on) { octree_.setGrowVolume (on); }
-  // ε of the octree simplification in metres (0 = off, default): cells merge while the merge
-  // keeps the topology and the merged vertex stays within ε of every crossing plane of the
-  // merged cells. False for ε < 0 or NaN.
+  /** \brief Set ε of the octree simplification: cells merge while the merge keeps the topology
+    * and the merged vertex stays within ε of every crossing plane of the merged cells.
+    * \param[in] eps ε in metres (≥ 0; 0 = off, default)
+    * \return false (with a PCL_ERROR and getLastError (), the old value kept) for ε < 0 or NaN
+    */
   bool setSimplificationError (double eps) { return settled (octree_.setSimplificationError (eps)); }
+  /** \brief Get ε of the octree simplification.
+    * \return ε in metres
+    */
   double getSimplificationError () const { return octree_.getSimplificationError (); }
+  /** \brief Set how conflicting sign votes are resolved.
+    * \param[in] r the rule (default SignRule::WEIGHTED)
+    */
   void setSignRule (SignRule r) { octree_.setSignRule (r); }
-  // Optional plane removal (§4.4): the largest RANSAC plane of the output vertices
-  // (pcl::SACSegmentation, distance threshold in metres, default 1.5 leaves) is cut away.
+  /** \brief Cut the largest RANSAC plane of the output vertices away (§4.4), to isolate an
+    * object standing on it.
+    * \param[in] on true: remove the plane in reconstruct () (default off)
+    * \param[in] distance_threshold the RANSAC distance threshold in metres; 0 (default): 1.5 leaves
+    */
   void setPlaneRemoval (bool on, double distance_threshold = 0) { remove_plane_ = on; plane_threshold_ = distance_threshold; }
-  // Depth images: depths outside [min, max] metres are no data (forwarded to §3.2).
+  /** \brief Set the valid depths of depth images (forwarded to the front end, §3.2).
+    * \param[in] min_m the nearest valid depth in metres
+    * \param[in] max_m the farthest valid depth in metres
+    */
   void setDepthRange (float min_m, float max_m) { simplification_.setDepthRange (min_m, max_m); }
 
-  // §3.2–3.3 settings.
+  /** \brief The front end (§3.2–3.3), for its settings.
+    * \return the pcl::CoupledSimplification every frame goes through
+    */
   CoupledSimplification& getSimplification () { return simplification_; }
 
-  // The pose of every addFrame is camera-to-world: it maps camera coordinates (x right, y down,
-  // z forward) to the world, so its last column is the camera's position. Its inverse
-  // (world-to-camera, as some SLAM tools export) is a rigid motion too and cannot be told
-  // apart from one frame: the frame is fused in the wrong place.
-  // An organized cloud in the camera frame (NaN = no data).
+  /** \brief Fuse an organized cloud in the camera frame.
+    *
+    * The pose of every addFrame is camera-to-world: it maps camera coordinates (x right, y
+    * down, z forward) to the world, so its last column is the camera's position. Its inverse
+    * (world-to-camera, as some SLAM tools export) is a rigid motion too and cannot be told apart
+    * from one frame: the frame would be fused in the wrong place.
+    * \param[in] organized_camera_frame_cloud the frame (NaN: no data)
+    * \param[in] camera_to_world the rigid camera pose
+    * \return false (with a PCL_ERROR and getLastError ()) on bad input; the map is then unchanged
+    */
   bool addFrame (const pcl::PointCloud<PointT>& organized_camera_frame_cloud,
                  const Eigen::Matrix4d& camera_to_world);
-  // Depth in metres (0 / NaN = no data).
-  bool addFrame (const float* depth_m, int width, int height, const pclx::surface::DepthIntrinsics& K,
+  /** \brief Fuse a depth image in metres.
+    * \param[in] depth_m row-major width × height depths in metres (0 / NaN: no data)
+    * \param[in] width the image's width in pixels
+    * \param[in] height the image's height in pixels
+    * \param[in] K the camera's pinhole intrinsics
+    * \param[in] camera_to_world the rigid camera pose (see the first addFrame ())
+    * \return false (with a PCL_ERROR and getLastError ()) on bad input; the map is then unchanged
+    */
+  bool addFrame (const float* depth_m, int width, int height, const pcl::DepthIntrinsics& K,
                  const Eigen::Matrix4d& camera_to_world);
-  // 16-bit depth (PNG in mm: depth_scale 0.001; 0 = no data).
-  bool addFrame (const std::uint16_t* depth, int width, int height, const pclx::surface::DepthIntrinsics& K,
+  /** \brief Fuse a 16-bit depth image.
+    * \param[in] depth row-major width × height depths (0: no data)
+    * \param[in] width the image's width in pixels
+    * \param[in] height the image's height in pixels
+    * \param[in] K the camera's pinhole intrinsics
+    * \param[in] camera_to_world the rigid camera pose (see the first addFrame ())
+    * \param[in] depth_scale metres per depth unit (> 0; default 0.001: PNG depth in mm)
+    * \return false (with a PCL_ERROR and getLastError ()) on bad input; the map is then unchanged
+    */
+  bool addFrame (const std::uint16_t* depth, int width, int height, const pcl::DepthIntrinsics& K,
                  const Eigen::Matrix4d& camera_to_world, float depth_scale = 0.001f);
-  // A triangle mesh in its own frame, counter-clockwise seen from outside, placed by pose.
+  /** \brief Fuse a triangle mesh given in its own frame.
+    * \param[in] mesh the mesh, counter-clockwise seen from outside (non-triangles are skipped
+    * with a warning)
+    * \param[in] pose the rigid transform placing the mesh in the world
+    * \return false (with a PCL_ERROR and getLastError ()) on bad input; the map is then unchanged
+    */
   bool addMesh (const pcl::PolygonMesh& mesh, const Eigen::Matrix4d& pose);
-  // The common entry: a world-space mesh (§3.4–3.5).
-  bool addFrameMesh (const pclx::surface::FrameMesh& world_mesh);
+  /** \brief Fuse a world-space mesh: the common entry of the addFrame ()s (§3.4–3.5).
+    * \param[in] world_mesh the mesh, counter-clockwise seen from outside
+    * \return false (with a PCL_ERROR and getLastError ()) on bad input; the map is then unchanged
+    */
+  bool addFrameMesh (const pcl::FrameMesh& world_mesh);
 
-  // The current mesh (x, y, z vertices; triangles counter-clockwise seen from outside).
+  /** \brief The current mesh; clears getLastError ().
+    * \param[out] mesh x, y, z vertices and triangles counter-clockwise seen from outside
+    */
   void reconstruct (pcl::PolygonMesh& mesh);
 
+  /** \brief Get the counts and timings.
+    * \return the statistics
+    */
   const Stats& getStats () const { return stats_; }
-  // The reason of the last refused call; empty after a call that succeeded.
+  /** \brief Get the reason of the last refused call.
+    * \return the message, empty after a call that succeeded
+    */
   const std::string& getLastError () const { return error_; }
-  // The extrinsic representation, for diagnostics.
+  /** \brief The extrinsic representation, for diagnostics.
+    * \return the octree
+    */
   const DualContouringOctree& getOctree () const { return octree_; }
+  /** \brief The extrinsic representation, for diagnostics and its settings.
+    * \return the octree
+    */
   DualContouringOctree& getOctree () { return octree_; }
-  // The last frame's mesh after §3.3 (world coordinates).
-  const pclx::surface::FrameMesh& getLastFrameMesh () const { return frame_; }
+  /** \brief The last frame's mesh after §3.3.
+    * \return the mesh in world coordinates
+    */
+  const pcl::FrameMesh& getLastFrameMesh () const { return frame_; }
 
 private:
   bool fail (const std::string& msg);
@@ -136,7 +231,7 @@ private:
 
   CoupledSimplification simplification_;
   DualContouringOctree octree_;
-  pclx::surface::FrameMesh frame_;
+  pcl::FrameMesh frame_;
   std::vector<float> depth_buffer_;
   std::vector<Eigen::Vector3f> point_buffer_;
   int width_ = 0, height_ = 0;  // size of the first frame

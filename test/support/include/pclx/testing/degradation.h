@@ -9,7 +9,7 @@ namespace testing {
 // to the positions (normals stay the ground truth of the clean surface).
 void addGaussianNoise (SampledCloud& s, float sigma_fraction, std::uint32_t seed = 1);
 
-// The "shadow" degradation of seed 002 §6.2.1: removes `fraction` (0..1) of the
+// The "shadow" degradation of Musmanno 2016 §6.2.1: removes `fraction` (0..1) of the
 // surface samples as compact holes (k-nearest-neighbour balls around random
 // centres, each hole at most `hole_fraction` of the cloud). Returns the removed
 // count; exactly round(fraction · n) points are removed.

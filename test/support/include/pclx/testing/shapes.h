@@ -16,7 +16,7 @@ TriangleMesh makeBox (const Eigen::Vector3f& size = Eigen::Vector3f::Ones (), in
 TriangleMesh makeParallelSheets (float size = 1.f, float gap = 0.02f, int grid = 16);
 // A closed thin box: size × size × thickness.
 TriangleMesh makeThinPlate (float size = 1.f, float thickness = 0.01f, int grid = 16);
-// Deep concavities and thin parts (HPR, issue 12): a 2.4 × 2 × 0.2 slab with five fins 0.04
+// Deep concavities and thin parts (for HPR): a 2.4 × 2 × 0.2 slab with five fins 0.04
 // thick, 1.05 tall (slots 0.2 wide and 1 deep) and a thin-walled open box (a cup). Boxes
 // that overlap: their overlapped faces are hidden from everywhere. Face grids: slab, parts.
 TriangleMesh makeFinsScene (int slab_grid = 24, int part_grid = 16);

@@ -1,6 +1,6 @@
 #pragma once
+#include <pclx/hpr/detail/visibility.h>
 #include <pclx/hpr/hpr_filter.h>
-#include <pclx/hpr/visibility.h>
 
 #include <pcl/common/io.h>
 #include <pcl/conversions.h>
@@ -9,7 +9,143 @@
 #include <limits>
 
 template <typename PointT> void
+pcl::HPRFilter<PointT>::setViewPoint (const Eigen::Vector3f& c)
+{
+  if (!c.allFinite ())
+  {
+    PCL_ERROR ("[pcl::%s::setViewPoint] the viewpoint is not finite; keeping the previous one\n",
+               getClassName ().c_str ());
+    return;
+  }
+  viewpoint_ = c;
+}
+
+template <typename PointT> void
+pcl::HPRFilter<PointT>::setRadius (double radius)
+{
+  if (!(radius > 0 && std::isfinite (radius)))
+  {
+    PCL_ERROR ("[pcl::%s::setRadius] R must be a finite number > 0; keeping the previous setting\n",
+               getClassName ().c_str ());
+    return;
+  }
+  radius_ = radius;
+  radius_mode_ = RadiusMode::ABSOLUTE;
+}
+
+template <typename PointT> void
+pcl::HPRFilter<PointT>::setGamma (double gamma)
+{
+  if (!(gamma > 0 && std::isfinite (gamma)))
+  {
+    PCL_ERROR ("[pcl::%s::setGamma] gamma must be a finite number > 0 (R = max|p - C| * 10^gamma); keeping the "
+               "previous setting\n",
+               getClassName ().c_str ());
+    return;
+  }
+  gamma_ = gamma;
+  radius_mode_ = RadiusMode::GAMMA;
+}
+
+template <typename PointT> void
+pcl::HPRFilter<PointT>::setAutoRadius (double occlusion_depth)
+{
+  if (!(occlusion_depth > 0 && std::isfinite (occlusion_depth)))
+  {
+    PCL_ERROR ("[pcl::%s::setAutoRadius] the occlusion depth for the calibrated R must be a finite number > 0; "
+               "keeping the previous setting\n",
+               getClassName ().c_str ());
+    return;
+  }
+  occlusion_depth_ = occlusion_depth;
+  radius_mode_ = RadiusMode::AUTO;
+}
+
+template <typename PointT> void
+pcl::HPRFilter<PointT>::setGridOversampling (double factor)
+{
+  if (!(factor > 0 && std::isfinite (factor)))
+  {
+    PCL_ERROR ("[pcl::%s::setGridOversampling] the grid oversampling must be a finite number > 0; keeping %g\n",
+               getClassName ().c_str (), oversampling_);
+    return;
+  }
+  oversampling_ = factor;
+}
+
+template <typename PointT> void
+pcl::HPRFilter<PointT>::setViewResolution (int pixels, double fov)
+{
+  if (pixels > 0 && !(fov > 0 && std::isfinite (fov)))
+  {
+    PCL_ERROR ("[pcl::%s::setViewResolution] the field of view must be a finite number of radians > 0; keeping "
+               "the previous setting\n",
+               getClassName ().c_str ());
+    return;
+  }
+  view_pixels_ = pixels;
+  view_fov_ = fov;
+}
+
+template <typename PointT> void
+pcl::HPRFilter<PointT>::setPropagation (Propagation mode, int steps)
+{
+  if (mode == Propagation::FIXED && (steps < 1 || steps % 2 == 0))
+  {
+    PCL_ERROR ("[pcl::%s::setPropagation] fixed propagation needs an odd mask size m >= 1; keeping the previous "
+               "setting\n",
+               getClassName ().c_str ());
+    return;
+  }
+  if (steps < 0)
+  {
+    PCL_ERROR ("[pcl::%s::setPropagation] the number of propagation steps must be >= 0; keeping the previous "
+               "setting\n",
+               getClassName ().c_str ());
+    return;
+  }
+  propagation_ = mode;
+  steps_ = steps;
+}
+
+template <typename PointT> void
+pcl::HPRFilter<PointT>::setRefinementPasses (int passes)
+{
+  if (passes < 0 || passes > 8)
+  {
+    PCL_ERROR ("[pcl::%s::setRefinementPasses] the number of refinement passes must be in 0..8 (each doubles the "
+               "culling grid); keeping %d\n",
+               getClassName ().c_str (), refinement_);
+    return;
+  }
+  refinement_ = passes;
+}
+
+template <typename PointT> void
 pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
+{
+  resetOutputs (indices);
+  Gathered in;
+  gatherFinitePoints (in);
+  const pclx::hpr::detail::VisibilityOptions opt = makeOptions (in);
+
+  const pclx::hpr::detail::VisibilityResult res =
+      pclx::hpr::detail::computeVisibility (workspace_.points, opt, &workspace_);
+  if (!res.error.empty ())
+    return reject (res.error, indices);
+  if (!res.warning.empty ())
+    PCL_WARN ("[pcl::%s::applyFilter] %s\n", getClassName ().c_str (), res.warning.c_str ());
+  radius_used_ = res.radius;
+  sectors_used_ = res.sectors;
+  steps_used_ = res.steps;
+  threads_used_ = res.threads;
+
+  writeIndices (res, in, indices);
+  writeMeshAndNormals (res);
+}
+
+template <typename PointT> void
+pcl::HPRFilter<PointT>::resetOutputs (Indices& indices)
 {
   indices.clear ();
   removed_indices_->clear ();
@@ -19,44 +155,36 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   radius_used_ = 0;
   sectors_used_ = 0;
   steps_used_ = 0;
+  last_error_.clear ();
+}
 
-  // Nothing is visible on a bad request: report it and keep nothing (as PCL filters do).
-  auto reject = [&] (const std::string& why) {
-    PCL_ERROR ("[pcl::%s::applyFilter] %s\n", getClassName ().c_str (), why.c_str ());
-    indices.clear ();
-    if (extract_removed_indices_)
-      *removed_indices_ = *indices_;
-  };
-  if (!viewpoint_.allFinite ())
-    return reject ("the viewpoint is not finite");
-  if (radius_mode_ == RadiusMode::GAMMA && !(gamma_ > 0 && std::isfinite (gamma_)))
-    return reject ("gamma must be a finite number > 0 (R = max|p - C| * 10^gamma)");
-  if (radius_mode_ == RadiusMode::ABSOLUTE && !(radius_ > 0 && std::isfinite (radius_)))
-    return reject ("R must be a finite number > 0");
-  if (radius_mode_ == RadiusMode::AUTO && !(occlusion_depth_ > 0 && std::isfinite (occlusion_depth_)))
-    return reject ("the occlusion depth for the calibrated R must be > 0");
-  if (!(oversampling_ > 0))
-    return reject ("the grid oversampling must be > 0");
-  if (propagation_ == Propagation::FIXED && (steps_ < 1 || steps_ % 2 == 0))
-    return reject ("fixed propagation needs an odd mask size m >= 1");
-  if (steps_ < 0)
-    return reject ("the number of propagation steps must be >= 0");
-  if (refinement_ < 0 || refinement_ > 8)
-    return reject ("the number of refinement passes must be in 0..8 (each doubles the culling grid)");
+template <typename PointT> void
+pcl::HPRFilter<PointT>::reject (const std::string& why, Indices& indices)
+{
+  // Nothing is visible on a request that cannot be served: report it and keep nothing.
+  PCL_ERROR ("[pcl::%s::applyFilter] %s\n", getClassName ().c_str (), why.c_str ());
+  last_error_ = why;
+  indices.clear ();
+  if (extract_removed_indices_)
+    *removed_indices_ = *indices_;
+}
 
-  // Finite points among the requested indices, relative to the viewpoint, in double: in
-  // float, p − C loses the depth differences when C is far (at 1000× the diameter one float
-  // ulp of |p − C| is ~6 % of the spacing of 1M samples).
+template <typename PointT> void
+pcl::HPRFilter<PointT>::gatherFinitePoints (Gathered& in)
+{
+  // p − C in double: in float it loses the depth differences when C is far from the cloud.
   // In parallel over fixed blocks of the indices. The first pass writes every point where it
-  // would be if all were finite (the usual case: then it is the only pass); otherwise a second
-  // pass writes the finite ones again from the input at their blocks' offsets. The serial
-  // order for any thread count. Serial, this copy and the output below were 14 % of a
-  // 1M-point call on two threads.
-  const int threads = threads_ > 0 ? int (threads_) : hpr::autoThreads (indices_->size ());
+  // would be if all were finite (the usual case: then it is the only pass); otherwise a
+  // second pass writes the finite ones again from the input at their blocks' offsets. The
+  // result is the serial one for any thread count.
+  in.threads = threads_ > 0 ? int (threads_) : pclx::hpr::detail::autoThreads (indices_->size ());
+  const int threads = in.threads;
   const std::size_t m = indices_->size ();
+  in.requested = m;
   // computeVisibility's blocks: when every point is finite, the sums here are its own.
-  constexpr std::size_t kBlock = hpr::kStatsBlock;
+  constexpr std::size_t kBlock = pclx::hpr::detail::kStatsBlock;
   const std::size_t blocks = (m + kBlock - 1) / kBlock;
+  in.blocks = blocks;
   // Per requested index: 0 = not finite, 1 = finite (hidden once the visibility is known),
   // 2 = visible. Per block: finite points before it.
   std::vector<std::uint8_t>& state = workspace_.state;
@@ -65,10 +193,11 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   state.resize (m);
   finite.resize (m);
   rel.resize (m);
-  std::vector<std::size_t> block_start (blocks + 1, 0);
+  std::vector<std::size_t>& block_start = in.block_start;
+  block_start.assign (blocks + 1, 0);
   const Eigen::Vector3d eye = viewpoint_.cast<double> ();
   double max_rho2 = 0, min_rho2 = std::numeric_limits<double>::infinity (), max_coord2 = 0;
-  hpr::PointStats stats;
+  pclx::hpr::detail::PointStats& stats = in.stats;
   stats.block_sum.assign (blocks, Eigen::Vector3d::Zero ());
 #pragma omp parallel for num_threads(threads) schedule(static) reduction(max : max_rho2, max_coord2) \
     reduction(min : min_rho2)
@@ -116,32 +245,39 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
     finite.resize (block_start[blocks]);
     rel.resize (block_start[blocks]);
   }
-  const double max_rho = std::sqrt (max_rho2), max_coord = std::sqrt (max_coord2);
+  in.max_rho = std::sqrt (max_rho2);
+  in.max_coord = std::sqrt (max_coord2);
+}
 
-  hpr::VisibilityOptions opt;
+template <typename PointT> pclx::hpr::detail::VisibilityOptions
+pcl::HPRFilter<PointT>::makeOptions (const Gathered& in)
+{
+  namespace hd = pclx::hpr::detail;
+  const std::size_t finite = workspace_.finite.size ();
+  hd::VisibilityOptions opt;
   method_used_ = method_;
   if (method_ == Method::AUTO)
   {
     // A given R is a request for Katz et al.'s operator at that R, which only EXACT computes.
     const bool radius_given = radius_mode_ != RadiusMode::AUTO && view_pixels_ <= 0;
-    if (finite.size () <= kAutoExactLimit || radius_given)
+    if (finite <= kAutoExactLimit || radius_given)
       method_used_ = Method::EXACT;
     else
       method_used_ = view_pixels_ > 0 ? Method::ANGULAR_GRID : Method::CANDIDATE_HULL;
   }
   switch (method_used_)
   {
-  case Method::EXACT: opt.method = hpr::VisibilityMethod::EXACT; break;
-  case Method::CANDIDATE_HULL: opt.method = hpr::VisibilityMethod::CANDIDATE_HULL; break;
-  case Method::BENTLEY_FAUST_PREPARATA: opt.method = hpr::VisibilityMethod::BENTLEY_FAUST_PREPARATA; break;
-  case Method::KAVAN: opt.method = hpr::VisibilityMethod::KAVAN; break;
-  case Method::HYBRID: opt.method = hpr::VisibilityMethod::HYBRID; break;
-  default: opt.method = hpr::VisibilityMethod::ANGULAR_GRID; break;
+  case Method::EXACT: opt.method = hd::VisibilityMethod::EXACT; break;
+  case Method::CANDIDATE_HULL: opt.method = hd::VisibilityMethod::CANDIDATE_HULL; break;
+  case Method::BENTLEY_FAUST_PREPARATA: opt.method = hd::VisibilityMethod::BENTLEY_FAUST_PREPARATA; break;
+  case Method::KAVAN: opt.method = hd::VisibilityMethod::KAVAN; break;
+  case Method::HYBRID: opt.method = hd::VisibilityMethod::HYBRID; break;
+  default: opt.method = hd::VisibilityMethod::ANGULAR_GRID; break;
   }
   if (radius_mode_ == RadiusMode::ABSOLUTE)
     opt.radius = radius_;
   else if (radius_mode_ == RadiusMode::GAMMA)
-    opt.radius = max_rho * std::pow (10.0, gamma_);
+    opt.radius = in.max_rho * std::pow (10.0, gamma_);
   opt.occlusion_depth = occlusion_depth_;
   opt.sectors = sectors_;
   opt.oversampling = oversampling_;
@@ -154,22 +290,23 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
   opt.triangles = reconstruct_;
   opt.max_edge = max_edge_;
   opt.normals = compute_normals_;
-  opt.coordinate_scale = max_coord + double (viewpoint_.norm ());
-  opt.threads = threads;
-  opt.stats = finite.size () == m ? &stats : nullptr;
+  opt.coordinate_scale = in.max_coord + double (viewpoint_.norm ());
+  opt.threads = in.threads;
+  opt.stats = finite == in.requested ? &in.stats : nullptr;
+  return opt;
+}
 
-  const hpr::VisibilityResult res = hpr::computeVisibility (rel, opt, &workspace_);
-  if (!res.error.empty ())
-    return reject (res.error);
-  if (!res.warning.empty ())
-    PCL_WARN ("[pcl::%s::applyFilter] %s\n", getClassName ().c_str (), res.warning.c_str ());
-  radius_used_ = res.radius;
-  sectors_used_ = res.sectors;
-  steps_used_ = res.steps;
-  threads_used_ = res.threads;
-
-  // Kept = visible (or hidden when negative); NaN points are removed either way. Blocks
-  // as above: count, then write in order.
+template <typename PointT> void
+pcl::HPRFilter<PointT>::writeIndices (const pclx::hpr::detail::VisibilityResult& res, const Gathered& in,
+                                      Indices& indices)
+{
+  // Kept = visible (or hidden when negative); non-finite points are removed either way.
+  // Per block as in gatherFinitePoints (): count, then write in order.
+  constexpr std::size_t kBlock = pclx::hpr::detail::kStatsBlock;
+  const std::size_t m = in.requested, blocks = in.blocks;
+  const int threads = in.threads;
+  const std::vector<std::size_t>& block_start = in.block_start;
+  std::vector<std::uint8_t>& state = workspace_.state;
   std::vector<std::size_t> block_kept (blocks + 1, 0);
 #pragma omp parallel for num_threads(threads) schedule(static)
   for (std::ptrdiff_t b = 0; b < std::ptrdiff_t (blocks); ++b)
@@ -201,7 +338,12 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
         (*removed_indices_)[removed++] = (*indices_)[pos];
     }
   }
+}
 
+template <typename PointT> void
+pcl::HPRFilter<PointT>::writeMeshAndNormals (const pclx::hpr::detail::VisibilityResult& res)
+{
+  const std::vector<int>& finite = workspace_.finite;
   if (reconstruct_)
   {
     pcl::toPCLPointCloud2 (*input_, mesh_.cloud);
@@ -209,7 +351,9 @@ pcl::HPRFilter<PointT>::applyFilter (Indices& indices)
     for (const auto& t : res.triangles)
     {
       Vertices v;
-      v.vertices = {finite[t[0]], finite[t[1]], finite[t[2]]};
+      v.vertices.resize (3);
+      for (int c = 0; c < 3; ++c)
+        v.vertices[c] = finite[t[c]];
       mesh_.polygons.push_back (v);
     }
   }

@@ -1,7 +1,9 @@
 #pragma once
-#include <pclx/omicron/huge_pages.h>
-#include <pclx/omicron/morton_sorter.h>
-#include <pclx/omicron/worker_pool.h>
+#include <pclx/omicron/detail/huge_pages.h>
+#include <pclx/omicron/detail/morton_sorter.h>
+#include <pclx/omicron/detail/worker_pool.h>
+
+#include <pcl/console/print.h>
 
 #include <algorithm>
 #include <cmath>
@@ -10,33 +12,42 @@
 #include <string>
 
 template <typename PointT> void
-pcl::MortonSorter<PointT>::setMaxDepth (int depth)
+pclx::omicron::detail::MortonSorter<PointT>::setMaxDepth (int depth)
 {
   if (depth < 1 || depth > MortonCode::kMaxDepth)
-    throw std::invalid_argument ("MortonSorter: max depth must be in [1, 21] (got " + std::to_string (depth) + ")");
+  {
+    PCL_ERROR ("[MortonSorter::setMaxDepth] the max depth must be in [1, 21] (got %d); keeping %d\n", depth, max_depth_);
+    return;
+  }
   max_depth_ = depth;
 }
 
 template <typename PointT> void
-pcl::MortonSorter<PointT>::setChunks (std::size_t chunks)
+pclx::omicron::detail::MortonSorter<PointT>::setChunks (std::size_t chunks)
 {
   if (chunks < 1)
-    throw std::invalid_argument ("MortonSorter: the chunk count must be >= 1");
+  {
+    PCL_ERROR ("[MortonSorter::setChunks] the chunk count must be >= 1; keeping %zu\n", chunks_);
+    return;
+  }
   chunks_ = chunks;
 }
 
 template <typename PointT> void
-pcl::MortonSorter<PointT>::setRootCube (const Eigen::Vector3d& origin, double edge)
+pclx::omicron::detail::MortonSorter<PointT>::setRootCube (const Eigen::Vector3d& origin, double edge)
 {
   if (!origin.allFinite () || !(edge > 0) || !std::isfinite (edge))
-    throw std::invalid_argument ("MortonSorter: the root cube needs a finite origin and a finite edge > 0");
+  {
+    PCL_ERROR ("[MortonSorter::setRootCube] the root cube needs a finite origin and a finite edge > 0\n");
+    return;
+  }
   origin_ = origin;
   edge_ = edge;
   user_cube_ = true;
 }
 
 template <typename PointT> void
-pcl::MortonSorter<PointT>::setCubeFromBounds (const Eigen::Array3f& l, const Eigen::Array3f& h)
+pclx::omicron::detail::MortonSorter<PointT>::setCubeFromBounds (const Eigen::Array3f& l, const Eigen::Array3f& h)
 {
   origin_ = l.cast<double> ().matrix ();
   const double extent = (h.cast<double> () - l.cast<double> ()).maxCoeff ();
@@ -47,7 +58,7 @@ pcl::MortonSorter<PointT>::setCubeFromBounds (const Eigen::Array3f& l, const Eig
 }
 
 template <typename PointT> void
-pcl::MortonSorter<PointT>::setKnownBounds (const Eigen::Array3f& lo, const Eigen::Array3f& hi)
+pclx::omicron::detail::MortonSorter<PointT>::setKnownBounds (const Eigen::Array3f& lo, const Eigen::Array3f& hi)
 {
   known_lo_ = lo;
   known_hi_ = hi;
@@ -55,14 +66,14 @@ pcl::MortonSorter<PointT>::setKnownBounds (const Eigen::Array3f& lo, const Eigen
 }
 
 template <typename PointT> std::size_t
-pcl::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector& sorted)
+pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector& sorted)
 {
   const std::size_t n = cloud.size ();
   if (n >= std::numeric_limits<std::uint32_t>::max ())
     throw std::length_error ("MortonSorter: more than 2^32 - 1 points (32-bit point counts per node)");
   chunk_begin_.clear ();
   dropped_invalid_ = dropped_outside_ = 0;
-  omicron::WorkerPool pool (threads_);
+  pclx::omicron::detail::WorkerPool pool (threads_);
   // Contiguous blocks in input order: per-block histograms make the scatter stable.
   const std::size_t blocks = std::max<std::size_t> (1, std::min<std::size_t> (4 * threads_, n / 4096 + 1));
   const auto blockRange = [&] (std::size_t b) {
@@ -160,7 +171,7 @@ pcl::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector
   }
   // Fresh storage advised for huge pages before resize () first touches it.
   PointVector ().swap (sorted);
-  omicron::reserveHuge (sorted, sum);
+  pclx::omicron::detail::reserveHuge (sorted, sum);
   sorted.resize (sum);
   pool.parallelFor (blocks, [&] (std::size_t b, int) {
     std::size_t* h = hist.data () + b * nb;
@@ -191,7 +202,7 @@ pcl::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector
 }
 
 template <typename PointT> void
-pcl::MortonSorter<PointT>::radixSort (std::size_t n)
+pclx::omicron::detail::MortonSorter<PointT>::radixSort (std::size_t n)
 {
   // Stable LSD radix sort on the keys (hand-written because Boost's spreadsort is not stable,
   // and equal codes must keep input order for a deterministic parent sampling). Digits where
@@ -223,7 +234,7 @@ pcl::MortonSorter<PointT>::radixSort (std::size_t n)
 }
 
 template <typename PointT> void
-pcl::MortonSorter<PointT>::sortChunk (std::size_t k, PointVector& sorted, std::vector<MortonCode>& codes)
+pclx::omicron::detail::MortonSorter<PointT>::sortChunk (std::size_t k, PointVector& sorted, std::vector<MortonCode>& codes)
 {
   const std::size_t b = chunk_begin_[k], e = chunk_begin_[k + 1], n = e - b;
   const double scale = static_cast<double> (std::uint64_t (1) << max_depth_) / edge_;
@@ -232,9 +243,9 @@ pcl::MortonSorter<PointT>::sortChunk (std::size_t k, PointVector& sorted, std::v
     std::size_t largest = 0;
     for (std::size_t j = 0; j + 1 < chunk_begin_.size (); ++j)
       largest = std::max (largest, chunk_begin_[j + 1] - chunk_begin_[j]);
-    omicron::reserveHuge (keys_, largest);
-    omicron::reserveHuge (keys_tmp_, largest);
-    omicron::reserveHuge (points_tmp_, largest);
+    pclx::omicron::detail::reserveHuge (keys_, largest);
+    pclx::omicron::detail::reserveHuge (keys_tmp_, largest);
+    pclx::omicron::detail::reserveHuge (points_tmp_, largest);
     keys_.resize (largest);
     keys_tmp_.resize (largest);
     points_tmp_.resize (largest);
@@ -249,7 +260,7 @@ pcl::MortonSorter<PointT>::sortChunk (std::size_t k, PointVector& sorted, std::v
   }
   radixSort (n);
   if (codes.capacity () < n)
-    omicron::reserveHuge (codes, keys_.size ());
+    pclx::omicron::detail::reserveHuge (codes, keys_.size ());
   codes.resize (n);
   const std::uint64_t prefix = std::uint64_t (1) << (3 * max_depth_);
   for (std::size_t i = 0; i < n; ++i)
@@ -261,11 +272,11 @@ pcl::MortonSorter<PointT>::sortChunk (std::size_t k, PointVector& sorted, std::v
 }
 
 template <typename PointT> void
-pcl::MortonSorter<PointT>::release ()
+pclx::omicron::detail::MortonSorter<PointT>::release ()
 {
   keys_ = {};
   keys_tmp_ = {};
   points_tmp_ = PointVector ();
 }
 
-#define PCL_INSTANTIATE_MortonSorter(T) template class PCL_EXPORTS pcl::MortonSorter<T>;
+#define PCL_INSTANTIATE_MortonSorter(T) template class PCL_EXPORTS pclx::omicron::detail::MortonSorter<T>;

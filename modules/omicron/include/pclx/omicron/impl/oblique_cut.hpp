@@ -10,18 +10,35 @@
 template <typename PointT>
 pcl::ObliqueCut<PointT>::ObliqueCut (const Parameters& params) : params_ (params)
 {
+  // A parameter out of range is refused with PCL_ERROR and its default is used instead.
+  const Parameters defaults;
   if (params.max_depth < 1 || params.max_depth > MortonCode::kMaxDepth)
-    throw std::invalid_argument ("ObliqueCut: max depth must be in [1, 21] (got " + std::to_string (params.max_depth) + ")");
+  {
+    PCL_ERROR ("[pcl::ObliqueCut] the max depth must be in [1, 21] (got %d); using %d\n", params.max_depth,
+               defaults.max_depth);
+    params_.max_depth = defaults.max_depth;
+  }
   if (!(params.parent_ratio > 0.f && params.parent_ratio <= 1.f))
-    throw std::invalid_argument ("ObliqueCut: the parent point ratio must be in (0, 1]");
+  {
+    PCL_ERROR ("[pcl::ObliqueCut] the parent point ratio must be in (0, 1] (got %g); using %g\n", params.parent_ratio,
+               defaults.parent_ratio);
+    params_.parent_ratio = defaults.parent_ratio;
+  }
   if (params.worklist_size < 1)
-    throw std::invalid_argument ("ObliqueCut: the worklist size must be >= 1");
+  {
+    PCL_ERROR ("[pcl::ObliqueCut] the worklist size must be >= 1; using %zu\n", defaults.worklist_size);
+    params_.worklist_size = defaults.worklist_size;
+  }
   if (params.threads < 1)
-    throw std::invalid_argument ("ObliqueCut: the thread count must be >= 1");
-  for (int i = 0; i < params.threads; ++i)
+  {
+    PCL_ERROR ("[pcl::ObliqueCut] the thread count must be >= 1 (got %d); using %d\n", params.threads,
+               defaults.threads);
+    params_.threads = defaults.threads;
+  }
+  for (int i = 0; i < params_.threads; ++i)
     slots_.emplace_back (new Slot);
-  if (params.threads > 1)
-    pool_.reset (new omicron::WorkerPool (params.threads));
+  if (params_.threads > 1)
+    pool_.reset (new pclx::omicron::detail::WorkerPool (params_.threads));
 }
 
 template <typename PointT>
@@ -34,20 +51,29 @@ pcl::ObliqueCut<PointT>::getBoundary () const
   return boundary_[params_.max_depth];
 }
 
-template <typename PointT> void
+template <typename PointT> bool
 pcl::ObliqueCut<PointT>::setSpill (int level, SpillSink sink)
 {
   const int top = params_.max_depth - (params_.leaf_collapse ? 2 : 1);
   if (level < 1 || level > top)
-    throw std::invalid_argument ("ObliqueCut: the spill level must be in [1, " + std::to_string (top) + "] (got " +
-                                 std::to_string (level) + ")");
+  {
+    PCL_ERROR ("[pcl::ObliqueCut::setSpill] the spill level must be in [1, %d] (got %d)\n", top, level);
+    return false;
+  }
   if (!sink)
-    throw std::invalid_argument ("ObliqueCut: the spill needs a sink");
+  {
+    PCL_ERROR ("[pcl::ObliqueCut::setSpill] the spill needs a sink\n");
+    return false;
+  }
   std::lock_guard<std::mutex> g (mutex_[params_.max_depth]);
   if (boundary_[params_.max_depth].valid ())
-    throw std::invalid_argument ("ObliqueCut: setSpill after the first concatenate");
+  {
+    PCL_ERROR ("[pcl::ObliqueCut::setSpill] called after the first concatenate\n");
+    return false;
+  }
   spill_level_ = level;
   sink_ = std::move (sink);
+  return true;
 }
 
 template <typename PointT> void
@@ -176,8 +202,8 @@ pcl::ObliqueCut<PointT>::createParent (const CutNode* group, std::size_t k, Slot
   }
   // Budgeted build: the group and the parent's sample below the spill level go to scratch.
   const bool spill = spill_level_ >= 0;
-  omicron::BlockArena<Node>& node_arena = spill && l > spill_level_ ? slot.scratch_nodes : slot.nodes;
-  omicron::BlockArena<PointT>& point_arena = spill && l - 1 > spill_level_ ? slot.scratch_points : slot.points;
+  pclx::omicron::detail::BlockArena<Node>& node_arena = spill && l > spill_level_ ? slot.scratch_nodes : slot.nodes;
+  pclx::omicron::detail::BlockArena<PointT>& point_arena = spill && l - 1 > spill_level_ ? slot.scratch_points : slot.points;
   CutNode pa;
   pa.code = group[0].code.parent ();
   pa.level = pa.leaf_level = static_cast<std::uint8_t> (l - 1);
@@ -192,14 +218,14 @@ pcl::ObliqueCut<PointT>::createParent (const CutNode* group, std::size_t k, Slot
     // of the child's points (a range of the sorted array, so keeping them costs nothing).
     pa.points = group[0].points;
     pa.num_points = group[0].num_points;
-    pa.flags = omicron::kCollapsed;
+    pa.flags = pclx::omicron::detail::kCollapsed;
     out.parents.push_back (pa);
     return;
   }
   Node* block = node_arena.allocate (k);
   std::uint32_t total = 0;
   for (std::size_t i = 0; i < k; ++i)
-    total += omicron::parentSampleCount (group[i].num_points, params_.parent_ratio);
+    total += pclx::omicron::detail::parentSampleCount (group[i].num_points, params_.parent_ratio);
   PointT* dst = total > 0 ? point_arena.allocate (total) : nullptr;
   pa.points = dst;
   pa.num_points = total;
@@ -209,10 +235,10 @@ pcl::ObliqueCut<PointT>::createParent (const CutNode* group, std::size_t k, Slot
   {
     const CutNode& c = group[i];
     Node& n = block[i];
-    omicron::assignNode (n, c);
-    const std::uint32_t m = omicron::parentSampleCount (c.num_points, params_.parent_ratio);
+    pclx::omicron::detail::assignNode (n, c);
+    const std::uint32_t m = pclx::omicron::detail::parentSampleCount (c.num_points, params_.parent_ratio);
     for (std::uint32_t t = 0; t < m; ++t)
-      *dst++ = c.points[omicron::parentSampleIndex (t, m, c.num_points)];
+      *dst++ = c.points[pclx::omicron::detail::parentSampleIndex (t, m, c.num_points)];
     // The grandchildren now have a parent that is no root of L_C: link them, and the leaves
     // among them may enter the front (invariant 2.2).
     // (Nothing below the spill level enters the front: it is dropped after the spill.)
@@ -229,16 +255,19 @@ pcl::ObliqueCut<PointT>::createParent (const CutNode* group, std::size_t k, Slot
     // The subtree of pa is complete: the sink receives pa with its children, which are cut off.
     // pa keeps its sample (retained arena) and is drawn as a leaf.
     Node view;
-    omicron::assignNode (view, pa);
+    pclx::omicron::detail::assignNode (view, pa);
     sink_ (view);
     pa.children = nullptr;
     pa.num_children = 0;
-    pa.flags |= omicron::kSpilled;
+    pa.flags |= pclx::omicron::detail::kSpilled;
     out.placeholders.push_back (pa.code.span (lmax));
   }
   out.parents.push_back (pa);
 }
 
+// One step of Algorithm 3 at level l, in stages: take L_{C,l}; find where each worklist's own
+// sibling groups start; hold back the group still waiting at the boundary; create the
+// parents in parallel; merge them into L_{C,l-1} and hand placeholders and leaves to the front.
 template <typename PointT> bool
 pcl::ObliqueCut<PointT>::fixLevel (int l)
 {
@@ -246,29 +275,42 @@ pcl::ObliqueCut<PointT>::fixLevel (int l)
   if (l < 1 || l > lmax)
     return false;
   std::deque<Worklist> in;
-  MortonCode bnd, up_bnd;
+  FixPass f;
+  MortonCode up_bnd;
   {
     std::lock_guard<std::mutex> g (mutex_[l]);
     in.swap (lists_[l]);
-    bnd = boundary_[l];
+    f.bnd = boundary_[l];
     dirty_[l] = false;
   }
   {
     std::lock_guard<std::mutex> g (mutex_[l - 1]);
     up_bnd = boundary_[l - 1];
   }
-  if (in.empty () && up_bnd == bnd)
+  if (in.empty () && up_bnd == f.bnd)
     return false;
 
-  std::vector<Worklist*> ws;
   for (Worklist& w : in)
     if (!w.empty ())
-      ws.push_back (&w);
-  // Master: sibling groups split across worklists belong to the worklist where they begin
-  // (start[i] skips the continuation). The paper merges the duplicate parents afterwards;
-  // resolving first creates each parent once, so no permanent node or parent link is ever
-  // rewritten while the front may read it.
-  std::vector<std::size_t> start (ws.size (), 0);
+      f.ws.push_back (&w);
+  const MortonCode last_parent = findGroupStarts (f);
+  holdWaitingGroup (f, last_parent);
+  createParents (f);
+  publishParents (l, f);
+  if (l == 1 && f.bnd == MortonCode::root ().span (lmax))
+    finalize ();
+  return true;
+}
+
+// Master: sibling groups split across worklists belong to the worklist where they begin
+// (start[i] skips the continuation). The thesis merges the duplicate parents afterwards;
+// resolving first creates each parent once, so no permanent node or parent link is ever
+// rewritten while the front may read it. Returns the parent code of the last group.
+template <typename PointT> pcl::MortonCode
+pcl::ObliqueCut<PointT>::findGroupStarts (FixPass& f) const
+{
+  const std::vector<Worklist*>& ws = f.ws;
+  f.start.assign (ws.size (), 0);
   MortonCode prev;
   for (std::size_t i = 0; i < ws.size (); ++i)
   {
@@ -276,16 +318,23 @@ pcl::ObliqueCut<PointT>::fixLevel (int l)
     std::size_t j = 0;
     while (prev.valid () && j < w.size () && w[j].code.parent () == prev)
       ++j;
-    start[i] = j;
+    f.start[i] = j;
     prev = w.back ().code.parent ();
   }
-  // The last group waits when its parent's subtree reaches past the boundary (S).
-  std::size_t ti = ws.size (), tj = 0;
-  Worklist tail;
-  if (!ws.empty () && prev.span (lmax) > bnd)
+  return prev;
+}
+
+// The last group waits when its parent's subtree reaches past the boundary (S): it is
+// copied to f.tail, and (f.ti, f.tj) marks where it starts.
+template <typename PointT> void
+pcl::ObliqueCut<PointT>::holdWaitingGroup (FixPass& f, MortonCode prev) const
+{
+  const std::vector<Worklist*>& ws = f.ws;
+  f.ti = ws.size ();
+  f.tj = 0;
+  if (!ws.empty () && prev.span (params_.max_depth) > f.bnd)
   {
-    ti = ws.size () - 1;
-    tj = ws[ti]->size ();
+    std::size_t ti = ws.size () - 1, tj = ws[ti]->size ();
     while (true)
     {
       if (tj > 0 && (*ws[ti])[tj - 1].code.parent () == prev)
@@ -296,14 +345,23 @@ pcl::ObliqueCut<PointT>::fixLevel (int l)
         break;
     }
     for (std::size_t i = ti, j = tj; i < ws.size (); ++i, j = 0)
-      tail.insert (tail.end (), ws[i]->begin () + j, ws[i]->end ());
+      f.tail.insert (f.tail.end (), ws[i]->begin () + j, ws[i]->end ());
+    f.ti = ti;
+    f.tj = tj;
   }
+}
 
-  std::vector<Segment> segs (ws.size ());
+// Workers: the parents of each worklist's complete groups (Algorithm 4) into its segment.
+template <typename PointT> void
+pcl::ObliqueCut<PointT>::createParents (FixPass& f)
+{
+  const std::vector<Worklist*>& ws = f.ws;
+  const std::size_t ti = f.ti, tj = f.tj;
+  f.segs.resize (ws.size ());
   const auto work = [&] (std::size_t i, Slot& s) {
     const Worklist& w = *ws[i];
     CutNode group[8];
-    std::size_t j = start[i];
+    std::size_t j = f.start[i];
     while (j < w.size () && !(i == ti && j >= tj) && i <= ti)
     {
       const MortonCode pc = w[j].code.parent ();
@@ -318,7 +376,7 @@ pcl::ObliqueCut<PointT>::fixLevel (int l)
         ++wi;
         jj = 0;
       }
-      createParent (group, k, s, segs[i]);
+      createParent (group, k, s, f.segs[i]);
       if (wi != i)
         break;  // the group ran into the next worklists, which skip it
       j = jj;
@@ -329,11 +387,16 @@ pcl::ObliqueCut<PointT>::fixLevel (int l)
   else
     for (std::size_t i = 0; i < ws.size (); ++i)
       work (i, *slots_[0]);
+}
 
-  // Master: merge the segments into worklists of the configured size for level l − 1.
+// Master: merge the segments into worklists of the configured size for level l - 1, put the
+// waiting group back at the front of L_{C,l}, and hand the front its placeholders and leaves.
+template <typename PointT> void
+pcl::ObliqueCut<PointT>::publishParents (int l, FixPass& f)
+{
   std::vector<Worklist> up;
   Worklist cur;
-  for (Segment& s : segs)
+  for (Segment& s : f.segs)
     for (CutNode& c : s.parents)
     {
       cur.push_back (c);
@@ -349,20 +412,20 @@ pcl::ObliqueCut<PointT>::fixLevel (int l)
     std::lock_guard<std::mutex> g (mutex_[l - 1]);
     for (Worklist& w : up)
       lists_[l - 1].push_back (std::move (w));
-    boundary_[l - 1] = bnd;
+    boundary_[l - 1] = f.bnd;
     if (l - 1 >= 1)
       dirty_[l - 1] = true;
   }
-  if (!tail.empty ())
+  if (!f.tail.empty ())
   {
     std::lock_guard<std::mutex> g (mutex_[l]);
-    lists_[l].push_front (std::move (tail));
+    lists_[l].push_front (std::move (f.tail));
   }
   if (front_)
   {
     std::vector<MortonCode> ph;
     std::vector<const Node*> leaves;
-    for (Segment& s : segs)
+    for (Segment& s : f.segs)
     {
       ph.insert (ph.end (), s.placeholders.begin (), s.placeholders.end ());
       leaves.insert (leaves.end (), s.leaves.begin (), s.leaves.end ());
@@ -374,9 +437,6 @@ pcl::ObliqueCut<PointT>::fixLevel (int l)
     if (!leaves.empty ())
       front_->insertLeaves (l + 1, std::move (leaves));
   }
-  if (l == 1 && bnd == MortonCode::root ().span (lmax))
-    finalize ();
-  return true;
 }
 
 template <typename PointT> void

@@ -1,8 +1,9 @@
 #pragma once
 #include <pclx/omicron/oblique_cut_front.h>
 
+#include <pcl/console/print.h>
+
 #include <limits>
-#include <stdexcept>
 
 template <typename PointT> void
 pcl::ObliqueCutFront<PointT>::reset (int max_depth, const Eigen::Vector3d& origin, double edge,
@@ -32,7 +33,11 @@ template <typename PointT> void
 pcl::ObliqueCutFront<PointT>::setProjectionThreshold (float t)
 {
   if (!(t > 0.f) || !std::isfinite (t))
-    throw std::invalid_argument ("ObliqueCutFront: the projection threshold must be a finite number > 0");
+  {
+    PCL_ERROR ("[pcl::ObliqueCutFront::setProjectionThreshold] the threshold must be a finite number > 0 (got %g); "
+               "keeping %g\n", t, getProjectionThreshold ());
+    return;
+  }
   std::lock_guard<std::mutex> g (front_mutex_);
   threshold_ = t;
 }
@@ -97,7 +102,7 @@ template <typename PointT> float
 pcl::ObliqueCutFront<PointT>::splatRadius (const Node& n) const
 {
   // A collapsed leaf keeps its child's full density.
-  const int l = (n.flags & omicron::kCollapsed) ? max_depth_ : n.level;
+  const int l = (n.flags & pclx::omicron::detail::kCollapsed) ? max_depth_ : n.level;
   return radius_[l];
 }
 

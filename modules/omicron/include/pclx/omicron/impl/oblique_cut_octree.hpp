@@ -7,7 +7,7 @@
 
 #include <pcl/console/print.h>
 
-#include <pclx/omicron/huge_pages.h>
+#include <pclx/omicron/detail/huge_pages.h>
 
 #include <chrono>
 #include <condition_variable>
@@ -44,64 +44,95 @@ pcl::ObliqueCutOctree<PointT>::fail (const std::string& why)
   return false;
 }
 
-template <typename PointT> void
-pcl::ObliqueCutOctree<PointT>::checkIdle () const
+template <typename PointT> bool
+pcl::ObliqueCutOctree<PointT>::checkIdle (const char* method) const
 {
-  if (running_)
-    throw std::logic_error ("ObliqueCutOctree: parameters cannot change while a build runs");
+  if (!running_)
+    return true;
+  PCL_ERROR ("[pcl::ObliqueCutOctree::%s] parameters cannot change while a build runs; the call is ignored\n", method);
+  return false;
 }
 
 template <typename PointT> void
 pcl::ObliqueCutOctree<PointT>::setMaxDepth (int depth)
 {
-  checkIdle ();
+  if (!checkIdle ("setMaxDepth"))
+    return;
   if (depth < 1 || depth > MortonCode::kMaxDepth)
-    throw std::invalid_argument ("ObliqueCutOctree: max depth must be in [1, 21] (got " + std::to_string (depth) + ")");
+  {
+    PCL_ERROR ("[pcl::ObliqueCutOctree::setMaxDepth] the max depth must be in [1, 21] (got %d); keeping %d\n", depth,
+               params_.max_depth);
+    return;
+  }
   params_.max_depth = depth;
 }
 
 template <typename PointT> void
 pcl::ObliqueCutOctree<PointT>::setParentPointRatio (float ratio)
 {
-  checkIdle ();
+  if (!checkIdle ("setParentPointRatio"))
+    return;
   if (!(ratio > 0.f && ratio <= 1.f))
-    throw std::invalid_argument ("ObliqueCutOctree: the parent point ratio must be in (0, 1]");
+  {
+    PCL_ERROR ("[pcl::ObliqueCutOctree::setParentPointRatio] the parent point ratio must be in (0, 1] (got %g); "
+               "keeping %g\n", ratio, params_.parent_ratio);
+    return;
+  }
   params_.parent_ratio = ratio;
 }
 
 template <typename PointT> void
 pcl::ObliqueCutOctree<PointT>::setWorklistSize (std::size_t nodes)
 {
-  checkIdle ();
+  if (!checkIdle ("setWorklistSize"))
+    return;
   if (nodes < 1)
-    throw std::invalid_argument ("ObliqueCutOctree: the worklist size must be >= 1");
+  {
+    PCL_ERROR ("[pcl::ObliqueCutOctree::setWorklistSize] the worklist size must be >= 1; keeping %zu\n",
+               params_.worklist_size);
+    return;
+  }
   params_.worklist_size = nodes;
 }
 
 template <typename PointT> void
 pcl::ObliqueCutOctree<PointT>::setSortChunks (std::size_t chunks)
 {
-  checkIdle ();
+  if (!checkIdle ("setSortChunks"))
+    return;
   if (chunks < 1)
-    throw std::invalid_argument ("ObliqueCutOctree: the sort chunk count must be >= 1");
+  {
+    PCL_ERROR ("[pcl::ObliqueCutOctree::setSortChunks] the sort chunk count must be >= 1; keeping %zu\n", chunks_);
+    return;
+  }
   chunks_ = chunks;
 }
 
 template <typename PointT> void
 pcl::ObliqueCutOctree<PointT>::setThreads (int threads)
 {
-  checkIdle ();
+  if (!checkIdle ("setThreads"))
+    return;
   if (threads < 1)
-    throw std::invalid_argument ("ObliqueCutOctree: the thread count must be >= 1");
+  {
+    PCL_ERROR ("[pcl::ObliqueCutOctree::setThreads] the thread count must be >= 1 (got %d); keeping %d\n", threads,
+               params_.threads);
+    return;
+  }
   params_.threads = threads;
 }
 
 template <typename PointT> void
 pcl::ObliqueCutOctree<PointT>::setRootCube (const Eigen::Vector3d& origin, double edge)
 {
-  checkIdle ();
+  if (!checkIdle ("setRootCube"))
+    return;
   if (!origin.allFinite () || !(edge > 0) || !std::isfinite (edge))
-    throw std::invalid_argument ("ObliqueCutOctree: the root cube needs a finite origin and a finite edge > 0");
+  {
+    PCL_ERROR ("[pcl::ObliqueCutOctree::setRootCube] the root cube needs a finite origin and a finite edge > 0; "
+               "keeping the previous setting\n");
+    return;
+  }
   origin_ = origin;
   edge_ = edge;
   user_cube_ = true;
@@ -110,19 +141,24 @@ pcl::ObliqueCutOctree<PointT>::setRootCube (const Eigen::Vector3d& origin, doubl
 template <typename PointT> void
 pcl::ObliqueCutOctree<PointT>::clearRootCube ()
 {
-  checkIdle ();
-  user_cube_ = false;
+  if (checkIdle ("clearRootCube"))
+    user_cube_ = false;
 }
 
 template <typename PointT> void
 pcl::ObliqueCutOctree<PointT>::setSplatMultipliers (const std::vector<float>& m)
 {
-  checkIdle ();
-  if (m.empty ())
-    throw std::invalid_argument ("ObliqueCutOctree: at least one splat multiplier is needed");
+  if (!checkIdle ("setSplatMultipliers"))
+    return;
+  bool valid = !m.empty ();
   for (float v : m)
-    if (!(v > 0.f) || !std::isfinite (v))
-      throw std::invalid_argument ("ObliqueCutOctree: splat multipliers must be finite and > 0");
+    valid = valid && v > 0.f && std::isfinite (v);
+  if (!valid)
+  {
+    PCL_ERROR ("[pcl::ObliqueCutOctree::setSplatMultipliers] at least one multiplier is needed, each finite and > 0; "
+               "keeping the previous ones\n");
+    return;
+  }
   multipliers_ = m;
 }
 
@@ -172,7 +208,7 @@ pcl::ObliqueCutOctree<PointT>::wait ()
   return result_;
 }
 
-template <typename PointT> template <typename F> void
+template <typename PointT> template <typename F> bool
 pcl::ObliqueCutOctree<PointT>::readFileBlocks (PointStreamReader& reader, F&& on_block)
 {
   // Two blocks in flight: the reader thread fills one while on_block consumes the other.
@@ -240,6 +276,7 @@ pcl::ObliqueCutOctree<PointT>::readFileBlocks (PointStreamReader& reader, F&& on
   producer.join ();
   if (error)
     std::rethrow_exception (error);
+  return reader.getLastError ().empty ();
 }
 
 // The first sorted chunk fixes the automatic leaf splat radius (leaf cell edge over the
@@ -282,7 +319,7 @@ pcl::ObliqueCutOctree<PointT>::concatenateLeaves (const std::vector<MortonCode>&
     std::size_t j = i + 1;
     while (j < codes.size () && codes[j] == codes[i])
       ++j;
-    w.push_back (omicron::CutNode<PointT>::leaf (codes[i], first + i, static_cast<std::uint32_t> (j - i)));
+    w.push_back (pclx::omicron::detail::CutNode<PointT>::leaf (codes[i], first + i, static_cast<std::uint32_t> (j - i)));
     ++leaves;
     if (w.size () >= params_.worklist_size)
     {
@@ -297,25 +334,29 @@ pcl::ObliqueCutOctree<PointT>::concatenateLeaves (const std::vector<MortonCode>&
   return leaves;
 }
 
+// The build thread's body: no exception leaves it (an I/O error deep in the budgeted build,
+// or a failed allocation, becomes false + getLastError ()).
 template <typename PointT> bool
 pcl::ObliqueCutOctree<PointT>::run ()
 {
-  using Clock = std::chrono::steady_clock;
-  const auto t0 = Clock::now ();
-  const auto since = [&] { return std::chrono::duration<double> (Clock::now () - t0).count (); };
+  const auto t0 = std::chrono::steady_clock::now ();
   stats_ = Statistics ();
-  if (budget_ > 0)
+  try
   {
-    try
-    {
-      return runBudgeted (t0);
-    }
-    catch (const std::exception& e)
-    {
-      stats_.seconds_total = since ();
-      return fail (e.what ());
-    }
+    return budget_ > 0 ? runBudgeted (t0) : runInMemory (t0);
   }
+  catch (const std::exception& e)
+  {
+    stats_.seconds_total = std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count ();
+    return fail (e.what ());
+  }
+}
+
+template <typename PointT> bool
+pcl::ObliqueCutOctree<PointT>::runInMemory (std::chrono::steady_clock::time_point t0)
+{
+  using Clock = std::chrono::steady_clock;
+  const auto since = [&] { return std::chrono::duration<double> (Clock::now () - t0).count (); };
   // The input: the cloud, or the file read whole in blocks (the in-memory build). The file
   // path is one pass over the bytes: a reader thread parses block k + 1 while this thread
   // appends block k to the cloud (storage for the declared count) and folds
@@ -326,37 +367,34 @@ pcl::ObliqueCutOctree<PointT>::run ()
   Eigen::Array3f file_hi = Eigen::Array3f::Constant (-std::numeric_limits<float>::max ());
   if (!input_file_.empty ())
   {
-    try
-    {
-      PointStreamReader reader (input_file_);
-      typename PointCloud::Ptr all (new PointCloud);
-      // Storage for the declared count (no regrowth copies). Not on huge pages: measured
-      // +0.6 s of system time at 20M on this VM (the sorted array and chunk buffers are).
-      if (reader.getDeclaredPoints () > 0)
-        all->points.reserve (static_cast<std::size_t> (reader.getDeclaredPoints ()));
-      readFileBlocks (reader, [&] (const PointCloud& block) {
-        for (const PointT& p : block)
-        {
-          file_lo = file_lo.min (p.getArray3fMap ());
-          file_hi = file_hi.max (p.getArray3fMap ());
-        }
-        all->points.insert (all->points.end (), block.begin (), block.end ());
-      });
-      all->width = static_cast<std::uint32_t> (all->points.size ());
-      all->height = 1;
-      stats_.dropped_invalid = reader.getDroppedInvalid ();
-      input = all;
-      file_bounds = true;
-    }
-    catch (const std::exception& e)
-    {
-      return fail (e.what ());
-    }
+    PointStreamReader reader;
+    if (!reader.open (input_file_))
+      return fail (reader.getLastError ());
+    typename PointCloud::Ptr all (new PointCloud);
+    // Storage for the declared count (no regrowth copies), on ordinary pages: the sorted
+    // array and the chunk buffers are the ones that gain from huge pages.
+    if (reader.getDeclaredPoints () > 0)
+      all->points.reserve (static_cast<std::size_t> (reader.getDeclaredPoints ()));
+    const bool read = readFileBlocks (reader, [&] (const PointCloud& block) {
+      for (const PointT& p : block)
+      {
+        file_lo = file_lo.min (p.getArray3fMap ());
+        file_hi = file_hi.max (p.getArray3fMap ());
+      }
+      all->points.insert (all->points.end (), block.begin (), block.end ());
+    });
+    if (!read)
+      return fail (reader.getLastError ());
+    all->width = static_cast<std::uint32_t> (all->points.size ());
+    all->height = 1;
+    stats_.dropped_invalid = reader.getDroppedInvalid ();
+    input = all;
+    file_bounds = true;
   }
   if (!input)
     return fail ("no input cloud");
   const int lmax = params_.max_depth;
-  MortonSorter<PointT> sorter;
+  pclx::omicron::detail::MortonSorter<PointT> sorter;
   sorter.setMaxDepth (lmax);
   sorter.setChunks (chunks_);
   sorter.setThreads (params_.threads);
@@ -387,12 +425,11 @@ pcl::ObliqueCutOctree<PointT>::run ()
   }
   if (kept == 0)
   {
-    PCL_ERROR ("[pcl::ObliqueCutOctree::build] the cloud has no finite point%s (%zu points, %zu NaN/Inf, %zu outside "
-               "the root cube); the hierarchy is empty\n",
-               user_cube_ ? " inside the root cube" : "", stats_.input_points, stats_.dropped_invalid,
-               stats_.dropped_outside);
     stats_.seconds_total = since ();
-    return false;
+    return fail (std::string ("the cloud has no finite point") + (user_cube_ ? " inside the root cube" : "") + " (" +
+                 std::to_string (stats_.input_points) + " points, " + std::to_string (stats_.dropped_invalid) +
+                 " NaN/Inf, " + std::to_string (stats_.dropped_outside) +
+                 " outside the root cube); the hierarchy is empty");
   }
 
   // The first chunk is sorted here: it fixes the automatic leaf splat radius.
@@ -447,7 +484,10 @@ template <typename PointT> typename pcl::ObliqueCutOctree<PointT>::Statistics
 pcl::ObliqueCutOctree<PointT>::getStatistics () const
 {
   if (running_)
-    throw std::logic_error ("ObliqueCutOctree: statistics are available after the build");
+  {
+    PCL_ERROR ("[pcl::ObliqueCutOctree::getStatistics] statistics are available after the build\n");
+    return Statistics ();
+  }
   return stats_;
 }
 

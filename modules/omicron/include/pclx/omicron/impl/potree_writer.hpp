@@ -2,7 +2,7 @@
 #include <pclx/omicron/oblique_cut_octree.h>
 #include <pclx/omicron/potree_writer.h>
 
-#include <pcl/exceptions.h>
+#include <pcl/console/print.h>
 #include <pcl/point_types.h>
 
 #include <cerrno>
@@ -27,27 +27,59 @@ template <typename PointT> void
 pcl::PotreeWriter<PointT>::setHierarchyStepSize (int step)
 {
   if (step < 1 || step > MortonCode::kMaxDepth)
-    throw std::invalid_argument ("PotreeWriter: the hierarchy step size must be in [1, 21]");
+  {
+    PCL_ERROR ("[pcl::PotreeWriter::setHierarchyStepSize] the step size must be in [1, 21] (got %d); keeping %d\n",
+               step, meta_.step_size);
+    return;
+  }
   meta_.step_size = step;
 }
 
+template <typename PointT> bool
+pcl::PotreeWriter<PointT>::fail (const char* method, const std::string& why)
+{
+  PCL_ERROR ("[pcl::PotreeWriter::%s] %s\n", method, why.c_str ());
+  std::lock_guard<std::mutex> g (error_mutex_);
+  last_error_ = why;
+  return false;
+}
+
+template <typename PointT> std::string
+pcl::PotreeWriter<PointT>::getLastError () const
+{
+  std::lock_guard<std::mutex> g (error_mutex_);
+  return last_error_;
+}
+
+template <typename PointT> template <typename F> bool
+pcl::PotreeWriter<PointT>::guarded (const char* method, F&& f)
+{
+  try
+  {
+    f ();
+    return true;
+  }
+  catch (const std::exception& e)
+  {
+    return fail (method, e.what ());
+  }
+}
+
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::open (const std::string& directory, const Eigen::Vector3d& origin, double edge)
+pcl::PotreeWriter<PointT>::openImpl (const std::string& directory, const Eigen::Vector3d& origin, double edge)
 {
   if (file_)
-    throw std::logic_error ("PotreeWriter: already open");
+    throw std::runtime_error ("already open");
   if (!origin.allFinite () || !(edge > 0) || !std::isfinite (edge))
-    throw std::invalid_argument ("PotreeWriter: the root cube needs a finite origin and edge > 0");
+    throw std::runtime_error ("the root cube needs a finite origin and edge > 0");
   std::error_code ec;
   std::filesystem::create_directories (directory, ec);
   const std::string path = directory + "/octree.bin";
   if (ec)
-    throw pcl::IOException ("PotreeWriter: cannot create the output folder '" + directory + "': " + ec.message (),
-                            __FILE__, __func__, __LINE__);
+    throw std::runtime_error ("cannot create the output folder '" + directory + "': " + ec.message ());
   file_ = std::fopen (path.c_str (), "wb");
   if (!file_)
-    throw pcl::IOException ("PotreeWriter: cannot write '" + path + "': " + std::strerror (errno), __FILE__, __func__,
-                            __LINE__);
+    throw std::runtime_error ("cannot write '" + path + "': " + std::strerror (errno));
   directory_ = directory;
   offset_ = 0;
   records_.clear ();
@@ -59,7 +91,7 @@ pcl::PotreeWriter<PointT>::open (const std::string& directory, const Eigen::Vect
   if (edge / scale > 2147483000.0)
   {
     abandon ();
-    throw std::invalid_argument ("PotreeWriter: the scale is too fine for the root cube (int32 positions)");
+    throw std::runtime_error ("the scale is too fine for the root cube (int32 positions)");
   }
   meta_.scale = Eigen::Vector3d::Constant (scale);
   meta_.offset = origin;
@@ -75,7 +107,11 @@ template <typename PointT> void
 pcl::PotreeWriter<PointT>::setParentPointRatio (float ratio)
 {
   if (!(ratio > 0.f && ratio <= 1.f))
-    throw std::invalid_argument ("PotreeWriter: the parent point ratio must be in (0, 1]");
+  {
+    PCL_ERROR ("[pcl::PotreeWriter::setParentPointRatio] the ratio must be in (0, 1] (got %g); keeping %g\n", ratio,
+               parent_ratio_);
+    return;
+  }
   parent_ratio_ = ratio;
 }
 
@@ -89,13 +125,13 @@ pcl::PotreeWriter<PointT>::encode (const PointT* points, std::uint32_t n, std::u
   const double inv = 1.0 / meta_.scale.x ();
   std::uint8_t* dst = out.bytes.data () + first;
   std::uint32_t t = 0;
-  std::uint32_t next = taken > 0 ? omicron::parentSampleIndex (0, taken, n) : n;
+  std::uint32_t next = taken > 0 ? pclx::omicron::detail::parentSampleIndex (0, taken, n) : n;
   for (std::uint32_t i = 0; i < n; ++i)
   {
     if (i == next)
     {
       ++t;
-      next = t < taken ? omicron::parentSampleIndex (t, taken, n) : n;
+      next = t < taken ? pclx::omicron::detail::parentSampleIndex (t, taken, n) : n;
       continue;
     }
     const PointT& p = points[i];
@@ -122,10 +158,9 @@ pcl::PotreeWriter<PointT>::record (MortonCode code, const Encoded& data)
 {
   std::lock_guard<std::mutex> g (mutex_);
   if (!file_)
-    throw std::logic_error ("PotreeWriter: appendNode before open");
+    throw std::runtime_error ("appendNode before open");
   if (!data.bytes.empty () && std::fwrite (data.bytes.data (), 1, data.bytes.size (), file_) != data.bytes.size ())
-    throw pcl::IOException ("PotreeWriter: writing '" + directory_ + "/octree.bin' failed (disk full?)", __FILE__,
-                            __func__, __LINE__);
+    throw std::runtime_error ("writing '" + directory_ + "/octree.bin' failed (disk full?)");
   records_.push_back ({code, static_cast<std::uint32_t> (data.points), offset_, data.bytes.size ()});
   offset_ += data.bytes.size ();
   lo_ = lo_.cwiseMin (data.lo);
@@ -133,7 +168,7 @@ pcl::PotreeWriter<PointT>::record (MortonCode code, const Encoded& data)
 }
 
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::appendNode (MortonCode code, const PointT* points, std::uint32_t n)
+pcl::PotreeWriter<PointT>::appendNodeImpl (MortonCode code, const PointT* points, std::uint32_t n)
 {
   Encoded e;
   encode (points, n, 0, e);  // outside the lock: workers encode in parallel
@@ -143,11 +178,11 @@ pcl::PotreeWriter<PointT>::appendNode (MortonCode code, const PointT* points, st
 template <typename PointT> std::uint32_t
 pcl::PotreeWriter<PointT>::storedPoints (const Node& node) const
 {
-  return node.num_points - (node.level > 0 ? omicron::parentSampleCount (node.num_points, parent_ratio_) : 0);
+  return node.num_points - (node.level > 0 ? pclx::omicron::detail::parentSampleCount (node.num_points, parent_ratio_) : 0);
 }
 
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::appendNode (const Node& node)
+pcl::PotreeWriter<PointT>::appendNodeImpl (const Node& node)
 {
   Encoded e;
   encode (node.points, node.num_points, node.num_points - storedPoints (node), e);
@@ -157,12 +192,12 @@ pcl::PotreeWriter<PointT>::appendNode (const Node& node)
 template <typename PointT> std::uint64_t
 pcl::PotreeWriter<PointT>::subtreePoints (const Node& node) const
 {
-  if (node.flags & omicron::kSpilled)
+  if (node.flags & pclx::omicron::detail::kSpilled)
   {
     std::lock_guard<std::mutex> g (mutex_);
     const auto it = spilled_.find (node.code.bits ());
     if (it == spilled_.end ())
-      throw std::logic_error ("PotreeWriter: a spilled node that appendSpilled never received");
+      throw std::runtime_error ("a spilled node that appendSpilled never received");
     return it->second.points;
   }
   std::uint64_t n = storedPoints (node);
@@ -174,7 +209,7 @@ pcl::PotreeWriter<PointT>::subtreePoints (const Node& node) const
 template <typename PointT> void
 pcl::PotreeWriter<PointT>::encodeSubtree (const Node& node, Encoded& out)
 {
-  if (!(node.flags & omicron::kSpilled))
+  if (!(node.flags & pclx::omicron::detail::kSpilled))
   {
     encode (node.points, node.num_points, node.num_points - storedPoints (node), out);
     for (std::uint8_t c = 0; c < node.num_children; ++c)
@@ -187,22 +222,21 @@ pcl::PotreeWriter<PointT>::encodeSubtree (const Node& node, Encoded& out)
   if (it != spilled_.end () && it->second.points == 0)
     return;
   if (it == spilled_.end () || !it->second.pending || !pending_)
-    throw std::logic_error ("PotreeWriter: a spilled subtree within the leaf limit was not kept aside");
+    throw std::runtime_error ("a spilled subtree within the leaf limit was not kept aside");
   Spilled& sp = it->second;
   sp.written = true;
   const std::size_t first = out.bytes.size (), size = sp.points * meta_.bytesPerPoint ();
   out.bytes.resize (first + size);
   if (std::fflush (pending_) != 0 || fseeko (pending_, static_cast<off_t> (sp.offset), SEEK_SET) != 0 ||
       std::fread (out.bytes.data () + first, 1, size, pending_) != size || fseeko (pending_, 0, SEEK_END) != 0)
-    throw pcl::IOException ("PotreeWriter: reading back '" + directory_ + "/octree.pending.bin' failed", __FILE__,
-                            __func__, __LINE__);
+    throw std::runtime_error ("reading back '" + directory_ + "/octree.pending.bin' failed");
   out.points += sp.points;
   out.lo = out.lo.cwiseMin (sp.lo);
   out.hi = out.hi.cwiseMax (sp.hi);
 }
 
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::appendSubtree (const Node& node)
+pcl::PotreeWriter<PointT>::appendSubtreeImpl (const Node& node)
 {
   const std::uint64_t total = subtreePoints (node);
   if (total == 0)
@@ -214,13 +248,13 @@ pcl::PotreeWriter<PointT>::appendSubtree (const Node& node)
     record (node.code, e);
     return;
   }
-  appendNode (node);
+  appendNodeImpl (node);
   for (std::uint8_t c = 0; c < node.num_children; ++c)
-    appendSubtree (node.children[c]);
+    appendSubtreeImpl (node.children[c]);
 }
 
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::appendSpilled (const Node& node)
+pcl::PotreeWriter<PointT>::appendSpilledImpl (const Node& node)
 {
   Spilled sp;
   sp.points = subtreePoints (node);
@@ -231,20 +265,19 @@ pcl::PotreeWriter<PointT>::appendSpilled (const Node& node)
       spilled_[node.code.bits ()] = sp;
     }
     for (std::uint8_t c = 0; c < node.num_children; ++c)
-      appendSubtree (node.children[c]);
+      appendSubtreeImpl (node.children[c]);
     return;
   }
   Encoded e;
   encodeSubtree (node, e);
   std::lock_guard<std::mutex> g (mutex_);
   if (!file_)
-    throw std::logic_error ("PotreeWriter: appendSpilled before open");
+    throw std::runtime_error ("appendSpilled before open");
   const std::string path = directory_ + "/octree.pending.bin";
   if (!pending_ && !(pending_ = std::fopen (path.c_str (), "w+b")))
-    throw pcl::IOException ("PotreeWriter: cannot write '" + path + "': " + std::strerror (errno), __FILE__, __func__,
-                            __LINE__);
+    throw std::runtime_error ("cannot write '" + path + "': " + std::strerror (errno));
   if (!e.bytes.empty () && std::fwrite (e.bytes.data (), 1, e.bytes.size (), pending_) != e.bytes.size ())
-    throw pcl::IOException ("PotreeWriter: writing '" + path + "' failed (disk full?)", __FILE__, __func__, __LINE__);
+    throw std::runtime_error ("writing '" + path + "' failed (disk full?)");
   sp.pending = true;
   sp.offset = pending_bytes_;
   sp.lo = e.lo;
@@ -295,54 +328,87 @@ pcl::PotreeWriter<PointT>::abandon ()
 }
 
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::close (std::uint64_t points)
+pcl::PotreeWriter<PointT>::closeImpl (std::uint64_t points)
 {
   std::lock_guard<std::mutex> g (mutex_);
   if (!file_)
-    throw std::logic_error ("PotreeWriter: close before open");
+    throw std::runtime_error ("close before open");
   const bool flushed = std::fflush (file_) == 0 && !std::ferror (file_);
   const bool closed = std::fclose (file_) == 0;
   file_ = nullptr;
   closePending ();
   for (const auto& sp : spilled_)
     if (sp.second.pending && !sp.second.written)
-      throw std::logic_error ("PotreeWriter: a subtree appendSpilled () kept aside was never written (close before "
+      throw std::runtime_error ("a subtree appendSpilled () kept aside was never written (close before "
                               "appendSubtree reached its node)");
   if (!flushed || !closed)
-    throw pcl::IOException ("PotreeWriter: writing '" + directory_ + "/octree.bin' failed (disk full?)", __FILE__,
-                            __func__, __LINE__);
+    throw std::runtime_error ("writing '" + directory_ + "/octree.bin' failed (disk full?)");
   meta_.points = points;
-  meta_.spacing = omicron::potree::spacingForNodes (records_, meta_.box_max.x () - meta_.box_min.x ());
+  meta_.spacing = pclx::omicron::detail::potree::spacingForNodes (records_, meta_.box_max.x () - meta_.box_min.x ());
   if (lo_.x () <= hi_.x ())
   {
     meta_.position_min = lo_;
     meta_.position_max = hi_;
   }
-  omicron::potree::writeHierarchy (directory_ + "/hierarchy.bin", records_, meta_);
-  omicron::potree::writeMetadata (directory_ + "/metadata.json", meta_);
+  pclx::omicron::detail::potree::writeHierarchy (directory_ + "/hierarchy.bin", records_, meta_);
+  pclx::omicron::detail::potree::writeMetadata (directory_ + "/metadata.json", meta_);
 }
 
-template <typename PointT> void
+template <typename PointT> bool
+pcl::PotreeWriter<PointT>::open (const std::string& directory, const Eigen::Vector3d& origin, double edge)
+{
+  return guarded ("open", [&] { openImpl (directory, origin, edge); });
+}
+
+template <typename PointT> bool
+pcl::PotreeWriter<PointT>::appendNode (const Node& node)
+{
+  return guarded ("appendNode", [&] { appendNodeImpl (node); });
+}
+
+template <typename PointT> bool
+pcl::PotreeWriter<PointT>::appendNode (MortonCode code, const PointT* points, std::uint32_t n)
+{
+  return guarded ("appendNode", [&] { appendNodeImpl (code, points, n); });
+}
+
+template <typename PointT> bool
+pcl::PotreeWriter<PointT>::appendSubtree (const Node& node)
+{
+  return guarded ("appendSubtree", [&] { appendSubtreeImpl (node); });
+}
+
+template <typename PointT> bool
+pcl::PotreeWriter<PointT>::appendSpilled (const Node& node)
+{
+  return guarded ("appendSpilled", [&] { appendSpilledImpl (node); });
+}
+
+template <typename PointT> bool
+pcl::PotreeWriter<PointT>::close (std::uint64_t points)
+{
+  return guarded ("close", [&] { closeImpl (points); });
+}
+
+template <typename PointT> bool
 pcl::PotreeWriter<PointT>::write (const ObliqueCutOctree<PointT>& octree, const std::string& directory)
 {
   const Node* root = octree.getRoot ();
   if (!root)
-    throw std::logic_error ("PotreeWriter: the octree is not built (or empty)");
+    return fail ("write", "the octree is not built (or empty)");
   if (octree.getSpillLevel () >= 0)
-    throw std::logic_error ("PotreeWriter: a budgeted build keeps only its upper tree; it already wrote the whole "
-                            "hierarchy to getOutputDirectory ()");
+    return fail ("write", "a budgeted build keeps only its upper tree; it already wrote the whole hierarchy to "
+                          "getOutputDirectory ()");
   setParentPointRatio (octree.getParentPointRatio ());
-  open (directory, octree.getRootOrigin (), octree.getRootEdge ());
-  try
-  {
-    appendSubtree (*root);
-    close (octree.getStatistics ().kept_points);
-  }
-  catch (...)
-  {
-    abandon ();
-    throw;
-  }
+  if (!open (directory, octree.getRootOrigin (), octree.getRootEdge ()))
+    return false;
+  if (guarded ("write", [&] {
+        appendSubtreeImpl (*root);
+        closeImpl (octree.getStatistics ().kept_points);
+      }))
+    return true;
+  abandon ();
+  return false;
 }
 
 #define PCL_INSTANTIATE_PotreeWriter(T) template class PCL_EXPORTS pcl::PotreeWriter<T>;

@@ -86,7 +86,7 @@ IncrementalDualContouring<PointT>::addFrame (const pcl::PointCloud<PointT>& clou
 
 template <typename PointT> bool
 IncrementalDualContouring<PointT>::addFrame (const float* depth_m, int width, int height,
-                                             const pclx::surface::DepthIntrinsics& K,
+                                             const pcl::DepthIntrinsics& K,
                                              const Eigen::Matrix4d& camera_to_world)
 {
   if (!depth_m)
@@ -106,7 +106,7 @@ IncrementalDualContouring<PointT>::addFrame (const float* depth_m, int width, in
 
 template <typename PointT> bool
 IncrementalDualContouring<PointT>::addFrame (const std::uint16_t* depth, int width, int height,
-                                             const pclx::surface::DepthIntrinsics& K,
+                                             const pcl::DepthIntrinsics& K,
                                              const Eigen::Matrix4d& camera_to_world, float depth_scale)
 {
   if (!depth)
@@ -129,7 +129,7 @@ IncrementalDualContouring<PointT>::addMesh (const pcl::PolygonMesh& mesh, const 
     return fail (pose_error);
   pcl::PointCloud<pcl::PointXYZ> xyz;
   pcl::fromPCLPointCloud2 (mesh.cloud, xyz);
-  frame_ = pclx::surface::FrameMesh ();
+  frame_ = pcl::FrameMesh ();
   frame_.vertices.reserve (xyz.size ());
   const Eigen::Matrix3f R = pose.topLeftCorner<3, 3> ().cast<float> ();
   const Eigen::Vector3f t = pose.topRightCorner<3, 1> ().cast<float> ();
@@ -152,7 +152,7 @@ IncrementalDualContouring<PointT>::addMesh (const pcl::PolygonMesh& mesh, const 
 }
 
 template <typename PointT> bool
-IncrementalDualContouring<PointT>::addFrameMesh (const pclx::surface::FrameMesh& world_mesh)
+IncrementalDualContouring<PointT>::addFrameMesh (const pcl::FrameMesh& world_mesh)
 {
   frame_ = world_mesh;
   return fuse (0);
@@ -206,6 +206,7 @@ template <typename PointT> void
 IncrementalDualContouring<PointT>::reconstruct (pcl::PolygonMesh& mesh)
 {
   octree_.reconstruct (mesh);
+  error_.clear ();  // reconstruct always succeeds: an earlier refusal is no longer the last call
   const auto& os = octree_.getStats ();
   stats_.removed_plane_triangles = 0;
   if (remove_plane_)

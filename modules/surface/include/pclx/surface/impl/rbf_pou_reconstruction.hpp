@@ -1,7 +1,7 @@
 #pragma once
 #include <pclx/normals/mst_normal_orientation.h>
-#include <pclx/normals/scale_selection.h>
-#include <pclx/surface/hole_filling.h>
+#include <pclx/normals/detail/scale_selection.h>
+#include <pclx/surface/detail/hole_filling.h>
 #include <pclx/surface/rbf_pou_reconstruction.h>
 
 #include <pcl/common/io.h>
@@ -30,8 +30,9 @@
 #include <emmintrin.h>
 #endif
 
-namespace pcl {
-namespace rbf_pou_detail {
+namespace pclx {
+namespace surface {
+namespace detail {
 
 using Clock = std::chrono::steady_clock;
 // Axis-aligned bounds of a non-empty point list.
@@ -411,7 +412,11 @@ private:
   std::size_t dropped_;
 };
 
-}  // namespace rbf_pou_detail
+}  // namespace detail
+}  // namespace surface
+}  // namespace pclx
+
+namespace pcl {
 
 template <typename PointNT> bool
 RBFPOUReconstruction<PointNT>::fail (const std::string& msg)
@@ -445,10 +450,10 @@ RBFPOUReconstruction<PointNT>::local (const Subdomain& s, const Eigen::Vector3d&
 {
   // In the frame of the fit: q = (p − centre) / scale, so |q − q_j|³ = |p − c_j|³ / scale³.
   const Eigen::Vector3d q = (p - s.centre) / s.scale;
-  const double rbf = s.rbf ? rbf_pou_detail::sumR3 (cpos_.data (), sub_ids_.data () + s.first,
+  const double rbf = s.rbf ? pclx::surface::detail::sumR3 (cpos_.data (), sub_ids_.data () + s.first,
                                                    sub_lambda_.data () + s.first, s.count, p[0], p[1], p[2])
                            : 0.0;
-  return s.poly.dot (rbf_pou_detail::polynomialBasis (q)) + rbf / (s.scale * s.scale * s.scale);
+  return s.poly.dot (pclx::surface::detail::polynomialBasis (q)) + rbf / (s.scale * s.scale * s.scale);
 }
 
 template <typename PointNT> template <typename F> void
@@ -457,9 +462,9 @@ RBFPOUReconstruction<PointNT>::forCovering (const Eigen::Vector3d& p, BucketCach
   if (subs_.empty ())
     return;
   const Eigen::Array3d b = ((p - bucket_origin_) / bucket_size_).array ().floor ();
-  if ((b < 0).any () || (b > double (rbf_pou_detail::kMaxIndex)).any ())
+  if ((b < 0).any () || (b > double (pclx::surface::detail::kMaxIndex)).any ())
     return;
-  const std::uint64_t key = rbf_pou_detail::pack (std::int64_t (b[0]), std::int64_t (b[1]), std::int64_t (b[2]));
+  const std::uint64_t key = pclx::surface::detail::pack (std::int64_t (b[0]), std::int64_t (b[1]), std::int64_t (b[2]));
   if (key != cache.key)
   {
     auto it = std::lower_bound (buckets_.begin (), buckets_.end (), std::make_pair (key, std::uint32_t (0)));
@@ -612,7 +617,7 @@ RBFPOUReconstruction<PointNT>::collectPoints ()
   return true;
 }
 
-template <typename PointNT> std::unique_ptr<rbf_pou_detail::SearchOverValidPoints<PointNT>>
+template <typename PointNT> std::unique_ptr<pclx::surface::detail::SearchOverValidPoints<PointNT>>
 RBFPOUReconstruction<PointNT>::searchOverValidPoints ()
 {
   if (tree_->getInputCloud () != input_ || tree_->getIndices () != indices_)
@@ -620,14 +625,14 @@ RBFPOUReconstruction<PointNT>::searchOverValidPoints ()
   std::vector<int> position (input_->size (), -1);
   for (std::size_t i = 0; i < src_.size (); ++i)
     position[src_[i]] = int (i);
-  return std::make_unique<rbf_pou_detail::SearchOverValidPoints<PointNT>> (tree_, std::move (position),
+  return std::make_unique<pclx::surface::detail::SearchOverValidPoints<PointNT>> (tree_, std::move (position),
                                                                           indices_->size () - src_.size ());
 }
 
 template <typename PointNT> bool
 RBFPOUReconstruction<PointNT>::measureSpacing (const pcl::KdTree<pcl::PointXYZ>& tree, std::vector<int>& nn)
 {
-  using namespace rbf_pou_detail;
+  using namespace pclx::surface::detail;
   const std::size_t n = pts_.size ();
   const int nt = threadCount (threads_);
   // The point itself is its first neighbour: the second gives the spacing. The vote's
@@ -662,7 +667,7 @@ RBFPOUReconstruction<PointNT>::measureSpacing (const pcl::KdTree<pcl::PointXYZ>&
 template <typename PointNT> void
 RBFPOUReconstruction<PointNT>::estimateNoise (const pcl::KdTree<pcl::PointXYZ>& tree)
 {
-  using namespace rbf_pou_detail;
+  using namespace pclx::surface::detail;
   if (!noise_auto_)
     stats_.noise = noise_;
   else
@@ -675,7 +680,7 @@ RBFPOUReconstruction<PointNT>::estimateNoise (const pcl::KdTree<pcl::PointXYZ>& 
       std::vector<float> d2;
     };
     const int k = int (std::min<std::size_t> (kNoiseNeighbours, pts_.size ()));
-    const pclx::normals::NoiseEstimate e = pclx::normals::estimateCloudNoise<Scratch> (
+    const pclx::normals::detail::NoiseEstimate e = pclx::normals::detail::estimateCloudNoise<Scratch> (
         pts_.size (), kNoiseSamples, 1, [&] (std::size_t i, std::vector<Eigen::Vector3f>& sorted, Scratch& t) {
           pcl::PointXYZ q;
           q.getVector3fMap () = pts_[i];
@@ -688,7 +693,7 @@ RBFPOUReconstruction<PointNT>::estimateNoise (const pcl::KdTree<pcl::PointXYZ>& 
     stats_.noise = e.ratio () > kCleanNoiseRatio ? e.sigma : 0.0;
   }
   // Under noise each fit averages more points, so its own error (about σ √(10 / points)) falls;
-  // modules/surface/README.md has the sweep behind the factor.
+  // docs/surface.md has the sweep behind the factor.
   // Never beyond what a quarter of the constraints (about 3 per point) could fill.
   const double room = std::max (1.0, 0.75 * double (pts_.size ()) / t_min_);
   const double f = stats_.noise > 0 ? std::clamp (kNoiseSubdomainGrowth * stats_.noise / stats_.mean_spacing, 1.0,
@@ -703,7 +708,7 @@ RBFPOUReconstruction<PointNT>::measureDensitySpread (const pcl::KdTree<pcl::Poin
 {
   // The 16th neighbour's distance at up to 2000 points spread over the cloud: uniform samples of
   // a surface spread it little, a scan's falloff with range and angle more (the threshold's
-  // measurements are in modules/surface/README.md).
+  // measurements are in docs/surface.md).
   constexpr int kSamples = 2000, kNeighbour = 16;
   const std::size_t n = pts_.size ();
   std::vector<double> r;
@@ -724,7 +729,7 @@ RBFPOUReconstruction<PointNT>::measureDensitySpread (const pcl::KdTree<pcl::Poin
     stats_.density_spread = low > 0 ? high / low : 0;
   }
   const bool scan = stats_.density_spread > kScanDensitySpread;
-  const auto [lo, hi] = rbf_pou_detail::bounds (pts_);
+  const auto [lo, hi] = pclx::surface::detail::bounds (pts_);
   const double diagonal = double ((hi - lo).norm ());
   stats_.max_hole_size = hole_auto_ ? (scan ? kAutoHoleFraction * diagonal : 0.0) : max_hole_;
 }
@@ -734,16 +739,16 @@ RBFPOUReconstruction<PointNT>::closeHoles (std::vector<Eigen::Vector3f>& vertice
 {
   if (!(stats_.max_hole_size > 0) || polygons.empty ())
     return;
-  const auto t0 = rbf_pou_detail::Clock::now ();
-  pclx::surface::HoleFillingStats holes;
-  if (pclx::surface::fillSmallHoles (vertices, polygons, stats_.max_hole_size, holes))
+  const auto t0 = pclx::surface::detail::Clock::now ();
+  pclx::surface::detail::HoleFillingStats holes;
+  if (pclx::surface::detail::fillSmallHoles (vertices, polygons, stats_.max_hole_size, holes))
   {
     stats_.holes = holes.holes;
     stats_.holes_filled = holes.filled;
     stats_.hole_triangles = holes.added_triangles;
     stats_.hole_area = holes.filled_area;
   }
-  stats_.t_holes = rbf_pou_detail::seconds (t0);
+  stats_.t_holes = pclx::surface::detail::seconds (t0);
 }
 
 template <typename PointNT> bool
@@ -761,7 +766,10 @@ RBFPOUReconstruction<PointNT>::orientNormals (const pcl::PointCloud<pcl::PointXY
   mst.setInputCloud (xyz);
   mst.setNumberOfThreads (threads_);
   if (!mst.orient (nc))
-    return fail ("MST normal orientation failed");
+  {
+    error_ = "MST normal orientation failed";  // MSTNormalOrientation has printed the reason
+    return false;
+  }
   for (std::size_t i = 0; i < n; ++i)
     nrm_[i] = nc[i].getNormalVector3fMap ();
   stats_.normals_oriented = mst.getNumberOfFlipped ();
@@ -771,7 +779,7 @@ RBFPOUReconstruction<PointNT>::orientNormals (const pcl::PointCloud<pcl::PointXY
 template <typename PointNT> void
 RBFPOUReconstruction<PointNT>::voteNormals (const std::vector<int>& nn)
 {
-  using namespace rbf_pou_detail;
+  using namespace pclx::surface::detail;
   // A few Jacobi passes so that small clusters of flips also turn. A neighbour counts when it
   // lies on the point's tangent plane (within half the mean spacing): a thin sheet's other side
   // lies off it. Under noise fewer neighbours count, so fewer correct normals are turned.
@@ -810,7 +818,7 @@ RBFPOUReconstruction<PointNT>::voteNormals (const std::vector<int>& nn)
 template <typename PointNT> void
 RBFPOUReconstruction<PointNT>::placeOffSurfaceConstraints (const pcl::KdTree<pcl::PointXYZ>& tree)
 {
-  using namespace rbf_pou_detail;
+  using namespace pclx::surface::detail;
   // Carr et al. 2001: halve ε until the point's nearest input point is its origin.
   const std::size_t n = pts_.size ();
   const int nt = threadCount (threads_);
@@ -920,7 +928,7 @@ RBFPOUReconstruction<PointNT>::splitOctree ()
 template <typename PointNT> void
 RBFPOUReconstruction<PointNT>::growLeaves (std::vector<Leaf>& leaves)
 {
-  using namespace rbf_pou_detail;
+  using namespace pclx::surface::detail;
   // Leaves below Tmin grow (factor 1.25 per step, at most 4×), shrinking back by bisection when
   // a step overshoots Tmax; leaves that cannot reach Tmin are dropped (scale 0).
   const std::uint32_t nc = std::uint32_t (pts_.size () + off_.size ());
@@ -1067,7 +1075,7 @@ RBFPOUReconstruction<PointNT>::buildBuckets ()
     for (int z = a[2]; z <= b[2]; ++z)
       for (int y = a[1]; y <= b[1]; ++y)
         for (int x = a[0]; x <= b[0]; ++x)
-          buckets_.emplace_back (rbf_pou_detail::pack (x, y, z), i);
+          buckets_.emplace_back (pclx::surface::detail::pack (x, y, z), i);
   }
   std::sort (buckets_.begin (), buckets_.end ());
 }
@@ -1075,7 +1083,7 @@ RBFPOUReconstruction<PointNT>::buildBuckets ()
 template <typename PointNT> bool
 RBFPOUReconstruction<PointNT>::fitSubdomain (Subdomain& s, const std::vector<float>& value, int np)
 {
-  using namespace rbf_pou_detail;
+  using namespace pclx::surface::detail;
   const int m = int (s.count);
   const bool smooth = stats_.noise > 0;
   Eigen::MatrixXd p (m, np);  // the polynomial basis at the centres, in the frame of the fit
@@ -1146,15 +1154,15 @@ RBFPOUReconstruction<PointNT>::fitSubdomains (const std::vector<float>& value)
 {
   sub_lambda_.assign (sub_ids_.size (), 0.f);
   std::size_t fallbacks = 0, smoothed = 0, polynomial = 0;
-#pragma omp parallel for num_threads(rbf_pou_detail::threadCount (threads_)) \
+#pragma omp parallel for num_threads(pclx::surface::detail::threadCount (threads_)) \
     reduction(+ : fallbacks, smoothed, polynomial) \
     schedule(dynamic, 4)
   for (std::ptrdiff_t si = 0; si < std::ptrdiff_t (subs_.size ()); ++si)
   {
     // Smoothing fits also carry the quadratic terms: for a large ρ the fit tends to the
     // least-squares quadric through the constraints, which follows curvature a plane cannot.
-    fallbacks += !fitSubdomain (subs_[si], value, stats_.noise > 0 ? rbf_pou_detail::kQuadricTerms
-                                                                   : rbf_pou_detail::kLinearTerms);
+    fallbacks += !fitSubdomain (subs_[si], value, stats_.noise > 0 ? pclx::surface::detail::kQuadricTerms
+                                                                   : pclx::surface::detail::kLinearTerms);
     smoothed += subs_[si].smoothing > 0;
     polynomial += !subs_[si].rbf;
   }
@@ -1166,7 +1174,7 @@ RBFPOUReconstruction<PointNT>::fitSubdomains (const std::vector<float>& value)
 template <typename PointNT> bool
 RBFPOUReconstruction<PointNT>::build ()
 {
-  using namespace rbf_pou_detail;
+  using namespace pclx::surface::detail;
   stats_ = Stats ();
   error_.clear ();
   pts_.clear (); nrm_.clear (); src_.clear (); off_.clear (); subs_.clear ();
@@ -1184,7 +1192,7 @@ RBFPOUReconstruction<PointNT>::build ()
     for (std::size_t i = 0; i < pts_.size (); ++i)
       (*xyz)[i].getVector3fMap () = pts_[i];
     pcl::KdTreeFLANN<pcl::PointXYZ> own (false);
-    std::unique_ptr<rbf_pou_detail::SearchOverValidPoints<PointNT>> given;
+    std::unique_ptr<pclx::surface::detail::SearchOverValidPoints<PointNT>> given;
     if (tree_)
       given = searchOverValidPoints ();
     else
@@ -1220,155 +1228,222 @@ RBFPOUReconstruction<PointNT>::build ()
   return true;
 }
 
-template <typename PointNT> bool
-RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, std::vector<Vertices>& polygons)
+// The sparse marching-cubes grid of extract () and what its stages hand on to each other.
+template <typename PointNT>
+struct RBFPOUReconstruction<PointNT>::ExtractState
 {
-  using namespace rbf_pou_detail;
-  const auto t0 = Clock::now ();
-  const int nt = threadCount (threads_);
-  const double h = stats_.grid_resolution;
+  int nt = 1;                          // threads
+  double h = 0;                        // cell size
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero ();
+  std::array<std::uint64_t, 3> stride{};  // key step of one cell along each axis
+  std::array<int, 6> face_edges{};        // edges of each cell face (PCL corner order)
+  std::vector<std::uint64_t> frontier, band, visited;  // cells (sorted keys)
+  std::vector<std::uint64_t> ckeys;    // evaluated corners (sorted)
+  std::vector<double> cvals;           // F − iso at ckeys
+  std::vector<std::uint64_t> mc_cells; // cells with a triangle, and their cube index
+  std::vector<std::uint8_t> mc_cube;
+  std::vector<std::uint64_t> edges;    // grid edges the surface crosses (sorted)
+  std::vector<std::vector<std::uint64_t>> next_t;  // per thread: cells across crossed faces
+  std::size_t uncovered = 0;
+  std::unique_ptr<pcl::KdTreeFLANN<pcl::PointXYZ>> nearest;  // subdomain centres, built when first needed
+
+  Eigen::Vector3d
+  position (std::uint64_t key) const
+  {
+    return Eigen::Vector3d (origin + pclx::surface::detail::unpack (key).cast<double> ().matrix () * h);
+  }
+  // A vertex is named by its grid edge (low corner key · 4 + axis), so cells that share an
+  // edge share the vertex.
+  std::uint64_t
+  edgeKey (std::uint64_t cell, int e) const
+  {
+    const int* a = pclx::surface::detail::kCorner[pclx::surface::detail::kEdge[e][0]];
+    const int* b = pclx::surface::detail::kCorner[pclx::surface::detail::kEdge[e][1]];
+    int axis = 0;
+    while (a[axis] == b[axis])
+      ++axis;
+    const int* low = a[axis] < b[axis] ? a : b;
+    return 4 * (cell + low[0] * stride[0] + low[1] * stride[1] + low[2] * stride[2]) + std::uint64_t (axis);
+  }
+  double
+  cornerValue (std::uint64_t key) const
+  {
+    return cvals[std::size_t (std::lower_bound (ckeys.begin (), ckeys.end (), key) - ckeys.begin ())];
+  }
+};
+
+template <typename PointNT> bool
+RBFPOUReconstruction<PointNT>::setUpExtractGrid (ExtractState& g)
+{
+  using namespace pclx::surface::detail;
+  g.nt = threadCount (threads_);
+  g.h = stats_.grid_resolution;
+  const double h = g.h;
   const auto [bmin, bmax] = bounds (pts_);
-  const Eigen::Vector3d origin = bmin.cast<double> ().array () - (band_ + 2) * h;
-  const Eigen::Vector3d extent = (bmax.cast<double> () - origin).array () / h + band_ + 3;
+  g.origin = bmin.cast<double> ().array () - (band_ + 2) * h;
+  const Eigen::Vector3d extent = (bmax.cast<double> () - g.origin).array () / h + band_ + 3;
   if (extent.maxCoeff () >= double (kMaxIndex))
     return fail ("grid resolution " + std::to_string (h) + " too fine for the extent (more than 2^20 cells per axis)");
-  auto position = [&] (std::uint64_t key) {
-    return Eigen::Vector3d (origin + unpack (key).cast<double> ().matrix () * h);
-  };
-
-  // Cells holding a point, and the band: those dilated by band_ cells (one axis at a time).
-  std::vector<std::uint64_t> frontier (pts_.size ());
-  for (std::size_t i = 0; i < pts_.size (); ++i)
-  {
-    const Eigen::Array3d c = ((pts_[i].cast<double> () - origin) / h).array ().floor ();
-    frontier[i] = pack (std::int64_t (c[0]), std::int64_t (c[1]), std::int64_t (c[2]));
-  }
-  sortUnique (frontier);
-  std::vector<std::uint64_t> band = frontier;
-  for (int axis = 0; axis < 3; ++axis)
-    dilate (band, axis, -band_, band_);
-  stats_.band_cells = band.size ();
-  if (!continuation_)
-    frontier = band;
-
-  // Edges of each cell face (PCL corner order), for the continuation across crossed faces.
-  std::array<int, 6> face_edges{};
-  std::array<std::uint64_t, 3> stride{};
   for (int axis = 0; axis < 3; ++axis)
   {
-    stride[axis] = std::uint64_t (1) << (kBits * axis);
+    g.stride[axis] = std::uint64_t (1) << (kBits * axis);
     for (int side = 0; side < 2; ++side)
       for (int e = 0; e < 12; ++e)
         if (kCorner[kEdge[e][0]][axis] == side && kCorner[kEdge[e][1]][axis] == side)
-          face_edges[2 * axis + side] |= 1 << e;
+          g.face_edges[2 * axis + side] |= 1 << e;
   }
+  return true;
+}
 
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::findBand (ExtractState& g)
+{
+  // Cells holding a point, and the band: those dilated by band_ cells (one axis at a time).
+  using namespace pclx::surface::detail;
+  auto& frontier = g.frontier;
+  frontier.resize (pts_.size ());
+  for (std::size_t i = 0; i < pts_.size (); ++i)
+  {
+    const Eigen::Array3d c = ((pts_[i].cast<double> () - g.origin) / g.h).array ().floor ();
+    frontier[i] = pack (std::int64_t (c[0]), std::int64_t (c[1]), std::int64_t (c[2]));
+  }
+  sortUnique (frontier);
+  g.band = frontier;
+  for (int axis = 0; axis < 3; ++axis)
+    dilate (g.band, axis, -band_, band_);
+  stats_.band_cells = g.band.size ();
+  if (!continuation_)
+    frontier = g.band;
+}
+
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::evaluateFrontierCorners (ExtractState& g)
+{
+  // F at the corners of the frontier cells not evaluated yet, merged into ckeys / cvals.
+  using namespace pclx::surface::detail;
+  std::vector<std::uint64_t> fresh;
+  {
+    std::vector<std::uint64_t> need = g.frontier;  // corners: cells dilated by {0, 1}³
+    for (int axis = 0; axis < 3; ++axis)
+      dilate (need, axis, 0, 1);
+    fresh.reserve (need.size ());
+    std::set_difference (need.begin (), need.end (), g.ckeys.begin (), g.ckeys.end (), std::back_inserter (fresh));
+  }
+  std::vector<double> fvals (fresh.size ());
+  // Through float, as evaluate (): F at a vertex's corners is what a user can query.
+  auto corner = [&] (std::uint64_t key) -> Eigen::Vector3d {
+    return g.position (key).template cast<float> ().template cast<double> ();
+  };
+#pragma omp parallel num_threads(g.nt)
+  {
+    BucketCache cache;
+#pragma omp for schedule(dynamic, 256)
+    for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (fresh.size ()); ++i)
+      fvals[i] = evaluateCached (corner (fresh[i]), cache) - iso_;
+  }
+  // Near sharp corners and sparse patches the enlarged octree cells can leave band corners
+  // uncovered; skipping their cells would open the mesh, so they take the nearest fit.
+  for (std::size_t i = 0; i < fresh.size (); ++i)
+    if (std::isnan (fvals[i]))
+    {
+      ++g.uncovered;
+      fvals[i] = nearestLocal (corner (fresh[i]), g.nearest) - iso_;
+    }
+  auto& ckeys = g.ckeys;
+  auto& cvals = g.cvals;
+  std::vector<std::uint64_t> keys (ckeys.size () + fresh.size ());
+  std::vector<double> vals (keys.size ());
+  std::size_t a = 0, b = 0, o = 0;
+  while (a < ckeys.size () || b < fresh.size ())
+  {
+    const bool take_a = b == fresh.size () || (a < ckeys.size () && ckeys[a] < fresh[b]);
+    keys[o] = take_a ? ckeys[a] : fresh[b];
+    vals[o++] = take_a ? cvals[a++] : fvals[b++];
+  }
+  ckeys.swap (keys);
+  cvals.swap (vals);
+}
+
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::classifyFrontier (ExtractState& g)
+{
+  // Cube index of every frontier cell, in contiguous per-thread chunks (deterministic
+  // concatenation); with continuation, the neighbours across crossed faces go to next_t.
+  using namespace pclx::surface::detail;
+  const int nt = g.nt;
+  const auto& frontier = g.frontier;
+  const auto& ckeys = g.ckeys;
+  const auto& cvals = g.cvals;
+  const auto& stride = g.stride;
+  g.next_t.assign (nt, {});
+  std::vector<std::vector<std::uint64_t>> cells_t (nt);
+  std::vector<std::vector<std::uint8_t>> cube_t (nt);
+#pragma omp parallel num_threads(nt)
+  {
+#ifdef _OPENMP
+    const int tid = omp_get_thread_num ();
+#else
+    const int tid = 0;
+#endif
+    const std::size_t lo = frontier.size () * tid / nt, hi = frontier.size () * (tid + 1) / nt;
+    for (std::size_t ci = lo; ci < hi; ++ci)
+    {
+      const std::uint64_t c = frontier[ci];
+      // Corners (x, x + 1) are neighbours in ckeys: four searches for the eight corners.
+      double v[8];
+      for (int yz = 0; yz < 4; ++yz)
+      {
+        const std::uint64_t k = c + (yz & 1 ? stride[1] : 0) + (yz & 2 ? stride[2] : 0);
+        const std::size_t i = std::size_t (std::lower_bound (ckeys.begin (), ckeys.end (), k) - ckeys.begin ());
+        // PCL order: corners 0, 1 at (y, z) = (0, 0); 3, 2 at (0, 1); 4, 5 at (1, 0); 7, 6 at (1, 1).
+        static constexpr int kLow[4] = {0, 4, 3, 7}, kHigh[4] = {1, 5, 2, 6};
+        v[kLow[yz]] = cvals[i];
+        v[kHigh[yz]] = cvals[i + 1];
+      }
+      int index = 0, defined = 0;
+      for (int k = 0; k < 8; ++k)
+      {
+        index |= (v[k] < 0) << k;
+        defined |= !std::isnan (v[k]) << k;
+      }
+      if (defined == 0xff && edgeTable[index] != 0)
+      {
+        cells_t[tid].push_back (c);
+        cube_t[tid].push_back (std::uint8_t (index));
+      }
+      if (!continuation_)
+        continue;
+      int crossed = 0;
+      for (int e = 0; e < 12; ++e)
+      {
+        const int a = kEdge[e][0], b = kEdge[e][1];
+        crossed |= (((defined >> a) & (defined >> b) & 1) && ((index >> a) & 1) != ((index >> b) & 1)) << e;
+      }
+      for (int f = 0; f < 6; ++f)
+        if (crossed & g.face_edges[f])
+          g.next_t[tid].push_back (f & 1 ? c + stride[f / 2] : c - stride[f / 2]);
+    }
+  }
+  for (int t = 0; t < nt; ++t)
+  {
+    g.mc_cells.insert (g.mc_cells.end (), cells_t[t].begin (), cells_t[t].end ());
+    g.mc_cube.insert (g.mc_cube.end (), cube_t[t].begin (), cube_t[t].end ());
+  }
+}
+
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::marchWaves (ExtractState& g)
+{
   // Waves: evaluate F at the corners of the frontier cells not seen yet, classify the cells,
   // then the next frontier is the band cells across crossed faces not visited yet.
-  std::vector<std::uint64_t> ckeys, visited;  // evaluated corners (sorted) and visited cells
-  std::vector<double> cvals;                  // F − iso at ckeys
-  std::vector<std::uint64_t> mc_cells;        // cells with a triangle, and their cube index
-  std::vector<std::uint8_t> mc_cube;
-  std::size_t uncovered = 0;
-  std::unique_ptr<pcl::KdTreeFLANN<pcl::PointXYZ>> nearest;  // subdomain centres, built when first needed
+  using namespace pclx::surface::detail;
+  auto& frontier = g.frontier;
+  auto& visited = g.visited;
   while (!frontier.empty ())
   {
     ++stats_.waves;
-    std::vector<std::uint64_t> fresh;
-    {
-      std::vector<std::uint64_t> need = frontier;  // corners: cells dilated by {0, 1}³
-      for (int axis = 0; axis < 3; ++axis)
-        dilate (need, axis, 0, 1);
-      fresh.reserve (need.size ());
-      std::set_difference (need.begin (), need.end (), ckeys.begin (), ckeys.end (), std::back_inserter (fresh));
-    }
-    std::vector<double> fvals (fresh.size ());
-    // Through float, as evaluate (): F at a vertex's corners is what a user can query.
-    auto corner = [&] (std::uint64_t key) -> Eigen::Vector3d {
-      return position (key).template cast<float> ().template cast<double> ();
-    };
-#pragma omp parallel num_threads(nt)
-    {
-      BucketCache cache;
-#pragma omp for schedule(dynamic, 256)
-      for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (fresh.size ()); ++i)
-        fvals[i] = evaluateCached (corner (fresh[i]), cache) - iso_;
-    }
-    // Near sharp corners and sparse patches the enlarged octree cells can leave band corners
-    // uncovered; skipping their cells would open the mesh, so they take the nearest fit.
-    for (std::size_t i = 0; i < fresh.size (); ++i)
-      if (std::isnan (fvals[i]))
-      {
-        ++uncovered;
-        fvals[i] = nearestLocal (corner (fresh[i]), nearest) - iso_;
-      }
-    {
-      std::vector<std::uint64_t> keys (ckeys.size () + fresh.size ());
-      std::vector<double> vals (keys.size ());
-      std::size_t a = 0, b = 0, o = 0;
-      while (a < ckeys.size () || b < fresh.size ())
-      {
-        const bool take_a = b == fresh.size () || (a < ckeys.size () && ckeys[a] < fresh[b]);
-        keys[o] = take_a ? ckeys[a] : fresh[b];
-        vals[o++] = take_a ? cvals[a++] : fvals[b++];
-      }
-      ckeys.swap (keys);
-      cvals.swap (vals);
-    }
-    // Classify the frontier in contiguous per-thread chunks (deterministic concatenation).
-    std::vector<std::vector<std::uint64_t>> next_t (nt), cells_t (nt);
-    std::vector<std::vector<std::uint8_t>> cube_t (nt);
-#pragma omp parallel num_threads(nt)
-    {
-#ifdef _OPENMP
-      const int tid = omp_get_thread_num ();
-#else
-      const int tid = 0;
-#endif
-      const std::size_t lo = frontier.size () * tid / nt, hi = frontier.size () * (tid + 1) / nt;
-      for (std::size_t ci = lo; ci < hi; ++ci)
-      {
-        const std::uint64_t c = frontier[ci];
-        // Corners (x, x + 1) are neighbours in ckeys: four searches for the eight corners.
-        double v[8];
-        for (int yz = 0; yz < 4; ++yz)
-        {
-          const std::uint64_t k = c + (yz & 1 ? stride[1] : 0) + (yz & 2 ? stride[2] : 0);
-          const std::size_t i = std::size_t (std::lower_bound (ckeys.begin (), ckeys.end (), k) - ckeys.begin ());
-          // PCL order: corners 0, 1 at (y, z) = (0, 0); 3, 2 at (0, 1); 4, 5 at (1, 0); 7, 6 at (1, 1).
-          static constexpr int kLow[4] = {0, 4, 3, 7}, kHigh[4] = {1, 5, 2, 6};
-          v[kLow[yz]] = cvals[i];
-          v[kHigh[yz]] = cvals[i + 1];
-        }
-        int index = 0, defined = 0;
-        for (int k = 0; k < 8; ++k)
-        {
-          index |= (v[k] < 0) << k;
-          defined |= !std::isnan (v[k]) << k;
-        }
-        if (defined == 0xff && edgeTable[index] != 0)
-        {
-          cells_t[tid].push_back (c);
-          cube_t[tid].push_back (std::uint8_t (index));
-        }
-        if (!continuation_)
-          continue;
-        int crossed = 0;
-        for (int e = 0; e < 12; ++e)
-        {
-          const int a = kEdge[e][0], b = kEdge[e][1];
-          crossed |= (((defined >> a) & (defined >> b) & 1) && ((index >> a) & 1) != ((index >> b) & 1)) << e;
-        }
-        for (int f = 0; f < 6; ++f)
-          if (crossed & face_edges[f])
-            next_t[tid].push_back (f & 1 ? c + stride[f / 2] : c - stride[f / 2]);
-      }
-    }
-    for (int t = 0; t < nt; ++t)
-    {
-      mc_cells.insert (mc_cells.end (), cells_t[t].begin (), cells_t[t].end ());
-      mc_cube.insert (mc_cube.end (), cube_t[t].begin (), cube_t[t].end ());
-    }
+    evaluateFrontierCorners (g);
+    classifyFrontier (g);
     {
       std::vector<std::uint64_t> merged;
       merged.reserve (visited.size () + frontier.size ());
@@ -1378,92 +1453,106 @@ RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, 
     if (!continuation_)
       break;
     std::vector<std::uint64_t> cand;
-    for (int t = 0; t < nt; ++t)
-      cand.insert (cand.end (), next_t[t].begin (), next_t[t].end ());
+    for (int t = 0; t < g.nt; ++t)
+      cand.insert (cand.end (), g.next_t[t].begin (), g.next_t[t].end ());
     sortUnique (cand);
     std::vector<std::uint64_t> fresh_cells;
     std::set_difference (cand.begin (), cand.end (), visited.begin (), visited.end (), std::back_inserter (fresh_cells));
     frontier.clear ();
-    std::set_intersection (fresh_cells.begin (), fresh_cells.end (), band.begin (), band.end (), std::back_inserter (frontier));
+    std::set_intersection (fresh_cells.begin (), fresh_cells.end (), g.band.begin (), g.band.end (),
+                           std::back_inserter (frontier));
   }
   stats_.active_cells = visited.size ();
-  stats_.corners = ckeys.size ();
-  stats_.uncovered_corners = uncovered;
-  std::vector<std::uint64_t> ().swap (band);
+  stats_.corners = g.ckeys.size ();
+  stats_.uncovered_corners = g.uncovered;
+  std::vector<std::uint64_t> ().swap (g.band);
   std::vector<std::uint64_t> ().swap (visited);
   std::vector<std::uint64_t> ().swap (frontier);
+  std::vector<std::vector<std::uint64_t>> ().swap (g.next_t);
+}
+
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::sortCellsByKey (ExtractState& g)
+{
   // Cells in key order: the mesh does not depend on the order the waves found them in.
+  auto& mc_cells = g.mc_cells;
+  auto& mc_cube = g.mc_cube;
+  std::vector<std::uint32_t> order (mc_cells.size ());
+  std::iota (order.begin (), order.end (), 0u);
+  std::sort (order.begin (), order.end (), [&] (std::uint32_t a, std::uint32_t b) { return mc_cells[a] < mc_cells[b]; });
+  std::vector<std::uint64_t> cells (order.size ());
+  std::vector<std::uint8_t> cube (order.size ());
+  for (std::size_t i = 0; i < order.size (); ++i)
   {
-    std::vector<std::uint32_t> order (mc_cells.size ());
-    std::iota (order.begin (), order.end (), 0u);
-    std::sort (order.begin (), order.end (), [&] (std::uint32_t a, std::uint32_t b) { return mc_cells[a] < mc_cells[b]; });
-    std::vector<std::uint64_t> cells (order.size ());
-    std::vector<std::uint8_t> cube (order.size ());
-    for (std::size_t i = 0; i < order.size (); ++i)
-    {
-      cells[i] = mc_cells[order[i]];
-      cube[i] = mc_cube[order[i]];
-    }
-    mc_cells.swap (cells);
-    mc_cube.swap (cube);
+    cells[i] = mc_cells[order[i]];
+    cube[i] = mc_cube[order[i]];
   }
+  mc_cells.swap (cells);
+  mc_cube.swap (cube);
+}
 
-  // A vertex is named by its grid edge (low corner key · 4 + axis), so cells that share an
-  // edge share the vertex.
-  auto edgeKey = [&] (std::uint64_t cell, int e) {
-    const int* a = kCorner[kEdge[e][0]];
-    const int* b = kCorner[kEdge[e][1]];
-    int axis = 0;
-    while (a[axis] == b[axis])
-      ++axis;
-    const int* low = a[axis] < b[axis] ? a : b;
-    return 4 * (cell + low[0] * stride[0] + low[1] * stride[1] + low[2] * stride[2]) + std::uint64_t (axis);
-  };
-  std::vector<std::uint64_t> edges;
-  {
-    std::vector<std::vector<std::uint64_t>> edges_t (nt);
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::collectCrossedEdges (ExtractState& g)
+{
+  // The grid edges the surface crosses, from every cell's edge table (per thread, then merged).
+  using namespace pclx::surface::detail;
+  const int nt = g.nt;
+  const auto& mc_cells = g.mc_cells;
+  const auto& mc_cube = g.mc_cube;
+  auto& edges = g.edges;
+  std::vector<std::vector<std::uint64_t>> edges_t (nt);
 #pragma omp parallel num_threads(nt)
-    {
+  {
 #ifdef _OPENMP
-      const int tid = omp_get_thread_num ();
+    const int tid = omp_get_thread_num ();
 #else
-      const int tid = 0;
+    const int tid = 0;
 #endif
-      const std::size_t lo = mc_cells.size () * tid / nt, hi = mc_cells.size () * (tid + 1) / nt;
-      for (std::size_t ci = lo; ci < hi; ++ci)
-        for (int e = 0; e < 12; ++e)
-          if (edgeTable[mc_cube[ci]] & (1 << e))
-            edges_t[tid].push_back (edgeKey (mc_cells[ci], e));
-      sortUnique (edges_t[tid]);
-    }
-    for (int t = 0; t < nt; ++t)
-    {
-      std::vector<std::uint64_t> merged;
-      merged.reserve (edges.size () + edges_t[t].size ());
-      std::set_union (edges.begin (), edges.end (), edges_t[t].begin (), edges_t[t].end (), std::back_inserter (merged));
-      edges.swap (merged);
-      std::vector<std::uint64_t> ().swap (edges_t[t]);
-    }
+    const std::size_t lo = mc_cells.size () * tid / nt, hi = mc_cells.size () * (tid + 1) / nt;
+    for (std::size_t ci = lo; ci < hi; ++ci)
+      for (int e = 0; e < 12; ++e)
+        if (edgeTable[mc_cube[ci]] & (1 << e))
+          edges_t[tid].push_back (g.edgeKey (mc_cells[ci], e));
+    sortUnique (edges_t[tid]);
   }
+  for (int t = 0; t < nt; ++t)
+  {
+    std::vector<std::uint64_t> merged;
+    merged.reserve (edges.size () + edges_t[t].size ());
+    std::set_union (edges.begin (), edges.end (), edges_t[t].begin (), edges_t[t].end (), std::back_inserter (merged));
+    edges.swap (merged);
+    std::vector<std::uint64_t> ().swap (edges_t[t]);
+  }
+}
 
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::interpolateVertices (ExtractState& g, std::vector<Eigen::Vector3f>& vertices)
+{
   // Vertices: linear interpolation on the edge.
+  const auto& edges = g.edges;
   vertices.resize (edges.size ());
-  auto cornerValue = [&] (std::uint64_t key) {
-    return cvals[std::size_t (std::lower_bound (ckeys.begin (), ckeys.end (), key) - ckeys.begin ())];
-  };
-#pragma omp parallel for num_threads(nt) schedule(static)
+#pragma omp parallel for num_threads(g.nt) schedule(static)
   for (std::ptrdiff_t i = 0; i < std::ptrdiff_t (edges.size ()); ++i)
   {
     const std::uint64_t k0 = edges[i] >> 2;
-    const std::uint64_t k1 = k0 + stride[edges[i] & 3];
-    const double v0 = cornerValue (k0), v1 = cornerValue (k1);
+    const std::uint64_t k1 = k0 + g.stride[edges[i] & 3];
+    const double v0 = g.cornerValue (k0), v1 = g.cornerValue (k1);
     const double t = v0 == v1 ? 0.5 : std::clamp (v0 / (v0 - v1), 0.0, 1.0);
-    vertices[i] = ((1 - t) * position (k0) + t * position (k1)).template cast<float> ();
+    vertices[i] = ((1 - t) * g.position (k0) + t * g.position (k1)).template cast<float> ();
   }
   // The corner values are no longer needed: free them before the polygons are allocated.
-  std::vector<std::uint64_t> ().swap (ckeys);
-  std::vector<double> ().swap (cvals);
+  std::vector<std::uint64_t> ().swap (g.ckeys);
+  std::vector<double> ().swap (g.cvals);
+}
 
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::triangulateCells (const ExtractState& g, std::vector<Vertices>& polygons)
+{
+  // Marching cubes' triangles of every cell, their corners named by the crossed edges.
+  using namespace pclx::surface::detail;
+  const auto& mc_cells = g.mc_cells;
+  const auto& mc_cube = g.mc_cube;
+  const auto& edges = g.edges;
   std::vector<std::size_t> first_tri (mc_cells.size () + 1, 0);
   for (std::size_t ci = 0; ci < mc_cells.size (); ++ci)
   {
@@ -1473,7 +1562,7 @@ RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, 
     first_tri[ci + 1] = first_tri[ci] + t;
   }
   polygons.resize (first_tri.back ());
-#pragma omp parallel for num_threads(nt) schedule(static)
+#pragma omp parallel for num_threads(g.nt) schedule(static)
   for (std::ptrdiff_t ci = 0; ci < std::ptrdiff_t (mc_cells.size ()); ++ci)
   {
     const int* tri = triTable[mc_cube[ci]];
@@ -1482,9 +1571,25 @@ RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, 
       auto& v = polygons[t].vertices;
       v.resize (3);
       for (int j = 0; j < 3; ++j, ++i)
-        v[j] = std::uint32_t (std::lower_bound (edges.begin (), edges.end (), edgeKey (mc_cells[ci], tri[i])) - edges.begin ());
+        v[j] = std::uint32_t (std::lower_bound (edges.begin (), edges.end (), g.edgeKey (mc_cells[ci], tri[i])) - edges.begin ());
     }
   }
+}
+
+template <typename PointNT> bool
+RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, std::vector<Vertices>& polygons)
+{
+  using namespace pclx::surface::detail;
+  const auto t0 = Clock::now ();
+  ExtractState g;
+  if (!setUpExtractGrid (g))
+    return false;
+  findBand (g);
+  marchWaves (g);
+  sortCellsByKey (g);
+  collectCrossedEdges (g);
+  interpolateVertices (g, vertices);
+  triangulateCells (g, polygons);
   closeHoles (vertices, polygons);
   stats_.vertices = vertices.size ();
   stats_.triangles = polygons.size ();
@@ -1496,7 +1601,7 @@ template <typename PointNT> template <typename At> void
 RBFPOUReconstruction<PointNT>::makeVertices (std::vector<Eigen::Vector3f>& vertices, const std::vector<Vertices>& polygons,
                                              At&& at)
 {
-  using namespace rbf_pou_detail;
+  using namespace pclx::surface::detail;
   const auto t0 = Clock::now ();
   const int nt = threadCount (threads_);
   // Other fields (colour, intensity, ...) come from the nearest input point; a point type with
@@ -1604,7 +1709,7 @@ template <typename PointNT> void
 RBFPOUReconstruction<PointNT>::performReconstruction (PolygonMesh& output)
 {
   // reconstruct () filled output.cloud with a copy of the input and reserved 2 polygons per
-  // input point: release both (at 1M points ~100 MB held through the whole run otherwise).
+  // input point: release both, or they would be held through the whole run.
   output.cloud.data.clear ();
   output.cloud.data.shrink_to_fit ();
   std::vector<Vertices> ().swap (output.polygons);
@@ -1617,7 +1722,7 @@ RBFPOUReconstruction<PointNT>::performReconstruction (PolygonMesh& output)
     return;
   }
   // The vertices are built in the blob itself, one PointNT per point_step as toPCLPointCloud2
-  // lays them out, instead of in a PointCloud and then copied (~130 MB less at 1M points).
+  // lays them out, instead of in a PointCloud and then copied (one output cloud less at peak).
   auto& c = output.cloud;
   c.width = std::uint32_t (vertices.size ());
   c.height = 1;

@@ -2,7 +2,7 @@
 // A kd-tree (pcl::search::KdTree, FLANN) built on its first query instead of in
 // setInputCloud (). PlanarOctreeNormalEstimation installs it when the user sets no search
 // method: on clean input its own neighbour searches go to a grid over the few points
-// that need them (pclx::normals::GridKnn), and the full tree, 0.4 s serial at 1M points,
+// that need them (pclx::normals::detail::GridKnn), and the full tree (a serial build),
 // is only built if some other path (another input than the search surface, OCTREE /
 // HYBRID) asks for a neighbour. Queries are thread-safe; the first one builds.
 #include <pcl/search/kdtree.h>
@@ -11,26 +11,27 @@
 #include <atomic>
 #include <mutex>
 
-namespace pcl {
-namespace search {
+namespace pclx {
+namespace normals {
+namespace detail {
 
 template <typename PointT>
-class LazyKdTree : public Search<PointT>
+class LazyKdTree : public pcl::search::Search<PointT>
 {
 public:
-  using Ptr = shared_ptr<LazyKdTree<PointT>>;
-  using PointCloudConstPtr = typename Search<PointT>::PointCloudConstPtr;
-  using IndicesConstPtr = typename Search<PointT>::IndicesConstPtr;
-  using Search<PointT>::nearestKSearch;
-  using Search<PointT>::radiusSearch;
+  using Ptr = pcl::shared_ptr<LazyKdTree<PointT>>;
+  using PointCloudConstPtr = typename pcl::search::Search<PointT>::PointCloudConstPtr;
+  using IndicesConstPtr = typename pcl::search::Search<PointT>::IndicesConstPtr;
+  using pcl::search::Search<PointT>::nearestKSearch;
+  using pcl::search::Search<PointT>::radiusSearch;
 
-  LazyKdTree () : Search<PointT> ("LazyKdTree", false) {}
+  LazyKdTree () : pcl::search::Search<PointT> ("LazyKdTree", false) {}
 
   void
   setInputCloud (const PointCloudConstPtr& cloud, const IndicesConstPtr& indices = IndicesConstPtr ()) override
   {
     std::lock_guard<std::mutex> lock (mutex_);
-    Search<PointT>::setInputCloud (cloud, indices);
+    pcl::search::Search<PointT>::setInputCloud (cloud, indices);
     tree_.reset ();
     built_ = false;
   }
@@ -38,19 +39,19 @@ public:
   bool isBuilt () const { return built_.load (); }
 
   int
-  nearestKSearch (const PointT& point, int k, Indices& k_indices, std::vector<float>& k_sqr_distances) const override
+  nearestKSearch (const PointT& point, int k, pcl::Indices& k_indices, std::vector<float>& k_sqr_distances) const override
   {
     return tree ().nearestKSearch (point, k, k_indices, k_sqr_distances);
   }
   int
-  radiusSearch (const PointT& point, double radius, Indices& k_indices, std::vector<float>& k_sqr_distances,
+  radiusSearch (const PointT& point, double radius, pcl::Indices& k_indices, std::vector<float>& k_sqr_distances,
                 unsigned int max_nn = 0) const override
   {
     return tree ().radiusSearch (point, radius, k_indices, k_sqr_distances, max_nn);
   }
 
 private:
-  const KdTree<PointT>&
+  const pcl::search::KdTree<PointT>&
   tree () const
   {
     if (!built_.load (std::memory_order_acquire))
@@ -58,7 +59,7 @@ private:
       std::lock_guard<std::mutex> lock (mutex_);
       if (!built_.load (std::memory_order_relaxed))
       {
-        tree_.reset (new KdTree<PointT> (this->sorted_results_));
+        tree_.reset (new pcl::search::KdTree<PointT> (this->sorted_results_));
         tree_->setInputCloud (this->input_, this->indices_);
         built_.store (true, std::memory_order_release);
       }
@@ -68,8 +69,9 @@ private:
 
   mutable std::mutex mutex_;
   mutable std::atomic<bool> built_ {false};
-  mutable typename KdTree<PointT>::Ptr tree_;
+  mutable typename pcl::search::KdTree<PointT>::Ptr tree_;
 };
 
-}  // namespace search
-}  // namespace pcl
+}  // namespace detail
+}  // namespace normals
+}  // namespace pclx

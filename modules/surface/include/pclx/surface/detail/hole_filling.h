@@ -9,6 +9,7 @@
 
 namespace pclx {
 namespace surface {
+namespace detail {
 
 /** \brief What fillSmallHoles () found and did. */
 struct HoleFillingStats
@@ -41,5 +42,6 @@ bool
 fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<pcl::Vertices>& triangles, double max_diameter,
                 HoleFillingStats& stats);
 
+}  // namespace detail
 }  // namespace surface
 }  // namespace pclx

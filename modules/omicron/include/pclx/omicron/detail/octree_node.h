@@ -18,8 +18,11 @@
 #include <utility>
 #include <vector>
 
-namespace pcl {
+namespace pclx {
 namespace omicron {
+namespace detail {
+
+using pcl::MortonCode;
 
 enum NodeFlags : std::uint8_t
 {
@@ -153,5 +156,6 @@ parentSampleIndex (std::uint32_t t, std::uint32_t m, std::uint32_t n)
   return static_cast<std::uint32_t> ((2 * std::uint64_t (t) + 1) * n / (2 * std::uint64_t (m)));
 }
 
+}  // namespace detail
 }  // namespace omicron
-}  // namespace pcl
+}  // namespace pclx

@@ -1,7 +1,7 @@
 #pragma once
-// The planarity octree of seed 002 (Algorithm 1) plus the seed's ch. 7 fix:
+// The planarity octree of Musmanno 2016 (Algorithm 1) plus Musmanno's ch. 7 fix:
 // merging adjacent leaves whose planes agree into regions, each with one robust
-// surface fit (plane, or a quadric height field: the seed's "polynomial fitting").
+// surface fit (plane, or a quadric height field: Musmanno's "polynomial fitting").
 // Non-templated: it works on plain float positions, the PCL feature wraps it.
 #include <Eigen/Core>
 
@@ -12,15 +12,16 @@
 
 namespace pclx {
 namespace normals {
+namespace detail {
 
 struct PlanarOctreeParams
 {
   double s_alpha = 6.25;  // planar when λ2 > sα·λ3 ...
-  double s_beta = 1.5;    // ... and sβ·λ2 > λ1 (seed §5.4.1)
+  double s_beta = 1.5;    // ... and sβ·λ2 > λ1 (Musmanno 2016, §5.4.1)
   int max_depth = 10;
   int min_points = 10;    // a cell with fewer points is not split and cannot be planar
   int threads = 0;        // 0: OpenMP default
-  // Not in the seed (0 = off): a planar cell is split anyway when a point lies farther
+  // Not in Musmanno 2016 (0 = off): a planar cell is split anyway when a point lies farther
   // than this many RMS thicknesses from the cell's plane: a second surface (the other
   // side of an edge) hiding in the cell as a small minority.
   double max_residual_ratio = 0;
@@ -65,7 +66,7 @@ struct SurfaceFit
   bool valid = false;  // patches: slope_sigma within the limit
 };
 
-// A set of merged coplanar leaves with its surface fit (seed ch. 7: one robust fit).
+// A set of merged coplanar leaves with its surface fit (Musmanno 2016, ch. 7: one robust fit).
 struct PlanarRegion
 {
   int points = 0;
@@ -102,7 +103,7 @@ public:
   // Distance from p to the cell's centre in the max norm, relative to the half edge (0 centre, 1 face).
   float relativeCentreDistance (int node, const Eigen::Vector3f& p) const;
 
-  // Seed ch. 7: union of adjacent planar leaves whose normals differ by less than
+  // Musmanno 2016, ch. 7: union of adjacent planar leaves whose normals differ by less than
   // max_angle_deg and whose union stays as thin as thickness_factor × the thickest part.
   void mergeCoplanarLeaves (double max_angle_deg, double thickness_factor);
   // Surface fit of every region (call after mergeCoplanarLeaves).
@@ -111,14 +112,14 @@ public:
   Eigen::Vector3f regionNormalAt (int r, const Eigen::Vector3f& p) const;
   double regionResidual (int r, const Eigen::Vector3f& p) const;
 
-  // Patches (not in the seed): every planar leaf is cut into cells of at most max_points
+  // Patches (not in Musmanno 2016): every planar leaf is cut into cells of at most max_points
   // points; each cell gets a quadric fitted over a box around its points that holds about
   // support_points points at the leaf's density, restricted to the same leaf or merged
   // region (the same sheet of surface). When the fit's slope is more uncertain than
   // max_slope_sigma (radians: noise), the box doubles, up to `scales` sizes, so a patch
   // spends no more support than the noise needs; a cell that never gets there is marked
   // invalid. A point's normal is the gradient of its cell's fit: a kNN-sized support
-  // without a kNN search, and no leaf border inside it (the error the seed found in
+  // without a kNN search, and no leaf border inside it (the error Musmanno found in
   // Algorithm 2). Call after mergeCoplanarLeaves.
   void fitPatches (int max_points, bool quadric, double max_slope_sigma, int scales, int support_points);
   // The patch cells of a planar leaf (node id), as a tree: cell 0 is the leaf itself.
@@ -153,6 +154,19 @@ private:
   void patchPointsInBox (int leaf, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi,
                          std::vector<Eigen::Vector3f>& out) const;
 
+  // fitPatches ()'s stages.
+  struct PatchScratch;
+  struct PatchLeafFrame;
+  // Cuts every planar leaf (node ids) into its tree of patch cells.
+  void cutPatchCells (const std::vector<int>& leaves, int max_points, int threads);
+  // Gives every non-empty patch cell its SurfaceFit slot and every point its patch.
+  void numberPatches (int threads);
+  // The candidate points of a leaf's patches, bucketed over its plane.
+  PatchLeafFrame gatherLeafCandidates (int leaf, int scales, int support_points, PatchScratch& scratch) const;
+  // The fit of one patch cell C of leaf L, growing its ball up to `scales` sizes.
+  void fitPatch (const PatchCell& C, const OctreeNode& L, const PatchLeafFrame& frame, bool quadric,
+                 double max_slope_sigma, int scales, PatchScratch& scratch);
+
   const std::vector<Eigen::Vector3f>* points_ = nullptr;
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero ();
   std::vector<OctreeNode> nodes_;
@@ -169,5 +183,6 @@ private:
   int threads_ = 0;
 };
 
+}  // namespace detail
 }  // namespace normals
 }  // namespace pclx

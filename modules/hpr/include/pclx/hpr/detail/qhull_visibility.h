@@ -7,8 +7,9 @@
 #include <string>
 #include <vector>
 
-namespace pcl {
+namespace pclx {
 namespace hpr {
+namespace detail {
 
 struct HullResult
 {
@@ -23,5 +24,6 @@ struct HullResult
 // `joggle` retries degenerate (flat) inputs with Qhull's QJ option.
 HullResult flippedHull (const std::vector<Eigen::Vector3d>& points, bool triangulate, bool joggle = false);
 
+}  // namespace detail
 }  // namespace hpr
-}  // namespace pcl
+}  // namespace pclx

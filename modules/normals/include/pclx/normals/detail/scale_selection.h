@@ -1,5 +1,5 @@
 #pragma once
-// Per-point scale selection for kNN PCA normals (issue 13; not in the seed): a ladder of
+// Per-point scale selection for kNN PCA normals (not in Musmanno 2016): a ladder of
 // supports (12, 18, 30, 50, 100, 200, ... nearest neighbours) read as prefixes of one
 // sorted neighbour list, and Lepski's rule: take the largest support whose normal agrees
 // with every smaller one within τ standard errors of their difference. The standard error
@@ -18,14 +18,15 @@
 
 namespace pclx {
 namespace normals {
+namespace detail {
 
 struct NoiseEstimate
 {
   double sigma = 0;    // noise along the normal (robust, median over samples)
   double spacing = 0;  // typical point spacing (median √(π d50² / 50))
   int samples = 0;
-  // Noise that matters next to the sampling: above ~0.15 spacing, small quadric patches
-  // are worse than a PCA plane over a larger support (measured on PCPNet and fertility).
+  // Noise that matters next to the sampling: above about 0.15 spacing, small quadric
+  // patches are worse than a PCA plane over a larger support (docs/normals.md).
   double ratio () const { return spacing > 0 ? sigma / spacing : 0; }
 };
 
@@ -118,5 +119,6 @@ bool keepsLargerRung (const Eigen::Vector3f& x, std::uint64_t* keys, const std::
 double shiftedSums (const Eigen::Vector3f& x, const std::uint64_t* keys, int count,
                     const std::vector<Eigen::Vector3f>& positions, double* s);
 
+}  // namespace detail
 }  // namespace normals
 }  // namespace pclx

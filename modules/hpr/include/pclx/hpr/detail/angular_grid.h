@@ -1,23 +1,24 @@
 #pragma once
-// The angular grid of Machado e Silva et al. (seed 003 §3–4): sectors around the
-// viewpoint C, one extreme candidate of the spherically flipped cloud per sector,
-// the EMPTY map, candidate propagation, and what the grid gives for free: the
-// partial view-dependent triangulation (§4.4), per-point normals (§5.3) and
-// splat radii (§5.5). Points are given relative to C (C at the origin).
+// The angular grid of Machado e Silva et al. 2014 (§3–4): sectors around the viewpoint C,
+// one extreme candidate of the spherically flipped cloud per sector, the EMPTY map,
+// candidate propagation, and what the grid gives for free: the partial view-dependent
+// triangulation (§4.4), per-point normals (§5.3) and splat radii (§5.5). Points are given
+// relative to C (C at the origin). Internal to pcl::HPRFilter.
 #include <Eigen/Core>
 
 #include <cstdint>
 #include <functional>
 #include <vector>
 
-namespace pcl {
+namespace pclx {
 namespace hpr {
+namespace detail {
 
 class AngularGrid
 {
 public:
   // Sector frame: x axis through the cloud centre C_e. Narrow views are tiled in the
-  // tangent plane (y/x, z/x); wide ones in the seed's φ = atan2(y, x), θ = acos(z / ρ).
+  // tangent plane (y/x, z/x); wide ones in the paper's φ = atan2(y, x), θ = acos(z / ρ).
   // `sectors` is k; cells are square (see build()).
   // `radius` is the flip radius R (> max ρ).
   void build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre, double radius,
@@ -27,13 +28,15 @@ public:
   void build (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre,
               const std::function<double (double grid_solid_angle)>& radius_for_area, std::size_t sectors);
 
-  // Adaptive propagation (§4.3.1, scatter): only sectors changed in the previous step
+  // Adaptive propagation (§4.3, scatter): only sectors changed in the previous step
   // pass their candidate on; stops when stable or after `max_steps` (0 = until stable).
   // Returns the number of steps done.
   int propagateAdaptive (int max_steps);
-  // Fixed propagation (§4.3.2, gather): one pass over an m×m neighbourhood (m odd).
+  // Fixed propagation (Machado e Silva 2012, §4.3.2, gather): one pass over an m×m
+  // neighbourhood (m odd).
   void propagateFixed (int m);
-  // Kavan et al.'s refinement (seed 000 §3.2): every candidate against all others, O(k²).
+  // Kavan et al.'s refinement (Machado e Silva 2012, §3.2): every candidate against all
+  // others, O(k²).
   void refineGlobal ();
 
   // Visible = the distinct sector candidates (hull vertices of the approximation).
@@ -84,10 +87,10 @@ public:
   // on every side, every sector without a point of its own that borders one with points
   // takes the point of its 3×3 neighbourhood that scores best towards it, and a quad whose
   // corners share a propagated candidate uses the corners' own best points. Without them, a
-  // sector's tetrahedra reached only as far out as its neighbours' candidates, and a quad
-  // with a repeated candidate had none: beside silhouettes, in the cloud's outline and where
+  // sector's tetrahedra reach only as far out as its neighbours' candidates, and a quad with
+  // a repeated candidate has none: beside silhouettes, in the cloud's outline and where
   // propagation spread one candidate over several sectors, hidden points deep behind the
-  // surface were never tested. Any point is a valid tetrahedron vertex (the culling stays
+  // surface would never be tested. Any point is a valid tetrahedron vertex (the culling stays
   // inside the hull of all points, so it stays conservative). R is unchanged (the ring is
   // not counted in the grid's solid angle).
   void setOutlineCandidates (bool on) { outline_ = on; }
@@ -117,10 +120,38 @@ public:
   double gridSolidAngle () const;
 
 private:
-  // Both build ()s: R from radius_for_area when given, else `radius`.
+  struct Extent;
+  struct Tetra;
+  struct QuadSet;
+  struct InteriorPass;
+
+  // Both build ()s: R from radius_for_area when given, else `radius`. Its stages: the frame,
+  // the points' directions (and the tiling), the sector layout and R, the candidates, the
+  // EMPTY map.
   void buildGrid (const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre,
                   const std::function<double (double)>* radius_for_area, double radius, std::size_t sectors);
-  // g = 1 − cos α + cos α·ρ/(2R) is the seed's DIST = (2R − ρ)·cos α rescaled so that
+  void setFrame (const Eigen::Vector3d& centre);
+  Extent pointDirections (const std::vector<Eigen::Vector3d>& points);
+  Extent sphericalCoordinates ();
+  void layoutSectors (Extent extent, const std::function<double (double)>* radius_for_area, double radius,
+                      std::size_t sectors);
+  void layoutCentres ();
+  void assignCandidates ();
+  void buildEmptyMap ();
+
+  // interiorPoints ()'s stages: the candidates' directions and flips, the depth cut, the
+  // points bucketed by sector row, the tetrahedron tests, the uncertain band, the output.
+  void prepareCandidates (InteriorPass& pass) const;
+  void quadTetras (const InteriorPass& pass, int qa, int qb, Tetra* out, int& count, double& min_rho) const;
+  void computeDepthCut (const InteriorPass& pass) const;
+  void bucketByRow (InteriorPass& pass) const;
+  void runTetrahedronTests (InteriorPass& pass) const;
+  static bool insideQuads (const QuadSet* const* quad, int first, const Eigen::Vector3d& p, const Eigen::Vector3d& q,
+                           double rho);
+  void markUncertainBand (const InteriorPass& pass) const;
+  void writeInteriorOutput (InteriorPass& pass) const;
+  bool seedsBand (double rho, double near) const;
+  // g = 1 − cos α + cos α·ρ/(2R) is the paper's DIST = (2R − ρ)·cos α rescaled so that
   // smaller is better and the tiny differences survive in floating point (R ≫ ρ).
   double score (int point, std::size_t sector) const;
   double scoreDir (int point, const Eigen::Vector3d& sector_direction) const;  // the same, direction given
@@ -160,7 +191,7 @@ private:
   bool gnomonic_ = false;                    // tangent-plane tiling (narrow views)
   std::vector<double> centre_a_, centre_b_;  // sector centre coordinates
   std::vector<double> cos_phi_, sin_phi_, cos_theta_, sin_theta_;  // sector centre angles
-  std::vector<int> cand_;      // per sector: candidate point or −1 (the seed's MAX array)
+  std::vector<int> cand_;      // per sector: candidate point or −1 (the paper's MAX array)
   std::vector<double> best_;   // per sector: score of the candidate
   int threads_ = 0;
   double fixed_cell_ = 0;
@@ -174,8 +205,7 @@ private:
   std::vector<std::uint8_t> occupied_coarse_;
   // Per-call buffers of build (), propagateAdaptive () and interiorPoints (), kept with their
   // capacity: a grid used again (HPRFilter on every frame) then writes to pages it already
-  // has. At 1M points the page faults of fresh buffers were ~13 % of a candidate-hull call's
-  // CPU time.
+  // has instead of faulting in fresh ones.
   struct Scratch
   {
     std::vector<float> ca, cb;
@@ -192,5 +222,6 @@ private:
   mutable Scratch scratch_;  // contents meaningless between calls
 };
 
+}  // namespace detail
 }  // namespace hpr
-}  // namespace pcl
+}  // namespace pclx

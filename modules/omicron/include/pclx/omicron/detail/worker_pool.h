@@ -1,5 +1,5 @@
 #pragma once
-// pcl::omicron::WorkerPool: a fixed set of std::threads that run parallel loops for the fix
+// pclx::omicron::detail::WorkerPool: a fixed set of std::threads that run parallel loops for the fix
 // workers and the sorter passes.
 //
 // Hand-written instead of TBB: Debian's libtbb is not built with ThreadSanitizer, so every
@@ -14,8 +14,9 @@
 #include <thread>
 #include <vector>
 
-namespace pcl {
+namespace pclx {
 namespace omicron {
+namespace detail {
 
 class WorkerPool
 {
@@ -49,5 +50,6 @@ private:
   bool stop_ = false;
 };
 
+}  // namespace detail
 }  // namespace omicron
-}  // namespace pcl
+}  // namespace pclx

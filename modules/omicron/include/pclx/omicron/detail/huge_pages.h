@@ -1,7 +1,7 @@
 #pragma once
 // Transparent huge pages for the build's large buffers (sorted array, chunk sort buffers).
 // With THP in "madvise" mode a region advised MADV_HUGEPAGE before it is touched faults in
-// 2 MiB pages instead of 4 KiB ones (docs/NOTES.md, normals: first touches are expensive here).
+// 2 MiB pages instead of 4 KiB ones, fewer page faults on first touch.
 //
 // The buffers stay std::vectors with their usual allocators (public types do not change):
 // reserveHuge () reserves the capacity (large allocations are fresh mmaps, so nothing is
@@ -14,12 +14,13 @@
 #include <sys/mman.h>
 #endif
 
-namespace pcl {
+namespace pclx {
 namespace omicron {
+namespace detail {
 
-// Off by default: on this VM huge-page first touches cost more than 4 KiB ones whenever the
-// memory is new to the guest (20M file-path build: +1 s; from a loaded cloud: -0.1 s to +1 s,
-// docs/results/omicron/README.md). PCLX_OMICRON_THP=1 in the environment turns them on.
+// Off by default: huge-page first touches can cost more than 4 KiB ones when the memory is
+// new to a virtual machine's guest (docs/omicron.md has the measurements).
+// PCLX_OMICRON_THP=1 in the environment turns them on.
 inline bool
 hugePagesEnabled ()
 {
@@ -62,5 +63,6 @@ reserveHuge (Vector& v, std::size_t n)
   adviseHugePages (v.data (), v.capacity () * sizeof (typename Vector::value_type));
 }
 
+}  // namespace detail
 }  // namespace omicron
-}  // namespace pcl
+}  // namespace pclx

@@ -1,7 +1,7 @@
 #pragma once
-// The point-type independent core of HPRFilter: every method on a plain array of
-// points given relative to the viewpoint.
-#include <pclx/hpr/angular_grid.h>
+// The point-type independent core of pcl::HPRFilter: every method on a plain array of
+// points given relative to the viewpoint. Internal: the public interface is HPRFilter.
+#include <pclx/hpr/detail/angular_grid.h>
 
 #include <Eigen/Core>
 
@@ -9,10 +9,11 @@
 #include <string>
 #include <vector>
 
-namespace pcl {
+namespace pclx {
 namespace hpr {
+namespace detail {
 
-// Largest grid the approximate methods accept (~20 bytes per sector).
+// Largest grid the approximate methods accept (about 20 bytes per sector).
 constexpr std::size_t kMaxSectors = std::size_t (1) << 24;
 
 enum class VisibilityMethod { EXACT, ANGULAR_GRID, CANDIDATE_HULL, BENTLEY_FAUST_PREPARATA, KAVAN, HYBRID };
@@ -41,7 +42,7 @@ struct VisibilityOptions
   int steps = 0;              // ℓ (adaptive, 0: calibrate) or m (fixed)
   bool exact_prefilter = true;
   // Candidate hull: culling passes on the survivors after the first, on grids 2×, 4×, ...
-  // finer at the same R (0: one pass, as before; computeVisibility rejects < 0).
+  // finer at the same R (0: one pass; computeVisibility rejects < 0).
   int refinement = 2;
   bool triangles = false;
   float max_edge = 0.f;       // <= 0: 5 × median edge
@@ -68,8 +69,9 @@ struct VisibilityResult
   int threads = 1;                 // OpenMP threads used
 };
 
-// Calibration (seed §6): R from the angular separation α of visible points, k from the
-// sectors needed for one visible point per sector (times `oversampling`), ℓ from α.
+// Calibration (Machado e Silva et al. 2014, §6): R from the angular separation α of visible
+// points, k from the sectors needed for one visible point per sector (times `oversampling`),
+// ℓ from α.
 struct HPRCalibration
 {
   double alpha = 0;
@@ -89,10 +91,9 @@ double radiusForSeparation (const HPRCalibration& cal, double alpha, double occl
 // Measured noise of the surface: the lower quartile, over ~`seeds` points spread through the
 // cloud, of the thickness (√ of the smallest covariance eigenvalue) of a plane fit to each
 // one's `k` nearest neighbours, found among the points of the 2×2×2 voxels around it (one
-// pass over the cloud; voxel side from the seeds' extent and n). Isotropic noise σ per axis
-// reads ≈ 0.3 σ at k = 8; a clean, smooth surface reads its curvature over the
-// neighbourhood. Walls thinner than the neighbourhood (both faces in it) read as noise where
-// they are most of the cloud. 0 when the cloud is too small to tell. The candidate hull
+// pass over the cloud; voxel side from the seeds' extent and n). A clean, smooth surface
+// reads its curvature over the neighbourhood. Walls thinner than the neighbourhood (both
+// faces in it) read as noise where they are most of the cloud. 0 when the cloud is too small to tell. The candidate hull
 // gathers the same neighbours in its first pass over the points (no pass of its own).
 constexpr std::size_t kNoiseSeeds = 256;
 constexpr int kNoiseNeighbours = 8;
@@ -100,7 +101,7 @@ double estimateSurfaceNoise (const std::vector<Eigen::Vector3d>& points, std::si
                              int k = kNoiseNeighbours);
 // The candidate hull's occlusion depth (relative to the cloud radius, as occlusion_depth):
 // 0.8 × occlusion_depth on a clean cloud, more where the measured noise needs it (see
-// visibility.cpp, kNoiseDepths).
+// kNoiseDepths in visibility.cpp and docs/hpr.md).
 double candidateHullDepth (double occlusion_depth, double cloud_radius, double noise);
 // ℓ for a grid of k sectors: enough steps to cover the sectors between two visible points.
 int propagationSteps (const HPRCalibration& cal, std::size_t k);
@@ -110,21 +111,19 @@ int propagationSteps (const HPRCalibration& cal, std::size_t k);
 // exactly edge-on: every point lies on its silhouette, so HPR calls all of them visible.
 // That is also the limit of the exact operator as C approaches the plane: the flip maps a
 // plane not through C onto a closed surface of which every point is a hull vertex, so a
-// flat cloud is entirely visible from any C off its plane. (Qhull, given the degenerate
-// flat case itself, returned a joggle-dependent ~63 %; the grid methods returned 100 %.)
+// flat cloud is entirely visible from any C off its plane. Qhull, given the degenerate flat
+// case itself, would return a joggle-dependent answer.
 bool isEdgeOn (const std::vector<Eigen::Vector3d>& points, double tolerance);
 
 // Threads for one call on `points` points: at most omp_get_max_threads(), one per ~32k
 // points, and no more than the cores nobody else is running on (the instantaneous runnable
 // count of /proc/loadavg, this thread excluded). A thread that has to share its core stalls
-// every barrier of the grid passes by a scheduler time slice: on 2 cores with one busy
-// process, 2 threads were 4–5× slower than 1 (issue 12 item 2). Not Linux: the first two rules.
+// every barrier of the grid passes by a scheduler time slice. Not Linux: the first two rules.
 int autoThreads (std::size_t points);
 
 // Working memory that one call leaves for the next (HPRFilter keeps one): the buffers keep
 // their capacity, so a filter run on every frame writes to pages it already has instead of
-// faulting in fresh ones, ~13 % of a candidate-hull call's CPU time at 1M points. About
-// 120 bytes per point of the largest cloud so far (measured at 1M points, candidate hull);
+// faulting in fresh ones. Its size follows the largest cloud so far (docs/hpr.md);
 // release () gives it back. Copies start empty (two filters never share one); not for
 // concurrent calls.
 struct VisibilityWorkspace
@@ -144,6 +143,18 @@ struct VisibilityWorkspace
   std::vector<std::uint8_t> state;
 };
 
+// What HPRFilter gathers while copying the requested points (its applyFilter's stages share
+// it): the thread count, the number of requested indices, per block of kStatsBlock indices
+// the number of finite points before it, the point statistics, max |p − C| and max |p|.
+struct GatheredPoints
+{
+  int threads = 1;
+  std::size_t requested = 0, blocks = 0;
+  std::vector<std::size_t> block_start;
+  PointStats stats;
+  double max_rho = 0, max_coord = 0;
+};
+
 // `points` are p − C for finite p; points at the viewpoint itself are visible.
 // Flat input seen edge-on (every point, to float precision, in one plane through C) is all
 // visible, whatever the method: see isEdgeOn().
@@ -151,5 +162,6 @@ struct VisibilityWorkspace
 VisibilityResult computeVisibility (const std::vector<Eigen::Vector3d>& points, const VisibilityOptions& options,
                                     VisibilityWorkspace* workspace = nullptr);
 
+}  // namespace detail
 }  // namespace hpr
-}  // namespace pcl
+}  // namespace pclx

@@ -24,9 +24,12 @@
 #include <string>
 #include <vector>
 
-namespace pcl {
+namespace pclx {
 namespace omicron {
+namespace detail {
 namespace potree {
+
+using pcl::MortonCode;
 
 enum NodeType : std::uint8_t
 {
@@ -59,12 +62,12 @@ struct Metadata
 };
 
 std::string nodeName (MortonCode code);
-// Throws std::invalid_argument on a malformed name.
+// Throws std::runtime_error on a malformed name.
 MortonCode codeFromName (const std::string& name);
 
 // Writes hierarchy.bin for `records` (any order; every node's parent must be present) and
 // returns firstChunkSize and depth through `meta`. Nodes whose subtree holds no point are
-// left out. Throws pcl::IOException.
+// left out. Throws std::runtime_error (caught by PotreeWriter).
 void writeHierarchy (const std::string& path, const std::vector<NodeRecord>& records, Metadata& meta);
 void writeMetadata (const std::string& path, const Metadata& meta);
 
@@ -78,9 +81,10 @@ void writeMetadata (const std::string& path, const Metadata& meta);
   */
 double spacingForNodes (const std::vector<NodeRecord>& records, double edge);
 
-// Throws pcl::IOException with the reason on anything malformed.
+// Throws std::runtime_error with the reason on anything malformed (caught by PotreeReader).
 Metadata readMetadata (const std::string& path);
 
 }  // namespace potree
+}  // namespace detail
 }  // namespace omicron
-}  // namespace pcl
+}  // namespace pclx

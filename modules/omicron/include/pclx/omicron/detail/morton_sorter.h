@@ -1,5 +1,5 @@
 #pragma once
-// pcl::MortonSorter: partial Morton sort of an unsorted cloud in chunks (OMiCroN §4.1,
+// pclx::omicron::detail::MortonSorter: partial Morton sort of an unsorted cloud in chunks (OMiCroN §4.1,
 // Algorithm 1's partial_sort), so that hierarchy creation starts after the first chunk.
 //
 //   prepare ()    bounds → root cube; one counting pass on the top Morton bits and one stable
@@ -19,7 +19,12 @@
 #include <utility>
 #include <vector>
 
-namespace pcl {
+namespace pclx {
+namespace omicron {
+namespace detail {
+
+using pcl::MortonCode;
+using pcl::PointCloud;
 
 template <typename PointT>
 class MortonSorter
@@ -27,7 +32,7 @@ class MortonSorter
 public:
   using PointVector = typename PointCloud<PointT>::VectorType;
 
-  // Leaf depth of the codes (1..21; throws std::invalid_argument otherwise).
+  // Leaf depth of the codes (1..21; otherwise PCL_ERROR and the value is kept).
   void setMaxDepth (int depth);
   int getMaxDepth () const { return max_depth_; }
   // At most this many chunks (>= 1). Chunks are made of whole buckets, so a cloud whose points
@@ -45,6 +50,7 @@ public:
   void setKnownBounds (const Eigen::Array3f& lo, const Eigen::Array3f& hi);
 
   // Reads `cloud` into `sorted` (resized to the kept points, bucketed). Returns the kept count.
+  // Throws std::length_error above 2^32 - 1 points (the octree's build thread catches it).
   std::size_t prepare (const PointCloud<PointT>& cloud, PointVector& sorted);
 
   std::size_t numChunks () const { return chunk_begin_.empty () ? 0 : chunk_begin_.size () - 1; }
@@ -106,4 +112,6 @@ private:
   PointVector points_tmp_;
 };
 
-}  // namespace pcl
+}  // namespace detail
+}  // namespace omicron
+}  // namespace pclx

@@ -2,7 +2,7 @@
 // Exact k-nearest-neighbour queries over a uniform grid (sorted cell keys). Built in a
 // fraction of a kd-tree's time and in parallel: PlanarOctreeNormalEstimation needs kNN at
 // only a few percent of a clean cloud's points (the rest get patch or region normals), so
-// FLANN's serial build over every point was its largest single cost (0.41 of 1.53 s at 1M).
+// FLANN's serial build over every point would be its largest single cost.
 // Queries visit cube rings of cells around the query until the k-th distance lies inside
 // the visited block, so results are the exact k nearest (ties in any order).
 #include <Eigen/Core>
@@ -14,11 +14,11 @@
 
 namespace pclx {
 namespace normals {
+namespace detail {
 
 // A (squared distance, slot) pair as one integer: a non-negative float's bits order like
 // its value, so sorting or selecting these orders them as the pairs would (ties by slot)
-// with one integer compare each (the pairs' selections were a quarter to a third of the
-// noisy path's time).
+// with one integer compare each.
 inline std::uint64_t
 distanceSlotKey (float squared_distance, std::uint32_t slot)
 {
@@ -69,12 +69,13 @@ private:
   std::vector<std::uint64_t> cell_keys_;  // sorted, unique
   std::vector<int> cell_start_;           // cell_keys_.size () + 1 offsets into ids_
   // Per (x, y) column, its first cell in cell_keys_ (dims_x * dims_y + 1 entries): a query
-  // finds its cells without binary searches (which were most of a query's time). Empty
+  // finds its cells without binary searches (which would dominate a query). Empty
   // when the table would be much larger than the cloud: lookups then search cell_keys_.
   std::vector<int> column_start_;
   std::vector<int> ids_;                  // point indices by cell
   std::vector<Eigen::Vector3f> points_;   // points by cell (cache-friendly scans)
 };
 
+}  // namespace detail
 }  // namespace normals
 }  // namespace pclx

@@ -22,8 +22,9 @@
 #include <string>
 #include <vector>
 
-namespace pcl {
+namespace pclx {
 namespace omicron {
+namespace detail {
 
 // Current and peak sum of the accounted buffers (one value per item; thread-safe).
 class MemoryLedger
@@ -94,5 +95,6 @@ std::size_t planGridBytes (int level);
 // `counts`: points per cell of the count grid (8^count_level values, Morton order).
 ChunkPlan planChunks (const std::vector<std::uint32_t>& counts, const PlanParameters& p);
 
+}  // namespace detail
 }  // namespace omicron
-}  // namespace pcl
+}  // namespace pclx

@@ -1,12 +1,13 @@
 #pragma once
 // The plane of a 3x3 covariance: its eigenvalues and the eigenvector of the smallest one,
 // which is all the octree, the patches and the scale ladder read. PCL's closed-form roots
-// plus one eigenvector: pcl::eigen33's full form solves all three (a third of the octree
-// and patch time at 1M points).
+// plus one eigenvector: pcl::eigen33's full form solves all three, at a noticeable share of
+// the octree and patch time.
 #include <Eigen/Core>
 
 namespace pclx {
 namespace normals {
+namespace detail {
 
 struct PlanePca
 {
@@ -18,5 +19,6 @@ struct PlanePca
 // all three equal give +z.
 PlanePca planePca (const Eigen::Matrix3d& cov);
 
+}  // namespace detail
 }  // namespace normals
 }  // namespace pclx

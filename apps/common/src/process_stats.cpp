@@ -1,0 +1,48 @@
+#include <pclx/apps/process_stats.h>
+#include <pclx/testing/proc_status.h>
+
+#include <algorithm>
+#include <cstdio>
+
+namespace pclx {
+namespace apps {
+
+double
+secondsSince (std::chrono::steady_clock::time_point t)
+{
+  return std::chrono::duration<double> (std::chrono::steady_clock::now () - t).count ();
+}
+
+Percentiles
+percentiles (std::vector<double> v)
+{
+  Percentiles p;
+  if (v.empty ())
+    return p;
+  std::sort (v.begin (), v.end ());
+  const auto at = [&] (double q) {
+    return v[std::min (v.size () - 1, std::size_t (q * double (v.size () - 1) + 0.5))];
+  };
+  p.n = v.size ();
+  p.p50 = at (0.5);
+  p.p95 = at (0.95);
+  p.max = v.back ();
+  return p;
+}
+
+std::string
+formatMb (std::size_t bytes)
+{
+  char b[32];
+  std::snprintf (b, sizeof b, "%.1f MB", double (bytes) / 1048576.0);
+  return b;
+}
+
+std::size_t
+peakResidentBytes ()
+{
+  return pclx::testing::procStatusKb ("VmHWM") * 1024;
+}
+
+}  // namespace apps
+}  // namespace pclx
