@@ -4,6 +4,7 @@
 // --screenshot renders it off-screen to a PNG.
 #include <pclx/apps/cloud_loader.h>
 #include <pclx/apps/mesh_stats.h>
+#include <pclx/apps/process_stats.h>
 #include <pclx/apps/progress.h>
 #include <pclx/apps/view.h>
 #include <pclx/normals/mst_normal_orientation.h>
@@ -23,15 +24,7 @@
 
 using CloudN = pcl::PointCloud<pcl::PointNormal>;
 
-namespace {
-
-double
-secondsSince (std::chrono::steady_clock::time_point t0)
-{
-  return std::chrono::duration<double> (std::chrono::steady_clock::now () - t0).count ();
-}
-
-}  // namespace
+using pclx::apps::secondsSince;
 
 int
 main (int argc, char** argv)

@@ -3,7 +3,7 @@
 //   module,method,params,input,points,seconds,metric,value[,metric2,value2...]
 // Peers (Open3D, PCL) are just other `method`s in the same run, so ratios are
 // measured on the same machine at the same time.
-#include <pclx/testing/proc_status.h>
+#include <pclx/testing/run_stats.h>
 
 #include <algorithm>
 #include <chrono>
@@ -120,7 +120,9 @@ std::ostream& progress ();
 
 // ---- Running a measurement in a forked child (its own peak memory, limits, crash isolation).
 
-// A key of /proc/self/status in kB (VmRSS, VmHWM, ...), 0 when absent (test/support).
+// A key of /proc/self/status in kB (VmRSS, VmHWM, ...), 0 when absent, and the nearest-rank
+// percentile of a sample (test/support).
+using pclx::testing::percentile;
 using pclx::testing::procStatusKb;
 
 /** \brief Returns freed heap to the system and resets VmHWM to the current RSS

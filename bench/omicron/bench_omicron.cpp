@@ -204,6 +204,7 @@ struct Input
 // "method\tparams\tseconds\tkey=value;key=value".
 using pclx::bench::ChildRow;
 using Row = ChildRow;
+using pclx::bench::percentile;
 using pclx::bench::procStatusKb;
 
 // Runs fn in a forked child (peak memory of its own); fn returns the rows to print.
@@ -305,15 +306,6 @@ orbitCamera (const Octree& octree, double t)
   cam.height = 1080;
   cam.view_projection = pcl::perspectiveLookAt (eye, c, float (M_PI) / 3.f, 16.f / 9.f, 0.01f * edge, 10.f * edge);
   return cam;
-}
-
-double
-percentile (std::vector<double> v, double q)
-{
-  if (v.empty ())
-    return 0;
-  std::sort (v.begin (), v.end ());
-  return v[std::min (v.size () - 1, std::size_t (q * (v.size () - 1) + 0.5))];
 }
 
 // Nodes that exist (cut roots and everything below them) in the current cut.

@@ -44,6 +44,7 @@
 
 namespace {
 
+using pclx::bench::percentile;
 using pclx::testing::TriangleMesh;
 using Clock = std::chrono::steady_clock;
 
@@ -58,15 +59,6 @@ double
 rssMiB ()
 {
   return static_cast<double> (pclx::bench::procStatusKb ("VmRSS")) / 1024.0;
-}
-
-double
-percentile (std::vector<double> v, double q)
-{
-  if (v.empty ())
-    return 0;
-  std::sort (v.begin (), v.end ());
-  return v[std::min (v.size () - 1, static_cast<std::size_t> (q * (v.size () - 1) + 0.5))];
 }
 
 // A posed frame: 16-bit depth (pinhole) or an organized camera-frame cloud (range scans).

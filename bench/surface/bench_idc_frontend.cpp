@@ -23,6 +23,8 @@
 
 namespace {
 
+using pclx::bench::percentile;
+
 // CPU time of this thread (ms): on a shared, loaded machine wall time mostly measures the
 // other processes; with one thread the CPU time is what the stage costs.
 double
@@ -113,15 +115,6 @@ rendered (std::size_t count, int width, int height)
     frames.push_back (std::move (f));
   }
   return frames;
-}
-
-double
-percentile (std::vector<double> v, double q)
-{
-  if (v.empty ())
-    return 0;
-  std::sort (v.begin (), v.end ());
-  return v[std::min (v.size () - 1, static_cast<std::size_t> (q * (v.size () - 1) + 0.5))];
 }
 
 }  // namespace

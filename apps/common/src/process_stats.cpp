@@ -1,5 +1,5 @@
 #include <pclx/apps/process_stats.h>
-#include <pclx/testing/proc_status.h>
+#include <pclx/testing/run_stats.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -19,14 +19,10 @@ percentiles (std::vector<double> v)
   Percentiles p;
   if (v.empty ())
     return p;
-  std::sort (v.begin (), v.end ());
-  const auto at = [&] (double q) {
-    return v[std::min (v.size () - 1, std::size_t (q * double (v.size () - 1) + 0.5))];
-  };
   p.n = v.size ();
-  p.p50 = at (0.5);
-  p.p95 = at (0.95);
-  p.max = v.back ();
+  p.p50 = pclx::testing::percentile (v, 0.5);
+  p.p95 = pclx::testing::percentile (v, 0.95);
+  p.max = *std::max_element (v.begin (), v.end ());
   return p;
 }
 

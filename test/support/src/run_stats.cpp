@@ -1,5 +1,6 @@
-#include <pclx/testing/proc_status.h>
+#include <pclx/testing/run_stats.h>
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <string>
@@ -17,6 +18,15 @@ procStatusKb (const char* key)
     if (line.compare (0, len, key) == 0 && line.size () > len && line[len] == ':')
       return std::stoull (line.substr (len + 1));
   return 0;
+}
+
+double
+percentile (std::vector<double> values, double q)
+{
+  if (values.empty ())
+    return 0;
+  std::sort (values.begin (), values.end ());
+  return values[std::min (values.size () - 1, static_cast<std::size_t> (q * double (values.size () - 1) + 0.5))];
 }
 
 }  // namespace testing
