@@ -492,6 +492,7 @@ struct Bench
   std::ofstream* frames_csv;
   std::size_t samples;
   double cell_factor, collapse_ratio, collapse_error;
+  int min_cell_pixels;
   std::string mesh_dir;  // when set, every IDC and TSDF mesh is written there as PLY
 
   void
@@ -599,6 +600,7 @@ struct Bench
       idc.getSimplification ().setFrustumCellPixels (8);  // fixed 8 x 8 pixel blocks, for comparison
     idc.getSimplification ().setCollapseTargetRatio (collapse_ratio);
     idc.getSimplification ().setCollapseMaxError (collapse_error);
+    idc.getSimplification ().setMinCellPixels (min_cell_pixels);
     idc.setDepthRange (0.1f, float (s.depth_trunc));  // as Open3D's depth_trunc
     std::vector<double> ms, recon_ms, frontend_ms, octree_ms;
     std::size_t failed = 0;
@@ -634,8 +636,8 @@ struct Bench
     const auto& st = idc.getStats ();
     const Quality q = measure (pclx::testing::fromPolygonMesh (mesh), truth);
     char params[96];
-    std::snprintf (params, sizeof params, "leaf=%g;eps=%g;cell=%g;collapse=%g;collapse_err=%g", leaf, eps,
-                   cell_factor * leaf, collapse_ratio, collapse_error);
+    std::snprintf (params, sizeof params, "leaf=%g;eps=%g;cell=%g;collapse=%g;collapse_err=%g;min_cell_px=%d", leaf, eps,
+                   cell_factor * leaf, collapse_ratio, collapse_error, min_cell_pixels);
     if (!incremental)
       saveMesh (s, "idc", params, mesh);
     row (s, incremental ? "idc_incremental" : "idc", params, q, ms, extract, st.memory_bytes / 1048576.0,
@@ -936,10 +938,14 @@ main (int argc, char** argv)
                   "write a few depth frames of every input as 16-bit PGM and the seen truth samples as XYZ "
                   "into this folder, and exit");
   double cell_factor = 2, collapse_ratio = 0, collapse_error = 0;  // CoupledSimplification's defaults
+  int min_cell_pixels = pcl::CoupledSimplification ().getMinCellPixels ();
   app.add_option ("--cell-factor", cell_factor, "front-end frustum cell = factor x leaf (0: 8 x 8 pixel blocks)")
       ->capture_default_str ();
   app.add_option ("--collapse-ratio", collapse_ratio, "front-end edge-collapse target ratio")->capture_default_str ();
   app.add_option ("--collapse-error", collapse_error, "front-end collapse error bound (m; 0 auto, < 0 none)")
+      ->capture_default_str ();
+  app.add_option ("--min-cell-pixels", min_cell_pixels,
+                  "front end: fewest pixels per cell side before 2 x 2 block averaging (0: full resolution)")
       ->capture_default_str ();
   bool verbose = false;
   app.add_flag ("--verbose", verbose, "progress lines on stderr");
@@ -960,7 +966,8 @@ main (int argc, char** argv)
     fcsv.open (frames_csv);
     fcsv << "input,method,leaf,frame,ms\n";
   }
-  Bench bench{out, frames_csv.empty () ? nullptr : &fcsv, samples, cell_factor, collapse_ratio, collapse_error, mesh_dir};
+  Bench bench{out, frames_csv.empty () ? nullptr : &fcsv, samples, cell_factor, collapse_ratio, collapse_error, min_cell_pixels,
+              mesh_dir};
   for (const auto& s : seqs)
     runSequence (bench, s, opt);
   return 0;

@@ -128,10 +128,14 @@ main (int argc, char** argv)
   bool quick = false;
   int cell = 0;
   double cell_size = 0.02;
+  int min_cell_pixels = pcl::CoupledSimplification ().getMinCellPixels ();
   app.add_option ("--csv", csv, "also write the rows to this file");
   app.add_flag ("--quick", quick, "10 frames of each input");
   app.add_option ("--cell-pixels", cell, "fixed frustum cell side in pixels (0: from --cell-size)")->capture_default_str ();
   app.add_option ("--cell-size", cell_size, "frustum cell side in metres (2 x the 1 cm leaf)")->capture_default_str ();
+  app.add_option ("--min-cell-pixels", min_cell_pixels,
+                  "fewest pixels per cell side before 2 x 2 block averaging (0: full resolution)")
+      ->capture_default_str ();
   CLI11_PARSE (app, argc, argv);
   pclx::bench::CsvWriter out (csv);
   std::vector<std::pair<std::string, std::vector<Frame>>> inputs;
@@ -147,6 +151,7 @@ main (int argc, char** argv)
   for (const auto& [input, frames] : inputs)
   {
     pcl::CoupledSimplification cs;
+    cs.setMinCellPixels (min_cell_pixels);
     if (cell > 0)
       cs.setFrustumCellPixels (cell);
     else
@@ -194,7 +199,8 @@ main (int argc, char** argv)
     auto row = [&] (const std::string& method, const std::vector<double>& v, const pclx::bench::Metrics& extra) {
       pclx::bench::Metrics m{{"ms_median", percentile (v, 0.5)}, {"ms_p95", percentile (v, 0.95)}};
       m.insert (m.end (), extra.begin (), extra.end ());
-      const std::string params = cell > 0 ? "cell_pixels=" + std::to_string (cell) : "cell_size=" + std::to_string (cell_size);
+      const std::string params = (cell > 0 ? "cell_pixels=" + std::to_string (cell) : "cell_size=" + std::to_string (cell_size)) +
+                               ";min_cell_pixels=" + std::to_string (min_cell_pixels);
       out.row ("surface", method, params, input, frames.empty () ? 0 : frames[0].depth.size (),
                percentile (v, 0.5) / 1e3, m);
     };

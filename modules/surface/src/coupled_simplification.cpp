@@ -292,6 +292,8 @@ CoupledSimplification::run (const Eigen::Matrix4d& pose, bool dense_only, pcl::F
     return fail ("edge threshold: factor or absolute threshold must be > 0");
   if (cell_pixels_ < 1)
     return fail ("frustum cell must be ≥ 1 pixel");
+  if (min_cell_pixels_ < 0)
+    return fail ("fewest pixels per frustum cell must be ≥ 0");
   if (bin_ratio_ < 0 || !std::isfinite (bin_ratio_))
     return fail ("depth-bin ratio must be ≥ 0");
   if (!(target_ratio_ >= 0 && target_ratio_ <= 1))
@@ -309,6 +311,7 @@ CoupledSimplification::run (const Eigen::Matrix4d& pose, bool dense_only, pcl::F
   if (dense_only)
   {
     // Every valid pixel is its own vertex.
+    scale_ = 1;
     cid_.assign (pts_.size (), -1);
     std::int32_t k = 0;
     for (std::size_t i = 0; i < pts_.size (); ++i)
@@ -319,6 +322,7 @@ CoupledSimplification::run (const Eigen::Matrix4d& pose, bool dense_only, pcl::F
   }
   else
   {
+    reduceResolution ();
     cluster ();
     stats_.t_cluster = ms (t, Clock::now ());
   }
@@ -338,17 +342,97 @@ CoupledSimplification::run (const Eigen::Matrix4d& pose, bool dense_only, pcl::F
   return true;
 }
 
+double
+CoupledSimplification::pixelsPerRadian () const
+{
+  // fx, or for organized clouds 1 / (mean neighbour spacing / range).
+  return fx_ > 0 ? fx_ : (stats_.edge_ratio_mean > 0 ? 1.0 / stats_.edge_ratio_mean : 500.0);
+}
+
+int
+CoupledSimplification::cellPixels () const
+{
+  if (cell_size_ > 0 && stats_.median_range > 0)
+    return static_cast<int> (
+        std::lround (std::clamp (cell_size_ * pixelsPerRadian () / stats_.median_range, 1.0, 64.0 / scale_)));
+  return std::max (1, cell_pixels_ / scale_);
+}
+
+// One level of 2 × 2 block averages when a frustum cell is at least twice the set number of
+// pixels wide: the cell quadrics then come from a quarter of the faces, and the averages keep the
+// noise reduction of the pixels they replace (as one level of the depth pyramid of Newcombe et
+// al. 2011). A second level blurs curved objects more than it saves.
+void
+CoupledSimplification::reduceResolution ()
+{
+  scale_ = 1;
+  if (min_cell_pixels_ <= 0 || cellPixels () < 2 * min_cell_pixels_ || w_ < 2 || h_ < 2)
+    return;
+  halveResolution ();
+  scale_ = 2;
+  stats_.block_averaged = true;
+  measureSpacing ();
+}
+
+// Each 2 × 2 block becomes the mean of its valid pixels within the diagonal edge threshold of
+// its nearest one, so a block across a depth edge keeps the near surface, not a point between.
+void
+CoupledSimplification::halveResolution ()
+{
+  const int W = w_, H = h_, w2 = (W + 1) / 2, h2 = (H + 1) / 2;
+  const float rel = static_cast<float> (std::sqrt (2.0) * edge_factor_ * stats_.edge_ratio_mean);
+  const float abs_tol = static_cast<float> (std::sqrt (2.0) * edge_abs_);
+  const float nan = std::numeric_limits<float>::quiet_NaN ();
+  half_pts_.resize (static_cast<std::size_t> (w2) * h2);
+  half_range_.resize (half_pts_.size ());
+  for (int v2 = 0; v2 < h2; ++v2)
+    for (int u2 = 0; u2 < w2; ++u2)
+    {
+      std::size_t idx[4];
+      int n = 0;
+      float nearest = std::numeric_limits<float>::infinity ();
+      for (int dv = 0; dv < 2; ++dv)
+        for (int du = 0; du < 2; ++du)
+        {
+          const int u = 2 * u2 + du, v = 2 * v2 + dv;
+          if (u >= W || v >= H)
+            continue;
+          const std::size_t i = static_cast<std::size_t> (v) * W + u;
+          if (range_[i] > 0)
+            idx[n++] = i, nearest = std::min (nearest, range_[i]);
+        }
+      const std::size_t o = static_cast<std::size_t> (v2) * w2 + u2;
+      if (n == 0)
+      {
+        half_pts_[o].setConstant (nan);
+        half_range_[o] = 0;
+        continue;
+      }
+      const float tol = edge_abs_ > 0 ? abs_tol : rel * nearest;
+      Eigen::Vector3f sum = Eigen::Vector3f::Zero ();
+      int k = 0;
+      for (int j = 0; j < n; ++j)
+        if (range_[idx[j]] - nearest <= tol)
+          sum += pts_[idx[j]], ++k;
+      half_pts_[o] = sum / static_cast<float> (k);
+      half_range_[o] = half_pts_[o].norm ();
+    }
+  pts_.swap (half_pts_);
+  range_.swap (half_range_);
+  w_ = w2;
+  h_ = h2;
+  if (fx_ > 0)
+    fx_ *= 0.5;
+}
+
 // §3.3 first phase, the cells: B × B pixel blocks × geometric depth bins. A block's pixels
 // fall in few bins, so a small linear list per block replaces a hash map.
 void
 CoupledSimplification::cluster ()
 {
-  // Pixels per radian: fx, or for organized clouds 1 / (mean neighbour spacing / range).
-  const double fx_eff = fx_ > 0 ? fx_ : (stats_.edge_ratio_mean > 0 ? 1.0 / stats_.edge_ratio_mean : 500.0);
-  int B = cell_pixels_;
-  if (cell_size_ > 0 && stats_.median_range > 0)
-    B = static_cast<int> (std::lround (std::clamp (cell_size_ * fx_eff / stats_.median_range, 1.0, 64.0)));
-  stats_.cell_pixels = B;
+  const double fx_eff = pixelsPerRadian ();
+  const int B = cellPixels ();
+  stats_.cell_pixels = B * scale_;
   block_rows_ = B;
   const double r = bin_ratio_ > 0 ? bin_ratio_ : B / fx_eff;
   cid_.assign (pts_.size (), -1);
@@ -639,15 +723,16 @@ CoupledSimplification::dropBackfacingAndDuplicateFaces (const CollapseState& s)
   for (std::size_t f = 0; f < ctris_.size (); ++f)
     keys[f] = {triKey (ctris_[f][0], ctris_[f][1], ctris_[f][2]), static_cast<std::int32_t> (f)};
   std::sort (keys.begin (), keys.end ());
-  std::size_t k = 0;
+  // Keep the first face of each key (the lowest index of its run), in the original order.
+  auto& keep = face_keep_;
+  keep.assign (ctris_.size (), 0);
   for (std::size_t i = 0; i < keys.size (); ++i)
     if (i == 0 || keys[i].first != keys[i - 1].first)
-      keys[k++].second = keys[i].second;
-  // Keep the first face of each key, in the original order.
-  std::sort (keys.begin (), keys.begin () + k,
-             [] (const auto& x, const auto& y) { return x.second < y.second; });
-  for (std::size_t i = 0; i < k; ++i)
-    ctris_[i] = ctris_[keys[i].second];
+      keep[keys[i].second] = 1;
+  std::size_t k = 0;
+  for (std::size_t f = 0; f < ctris_.size (); ++f)
+    if (keep[f])
+      ctris_[k++] = ctris_[f];
   ctris_.resize (k);
 }
 
@@ -669,27 +754,30 @@ CoupledSimplification::buildCollapseConnectivity (CollapseState& s)
   s.stamp.assign (nc, 0);
   cb_.assign (nc, Quadric::Zero ());
 
-  auto& edges = edges_;
-  edges.clear ();
-  for (const auto& t : ctris_)
-    for (int k = 0; k < 3; ++k)
-    {
-      const std::uint32_t a = t[k], b = t[(k + 1) % 3];
-      edges.push_back ((static_cast<std::uint64_t> (std::min (a, b)) << 32) | std::max (a, b));
-    }
-  std::sort (edges.begin (), edges.end ());
-  for (std::size_t k = 0; k < edges.size ();)
+  // The edges (a, b), a < b, in (a, b) order with their face counts, from each vertex's faces.
+  auto& ends = s.na;
+  for (std::size_t v = 0; v < nc; ++v)
   {
-    std::size_t j = k;
-    while (j < edges.size () && edges[j] == edges[k]) ++j;
-    const std::int32_t a = static_cast<std::int32_t> (edges[k] >> 32), b = static_cast<std::int32_t> (edges[k] & 0xffffffffu);
-    const std::size_t count = j - k;
-    if (count > 2)
-      s.locked[a] = s.locked[b] = 1;  // non-manifold: leave as it is
-    else if (count == 1)
-      addBoundaryConstraint (a, b);
-    s.unique_edges.emplace_back (a, b);
-    k = j;
+    const std::int32_t a = static_cast<std::int32_t> (v);
+    ends.clear ();
+    for (std::int32_t f : vf[a])
+      for (int k = 0; k < 3; ++k)
+        if (ctris_[f][k] > a)
+          ends.push_back (ctris_[f][k]);
+    std::sort (ends.begin (), ends.end ());
+    for (std::size_t k = 0; k < ends.size ();)
+    {
+      std::size_t j = k;
+      while (j < ends.size () && ends[j] == ends[k]) ++j;
+      const std::int32_t b = ends[k];
+      const std::size_t count = j - k;
+      if (count > 2)
+        s.locked[a] = s.locked[b] = 1;  // non-manifold: leave as it is
+      else if (count == 1)
+        addBoundaryConstraint (a, b);
+      s.unique_edges.emplace_back (a, b);
+      k = j;
+    }
   }
 }
 

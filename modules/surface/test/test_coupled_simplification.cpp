@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <random>
 
 namespace {
 
@@ -147,7 +148,8 @@ TEST (CoupledSimplification, SphereStaysNearTheTruthAndFacesTheCamera)
   FrameMesh m;
   ASSERT_TRUE (s.compute (depth.data (), PK.width, PK.height, kK, pose (cam), m));
   ASSERT_GT (m.triangles.size (), 50u);
-  EXPECT_LT (m.triangles.size (), s.getStats ().dense_triangles / 50);
+  // The full connected cloud has about two triangles per valid pixel.
+  EXPECT_LT (m.triangles.size (), 2 * s.getStats ().valid_pixels / 50);
   double max_d = 0, sum = 0;
   for (const auto& v : m.vertices)
   {
@@ -276,6 +278,46 @@ TEST (CoupledSimplification, CellSizeInMetresSetsThePixelBlock)
   EXPECT_NEAR (s.getStats ().cell_pixels, b_coarse, 1);
 }
 
+TEST (CoupledSimplification, BlockAveragingKeepsCoarseCellsAsAccurate)
+{
+  // A wall 2 m away with 4 mm depth noise: 6 cm cells are about 16 pixels wide, so the frame is
+  // block-averaged before clustering; the representatives must stay as close to the wall.
+  auto depth = planeDepth (Eigen::Vector3f::UnitZ (), 2.f);
+  std::mt19937 rng (11);
+  std::normal_distribution<float> noise (0.f, 0.004f);
+  for (float& z : depth)
+    z += noise (rng);
+  auto rmsToWall = [] (const FrameMesh& m) {
+    double s = 0;
+    for (const auto& v : m.vertices)
+      s += (v.z () - 2.0) * (v.z () - 2.0);
+    return std::sqrt (s / static_cast<double> (m.vertices.size ()));
+  };
+  Simplifier s;
+  s.setFrustumCellSize (0.06);
+  s.setCollapseTargetRatio (1);  // clustering only
+  FrameMesh full, reduced;
+  s.setMinCellPixels (0);
+  ASSERT_TRUE (s.compute (depth.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), full));
+  EXPECT_FALSE (s.getStats ().block_averaged);
+  const std::size_t dense_full = s.getStats ().dense_triangles;
+  s.setMinCellPixels (2);
+  ASSERT_TRUE (s.compute (depth.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), reduced));
+  EXPECT_TRUE (s.getStats ().block_averaged);
+  EXPECT_NEAR (s.getStats ().cell_pixels, 0.06 * 525 / s.getStats ().median_range, 2.0);
+  EXPECT_LT (s.getStats ().dense_triangles, dense_full / 3);
+  EXPECT_NEAR (static_cast<double> (reduced.triangles.size ()), static_cast<double> (full.triangles.size ()),
+               0.3 * full.triangles.size ());
+  // Each representative averages ~250 pixels of σ = 4 mm either way.
+  EXPECT_LT (rmsToWall (full), 1e-3);
+  EXPECT_LT (rmsToWall (reduced), 1e-3);
+  // Cells narrower than twice the limit keep the full resolution.
+  s.setMinCellPixels (9);
+  ASSERT_TRUE (s.compute (depth.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), reduced));
+  EXPECT_FALSE (s.getStats ().block_averaged);
+  EXPECT_EQ (s.getStats ().dense_triangles, dense_full);
+}
+
 TEST (CoupledSimplification, OrganizedCloudInputMatchesDepthInput)
 {
   const auto depth = planeDepth (Eigen::Vector3f (0.1f, 0.2f, 1.f).normalized (), 1.2f);
@@ -354,6 +396,11 @@ TEST (CoupledSimplification, BadInputFailsAndLeavesTheOutputAlone)
   Simplifier bad;
   bad.setFrustumCellPixels (0);
   EXPECT_FALSE (bad.compute (good.data (), kW, kH, kK, I, out));
+  EXPECT_TRUE (untouched ());
+  Simplifier negative;
+  negative.setMinCellPixels (-1);
+  EXPECT_FALSE (negative.compute (good.data (), kW, kH, kK, I, out));
+  EXPECT_NE (negative.getLastError ().find ("fewest pixels"), std::string::npos) << negative.getLastError ();
   EXPECT_TRUE (untouched ());
 
   // Partly bad frames are fine: the bad pixels are skipped and counted.

@@ -55,7 +55,7 @@ public:
     std::size_t valid_pixels = 0;         ///< pixels with a usable depth
     std::size_t nonfinite_pixels = 0;     ///< pixels with NaN / Inf coordinates
     std::size_t out_of_range_pixels = 0;  ///< pixels with a depth outside the depth range
-    std::size_t dense_triangles = 0;      ///< triangles of the connected cloud (§3.2)
+    std::size_t dense_triangles = 0;      ///< triangles of the connected cloud (§3.2), after block averaging
     std::size_t clusters = 0;             ///< frustum-cell clusters (§3.3)
     std::size_t clustered_triangles = 0;  ///< triangles between clusters, before edge collapse
     std::size_t backfacing = 0;  ///< clustered faces dropped: turned away from the camera
@@ -67,7 +67,8 @@ public:
     std::size_t triangles = 0;            ///< triangles of the output
     double edge_ratio_mean = 0;   ///< trimmed mean of neighbour distance / range
     double median_range = 0;      ///< median range of the valid pixels (metres)
-    int cell_pixels = 0;          ///< frustum cell side used (pixels)
+    int cell_pixels = 0;          ///< frustum cell side used (pixels of the input frame)
+    bool block_averaged = false;  ///< the frame was reduced by 2 × 2 block averages before clustering
     double max_error = 0;         ///< RMS quadric error (metres) of the worst accepted collapse
     double t_backproject = 0;     ///< back-projection (ms)
     double t_spacing = 0;         ///< neighbour spacing (ms)
@@ -112,6 +113,16 @@ public:
     * \return B in pixels
     */
   int getFrustumCellPixels () const { return cell_pixels_; }
+  /** \brief Set the fewest pixels a frustum cell keeps a side. When a cell is at least twice
+    * that wide, the frame is first reduced by 2 × 2 block averages (pixels across a depth edge
+    * are not mixed), so the cells are built from a quarter of the pixels, each less noisy.
+    * \param[in] pixels the fewest pixels per cell side (default 2); 0: always the full resolution
+    */
+  void setMinCellPixels (int pixels) { min_cell_pixels_ = pixels; }
+  /** \brief Get the fewest pixels a frustum cell keeps a side.
+    * \return the value set with setMinCellPixels ()
+    */
+  int getMinCellPixels () const { return min_cell_pixels_; }
   /** \brief Set the depth-bin ratio r of the frustum cells (§3.3).
     * \param[in] r the ratio (> 0); 0 (default) is automatic: B / fx, about cubic cells, or for
     * organized clouds without intrinsics B × the mean neighbour spacing / range
@@ -234,6 +245,10 @@ private:
   bool run (const Eigen::Matrix4d& pose, bool dense_only, pcl::FrameMesh& out);
   void measureSpacing ();
   void connect (bool dense_only);
+  double pixelsPerRadian () const;
+  int cellPixels () const;
+  void reduceResolution ();
+  void halveResolution ();
   void cluster ();
   // §3.3 second phase, in stages: collapse () runs them in order.
   struct CollapseState;  // defined in the .cpp
@@ -255,7 +270,8 @@ private:
   double edge_factor_ = 3, edge_abs_ = 0, bin_ratio_ = 0, target_ratio_ = 0, max_error_ = 0;
   double boundary_weight_ = 10, max_turn_deg_ = 60, cell_size_ = 0;
   float min_depth_ = 0.1f, max_depth_ = 8.f;
-  int cell_pixels_ = 8;
+  int cell_pixels_ = 8, min_cell_pixels_ = 2;
+  int scale_ = 1;  // input pixels per pixel side after block averaging (1 or 2)
 
   Stats stats_;
   std::string error_;
@@ -265,6 +281,8 @@ private:
   double fx_ = 0;  // 0: organized input without intrinsics
   std::vector<Eigen::Vector3f> pts_;  // camera frame, NaN = invalid
   std::vector<float> range_;          // |p|, 0 = invalid
+  std::vector<Eigen::Vector3f> half_pts_;  // the block-averaged frame, swapped with pts_ / range_
+  std::vector<float> half_range_;
   std::vector<std::int32_t> cid_;     // cluster (or dense vertex) id per pixel, −1 = invalid
   std::vector<Eigen::Vector3i> dense_tris_;  // dense mode only
   std::vector<Quadric> dense_q_;
@@ -276,7 +294,7 @@ private:
   std::vector<float> cscale_;         // frustum cell size at the cluster (m)
   std::vector<float> ratios_;
   std::vector<std::vector<std::int32_t>> vf_;  // clustered vertex → faces
-  std::vector<std::uint64_t> edges_;
+  std::vector<char> face_keep_;
   std::vector<std::pair<std::uint64_t, std::int32_t>> tri_keys_;
   std::vector<Eigen::Vector3i> ctris_;
   long orientation_vote_ = 0;
