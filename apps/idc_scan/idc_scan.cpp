@@ -131,7 +131,8 @@ struct Options
   pclx::apps::SourceOptions source;
   std::string bunny, pose_file, poses_dir, output, screenshot;
   double leaf = 0.01, epsilon = 0, cell_size = -1;
-  int cell_pixels = 0, max_frames = 0, width = 1024, height = 768, update_every = 1;
+  int cell_pixels = 0, min_cell_pixels = pcl::CoupledSimplification ().getMinCellPixels ();
+  int max_frames = 0, width = 1024, height = 768, update_every = 1;
   bool plane_removal = false, no_window = false;
 };
 
@@ -148,6 +149,7 @@ public:
       idc_.getSimplification ().setFrustumCellPixels (o.cell_pixels);
     else
       idc_.getSimplification ().setFrustumCellSize (o.cell_size > 0 ? o.cell_size : 2 * o.leaf);
+    idc_.getSimplification ().setMinCellPixels (o.min_cell_pixels);
     if (!o.pose_file.empty ())
       fixed_pose_ = readPoseFile (o.pose_file);
   }
@@ -395,6 +397,9 @@ main (int argc, char** argv)
   app.add_option ("--cell-size", o.cell_size, "front end: frustum cell side in metres at the median range (default 2 x leaf)");
   app.add_option ("--cell-pixels", o.cell_pixels, "front end: fixed frustum cell side in pixels (0: from --cell-size)")
       ->capture_default_str ();
+  app.add_option ("--min-cell-pixels", o.min_cell_pixels,
+                  "front end: fewest pixels per cell side before 2 x 2 block averaging (0: every pixel)")
+      ->capture_default_str ();
   app.add_flag ("--remove-plane", o.plane_removal, "cut away the dominant plane (RANSAC) to isolate an object");
   app.add_option ("--frames", o.max_frames, "stop after this many frames (0: all)")->capture_default_str ();
   app.add_option ("--update-every", o.update_every, "on screen: re-polygonise every N frames")->capture_default_str ();
@@ -405,9 +410,9 @@ main (int argc, char** argv)
   app.add_option ("--height", o.height, "window and screenshot height in pixels")->capture_default_str ();
   CLI11_PARSE (app, argc, argv);
   pclx::apps::finishSourceOptions (app, o.source);
-  if (!(o.leaf > 0) || o.epsilon < 0 || o.cell_pixels < 0)
+  if (!(o.leaf > 0) || o.epsilon < 0 || o.cell_pixels < 0 || o.min_cell_pixels < 0)
   {
-    std::cerr << "idc_scan: --leaf must be > 0, --epsilon >= 0 and --cell-pixels >= 0\n";
+    std::cerr << "idc_scan: --leaf must be > 0, --epsilon, --cell-pixels and --min-cell-pixels >= 0\n";
     return 2;
   }
   try

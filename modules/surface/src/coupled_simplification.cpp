@@ -95,6 +95,28 @@ Quadric transformQuadric (const Quadric& q, const Eigen::Matrix4d& inv)
   return out;
 }
 
+// Mean of the samples after three trims at 4 × the mean: depth jumps inflate a plain mean, the
+// trims leave the surface's own spread.
+double
+trimmedMean (const std::vector<float>& x)
+{
+  double mean = 0;
+  for (float v : x) mean += v;
+  mean = x.empty () ? 0 : mean / x.size ();
+  for (int it = 0; it < 3 && mean > 0; ++it)
+  {
+    double s = 0;
+    std::size_t k = 0;
+    for (float v : x)
+      if (v < 4 * mean) { s += v; ++k; }
+    mean = k ? s / k : mean;
+  }
+  return mean;
+}
+
+// Frames whose range noise (in pixel spacings) is below this keep every pixel.
+constexpr double kMinAveragedNoise = 0.5;
+
 inline std::uint64_t triKey (int a, int b, int c)
 {
   if (a > b) std::swap (a, b);
@@ -359,19 +381,24 @@ CoupledSimplification::cellPixels () const
 }
 
 // One level of 2 × 2 block averages when a frustum cell is at least twice the set number of
-// pixels wide: the cell quadrics then come from a quarter of the faces, and the averages keep the
-// noise reduction of the pixels they replace (as one level of the depth pyramid of Newcombe et
-// al. 2011). A second level blurs curved objects more than it saves.
+// pixels wide and the range noise is at least half a pixel spacing: the cell quadrics then come
+// from a quarter of the faces, and the averages keep the noise reduction of the pixels they
+// replace (as one level of the depth pyramid of Newcombe et al. 2011). Low-noise scans (laser
+// range scans) would only be blurred, and a second level blurs curved objects more than it saves.
+
 void
 CoupledSimplification::reduceResolution ()
 {
   scale_ = 1;
-  if (min_cell_pixels_ <= 0 || cellPixels () < 2 * min_cell_pixels_ || w_ < 2 || h_ < 2)
+  if (min_cell_pixels_ <= 0 || cellPixels () < 2 * min_cell_pixels_ || w_ < 2 || h_ < 2 ||
+      stats_.range_noise < kMinAveragedNoise)
     return;
+  const double input_noise = stats_.range_noise;
   halveResolution ();
   scale_ = 2;
   stats_.block_averaged = true;
   measureSpacing ();
+  stats_.range_noise = input_noise;  // the statistic describes the input frame
 }
 
 // Each 2 × 2 block becomes the mean of its valid pixels within the diagonal edge threshold of
@@ -490,8 +517,9 @@ CoupledSimplification::cluster ()
   stats_.clusters = ccount_.size ();
 }
 
-// Trimmed mean of |p − q| / range over horizontal and vertical neighbours (§4.2's mean
-// neighbour distance, made depth-independent), and the median range of the frame.
+// Trimmed means of |p − q| / range over horizontal and vertical neighbours (§4.2's mean
+// neighbour distance, made depth-independent) and of the second difference of range along rows
+// (the sensor's noise, in pixel spacings), and the median range of the frame.
 void
 CoupledSimplification::measureSpacing ()
 {
@@ -510,18 +538,17 @@ CoupledSimplification::measureSpacing ()
       if (v + 1 < H && range_[i + W] > 0)
         r.push_back ((pts_[i] - pts_[i + W]).norm () / std::min (range_[i], range_[i + W]));
     }
-  // Depth jumps inflate a plain mean; three trims at 4 × the mean leave the surface edges.
-  double mean = 0;
-  for (float x : r) mean += x;
-  mean = r.empty () ? 0 : mean / r.size ();
-  for (int it = 0; it < 3 && mean > 0; ++it)
-  {
-    double s = 0; std::size_t k = 0;
-    for (float x : r)
-      if (x < 4 * mean) { s += x; ++k; }
-    mean = k ? s / k : mean;
-  }
-  stats_.edge_ratio_mean = mean;
+  stats_.edge_ratio_mean = trimmedMean (r);
+  r.clear ();
+  for (int v = 0; v < H; v += 2)
+    for (int u = 1; u + 1 < W; ++u)
+    {
+      const std::size_t i = static_cast<std::size_t> (v) * W + u;
+      if (range_[i - 1] > 0 && range_[i] > 0 && range_[i + 1] > 0)
+        r.push_back (std::abs (range_[i - 1] - 2 * range_[i] + range_[i + 1]) / range_[i]);
+    }
+  // A smooth surface's second difference is far below a pixel spacing; noise makes it ~√6 σ.
+  stats_.range_noise = trimmedMean (r) * pixelsPerRadian ();
   r.clear ();
   for (std::size_t i = 0; i < range_.size (); i += 7)
     if (range_[i] > 0)

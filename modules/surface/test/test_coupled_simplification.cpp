@@ -311,11 +311,18 @@ TEST (CoupledSimplification, BlockAveragingKeepsCoarseCellsAsAccurate)
   // Each representative averages ~250 pixels of σ = 4 mm either way.
   EXPECT_LT (rmsToWall (full), 1e-3);
   EXPECT_LT (rmsToWall (reduced), 1e-3);
+  EXPECT_GT (s.getStats ().range_noise, 1.0);
   // Cells narrower than twice the limit keep the full resolution.
   s.setMinCellPixels (9);
   ASSERT_TRUE (s.compute (depth.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), reduced));
   EXPECT_FALSE (s.getStats ().block_averaged);
   EXPECT_EQ (s.getStats ().dense_triangles, dense_full);
+  // So does a frame without noise (a laser range scan): averaging would only blur it.
+  const auto clean = planeDepth (Eigen::Vector3f::UnitZ (), 2.f);
+  s.setMinCellPixels (2);
+  ASSERT_TRUE (s.compute (clean.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), reduced));
+  EXPECT_LT (s.getStats ().range_noise, 0.1);
+  EXPECT_FALSE (s.getStats ().block_averaged);
 }
 
 TEST (CoupledSimplification, OrganizedCloudInputMatchesDepthInput)

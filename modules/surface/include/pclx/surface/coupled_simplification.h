@@ -67,6 +67,7 @@ public:
     std::size_t triangles = 0;            ///< triangles of the output
     double edge_ratio_mean = 0;   ///< trimmed mean of neighbour distance / range
     double median_range = 0;      ///< median range of the valid pixels (metres)
+    double range_noise = 0;       ///< the input's trimmed mean |second difference of range| along rows, in pixel spacings
     int cell_pixels = 0;          ///< frustum cell side used (pixels of the input frame)
     bool block_averaged = false;  ///< the frame was reduced by 2 × 2 block averages before clustering
     double max_error = 0;         ///< RMS quadric error (metres) of the worst accepted collapse
@@ -114,8 +115,11 @@ public:
     */
   int getFrustumCellPixels () const { return cell_pixels_; }
   /** \brief Set the fewest pixels a frustum cell keeps a side. When a cell is at least twice
-    * that wide, the frame is first reduced by 2 × 2 block averages (pixels across a depth edge
-    * are not mixed), so the cells are built from a quarter of the pixels, each less noisy.
+    * that wide and the frame is noisy (range noise of at least half a pixel spacing, as with
+    * structured-light and time-of-flight cameras; see Stats::range_noise), the frame is first
+    * reduced by 2 × 2 block averages (pixels across a depth edge are not mixed), so the cells
+    * are built from a quarter of the pixels, each less noisy. Low-noise range scans keep every
+    * pixel.
     * \param[in] pixels the fewest pixels per cell side (default 2); 0: always the full resolution
     */
   void setMinCellPixels (int pixels) { min_cell_pixels_ = pixels; }
