@@ -8,6 +8,7 @@
 #include <pclx/omicron/oblique_cut_octree.h>
 #include <pclx/omicron/potree_reader.h>
 #include <pclx/omicron/potree_writer.h>
+#include <pclx/testing/run_stats.h>
 
 #include <pcl/io/pcd_io.h>
 
@@ -16,6 +17,9 @@
 #include <map>
 #include <numeric>
 #include <random>
+
+#include <sys/wait.h>
+#include <unistd.h>
 
 using namespace omitest;
 using Octree = pcl::ObliqueCutOctree<pcl::PointXYZ>;
@@ -245,6 +249,62 @@ TEST (ObliqueCutOctreeBudget, FromAFileLargerThanTheBudget)
   // A second build replaces the temp folder.
   ASSERT_TRUE (o.build ());
   EXPECT_FALSE (fs::exists (out));
+}
+
+// A budgeted build from a file in a forked child: its peak resident memory above the start
+// (VmHWM after clear_refs resets it) and its ledger's peak, in bytes; -1 when the build fails.
+std::pair<long long, long long>
+childPeak (const std::string& pcd, std::size_t budget)
+{
+  int fds[2];
+  if (::pipe (fds) != 0)
+    return {-1, -1};
+  const pid_t pid = ::fork ();
+  if (pid == 0)
+  {
+    ::close (fds[0]);
+    std::ofstream ("/proc/self/clear_refs") << "5";
+    const long long rss0 = static_cast<long long> (pclx::testing::procStatusKb ("VmRSS"));
+    Octree o;
+    o.setInputFile (pcd);
+    configure (o, 6, false);
+    o.setMemoryBudget (budget);
+    long long out[2] = {-1, -1};
+    if (o.build ())
+    {
+      out[0] = (static_cast<long long> (pclx::testing::procStatusKb ("VmHWM")) - rss0) * 1024;
+      out[1] = static_cast<long long> (o.getStatistics ().accounted_peak_bytes);
+    }
+    const bool sent = ::write (fds[1], out, sizeof out) == static_cast<ssize_t> (sizeof out);
+    ::_exit (sent ? 0 : 1);
+  }
+  ::close (fds[1]);
+  long long in[2] = {-1, -1};
+  const bool got = ::read (fds[0], in, sizeof in) == static_cast<ssize_t> (sizeof in);
+  ::close (fds[0]);
+  int status = 0;
+  ::waitpid (pid, &status, 0);
+  return got ? std::make_pair (in[0], in[1]) : std::make_pair (-1LL, -1LL);
+}
+
+TEST (ObliqueCutOctreeBudget, TheBudgetBoundsTheProcessPeak)
+{
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP () << "the sanitizer runtimes hold memory of their own";
+#endif
+  TempDir tmp;
+  const std::string pcd = (tmp.path / "in.pcd").string ();
+  ASSERT_EQ (pcl::io::savePCDFileBinary (pcd, *mixedCloud (3000000, 11)), 0);
+  // 48 MB of points: budgets from two thirds of the cloud down to a third.
+  for (const std::size_t budget : {std::size_t (32) << 20, std::size_t (24) << 20, std::size_t (16) << 20})
+  {
+    const auto [real, accounted] = childPeak (pcd, budget);
+    ASSERT_GE (real, 0) << "budgeted build failed at " << budget << " bytes";
+    RecordProperty ("peak_" + std::to_string (budget >> 20) + "MiB", std::to_string (real));
+    RecordProperty ("accounted_" + std::to_string (budget >> 20) + "MiB", std::to_string (accounted));
+    EXPECT_LE (real, static_cast<long long> (budget)) << "accounted " << accounted;
+    EXPECT_LE (accounted, static_cast<long long> (budget));
+  }
 }
 
 TEST (ObliqueCutOctreeBudget, ImpossibleBudgetsAndUnwritableFoldersAreClearErrors)
