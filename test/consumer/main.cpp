@@ -235,8 +235,23 @@ dualContouringFromFrames ()
   for (const auto& v : vertices)
     worst = std::max (worst, std::abs (double (v.getVector3fMap ().norm ()) - 0.3));
   check ("IncrementalDualContouring from organized clouds with poses",
-         added && !mesh.polygons.empty () && worst < 0.01,
+         added && !mesh.polygons.empty () && worst < 0.01 && idc.getStats ().suspect_pose_frames == 0,
          std::to_string (mesh.polygons.size ()) + " triangles, farthest vertex " + consumer::fmt (worst) + " m off");
+}
+
+void
+dualContouringFlagsInvertedPoses ()
+{
+  // Eight frames on a slow arc whose poses are given as world-to-camera by mistake.
+  pcl::IncrementalDualContouring<pcl::PointXYZ> idc;
+  bool added = true;
+  for (int k = 0; k < 8; ++k)
+  {
+    const Eigen::Isometry3d pose = consumer::lookAtOrigin (0.0873 * k, 1.2);
+    added = idc.addFrame (*consumer::sphereFrame (pose, 160, 120, 0.3), pose.inverse ().matrix ()) && added;
+  }
+  check ("IncrementalDualContouring flags world-to-camera poses", added && idc.getStats ().suspect_pose_frames > 0,
+         std::to_string (idc.getStats ().suspect_pose_frames) + " of 8 frames flagged");
 }
 
 void
@@ -341,6 +356,7 @@ main ()
   featureWithSurfaceAndIndices ();
   surfaceBaseAndPly ();
   dualContouringFromFrames ();
+  dualContouringFlagsInvertedPoses ();
   obliqueCutFront ();
   reuseAndThreads ();
   pointTypes ();

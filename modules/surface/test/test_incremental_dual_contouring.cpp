@@ -764,6 +764,36 @@ TEST (IncrementalDualContouring, HermiteDataAverageNoisyFrames)
 
 // A refused call says why once and leaves its reason in getLastError (); the next call that
 // succeeds clears it.
+// Poses given as world-to-camera are fused (one frame cannot tell), but consecutive frames only
+// line up under their inverses: counted and warned about. Camera-to-world poses never are.
+TEST (IncrementalDualContouring, WorldToCameraPosesAreFlagged)
+{
+  const Eigen::Vector3f c (0.1f, -0.05f, 0.2f);
+  pclx::testing::RayCaster caster (pclx::testing::makeSphere (0.3f, 4, c));
+  const auto K = smallCamera ();
+  pclx::testing::KinectNoise noise;
+  for (bool inverted : {false, true})
+  {
+    IDC idc;
+    idc.setLeafSize (0.01);
+    for (int k = 0; k < 8; ++k)
+    {
+      // A slow arc around the sphere: 5° between frames.
+      const float a = 0.0873f * k;
+      const Eigen::Isometry3f pose =
+          pclx::testing::lookAt (c + 1.2f * Eigen::Vector3f (std::sin (a), 0.3f, std::cos (a)), c);
+      const auto depth = pclx::testing::renderDepth (caster, K, pose, noise, 5 + k);
+      const Eigen::Matrix4d given = (inverted ? pose.inverse () : pose).matrix ().cast<double> ();
+      ASSERT_TRUE (idc.addFrame (depth.depth_mm.data (), depth.width, depth.height, toK (K), given))
+          << idc.getLastError ();
+    }
+    if (inverted)
+      EXPECT_GE (idc.getStats ().suspect_pose_frames, 4u);
+    else
+      EXPECT_EQ (idc.getStats ().suspect_pose_frames, 0u);
+  }
+}
+
 TEST (IncrementalDualContouring, LastErrorLoggedOnceAndClearedBySuccess)
 {
   const TriangleMesh sphere = pclx::testing::makeSphere (0.3f, 3);

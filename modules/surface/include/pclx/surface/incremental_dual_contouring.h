@@ -3,6 +3,7 @@
 #include <pcl/point_cloud.h>
 
 #include <pclx/surface/coupled_simplification.h>
+#include <pclx/surface/detail/pose_convention_check.h>
 #include <pclx/surface/dual_contouring_octree.h>
 #include <pclx/surface/frame_mesh.h>
 
@@ -72,6 +73,7 @@ public:
     std::size_t frame_triangles = 0;     ///< triangles of the last frame after §3.3
     std::size_t repolygonised_roots = 0; ///< roots redone by the last reconstruct
     std::size_t removed_plane_triangles = 0;  ///< triangles cut away with the dominant plane
+    std::size_t suspect_pose_frames = 0;  ///< frames that overlap the previous one only under the inverse poses
     double last_frame_ms = 0;       ///< last frame: total (ms)
     double last_frontend_ms = 0;    ///< last frame: front end, §3.2–3.3 (ms)
     double last_octree_ms = 0;      ///< last frame: octree update, §3.4–3.5 (ms)
@@ -153,7 +155,10 @@ public:
     * The pose of every addFrame is camera-to-world: it maps camera coordinates (x right, y
     * down, z forward) to the world, so its last column is the camera's position. Its inverse
     * (world-to-camera, as some SLAM tools export) is a rigid motion too and cannot be told apart
-    * from one frame: the frame would be fused in the wrong place.
+    * from one frame. Across frames it can: each frame is compared with the previous one under
+    * the given poses and under their inverses, and when only the inverses make them overlap, the
+    * frame is still fused, counted in Stats::suspect_pose_frames, and the first such frame prints
+    * a PCL_WARN.
     * \param[in] organized_camera_frame_cloud the frame (NaN: no data)
     * \param[in] camera_to_world the rigid camera pose
     * \return false (with a PCL_ERROR and getLastError ()) on bad input; the map is then unchanged
@@ -227,11 +232,15 @@ private:
   bool settled (bool ok) { return ok ? (error_.clear (), true) : forward (octree_.getLastError ()); }
   bool checkFrameSize (int width, int height);
   bool fuse (double frontend_ms);
+  void checkPoseConvention (const Eigen::Matrix4d& camera_to_world);
+  // How near, in leaves, a vertex must come to the previous frame's vertices to overlap them.
+  static constexpr double kPoseOverlapLeaves = 2.0;
   void removePlane (pcl::PolygonMesh& mesh);
 
   CoupledSimplification simplification_;
   DualContouringOctree octree_;
   pcl::FrameMesh frame_;
+  pclx::surface::detail::PoseConventionCheck pose_check_;
   std::vector<float> depth_buffer_;
   std::vector<Eigen::Vector3f> point_buffer_;
   int width_ = 0, height_ = 0;  // size of the first frame

@@ -43,6 +43,23 @@ IncrementalDualContouring<PointT>::checkFrameSize (int width, int height)
   return true;
 }
 
+template <typename PointT> void
+IncrementalDualContouring<PointT>::checkPoseConvention (const Eigen::Matrix4d& camera_to_world)
+{
+  // Consecutive frames' surfaces agree within a few leaves (the frustum cells are two).
+  if (!pose_check_.add (frame_.vertices, camera_to_world, kPoseOverlapLeaves * getLeafSize ()))
+    return;
+  if (stats_.suspect_pose_frames++ == 0)
+  {
+    double given, inverse;
+    pose_check_.lastOverlaps (given, inverse);
+    PCL_WARN ("[pcl::IncrementalDualContouring] frame %zu lines up with the previous one under the inverse "
+              "poses (%.0f %% overlap) better than under the poses given (%.0f %%): addFrame takes "
+              "camera-to-world poses; were world-to-camera poses given?\n",
+              stats_.frames, 100 * inverse, 100 * given);
+  }
+}
+
 template <typename PointT> bool
 IncrementalDualContouring<PointT>::fuse (double frontend_ms)
 {
@@ -79,6 +96,7 @@ IncrementalDualContouring<PointT>::addFrame (const pcl::PointCloud<PointT>& clou
   const double ms = std::chrono::duration<double, std::milli> (std::chrono::steady_clock::now () - t0).count ();
   if (!fuse (ms))
     return false;
+  checkPoseConvention (camera_to_world);
   width_ = static_cast<int> (cloud.width);
   height_ = static_cast<int> (cloud.height);
   return true;
@@ -99,6 +117,7 @@ IncrementalDualContouring<PointT>::addFrame (const float* depth_m, int width, in
   const double ms = std::chrono::duration<double, std::milli> (std::chrono::steady_clock::now () - t0).count ();
   if (!fuse (ms))
     return false;
+  checkPoseConvention (camera_to_world);
   width_ = width;
   height_ = height;
   return true;
