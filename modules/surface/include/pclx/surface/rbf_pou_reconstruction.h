@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -90,7 +91,7 @@ public:
     double t_octree = 0;       ///< octree and subdomains
     double t_fits = 0;         ///< local fits
     double t_extraction = 0;   ///< marching cubes (and hole filling)
-    double t_output = 0;  ///< vertex normals / attributes and the output cloud (after extraction)
+    double t_output = 0;  ///< the output polygons, vertex normals / attributes and cloud (after extraction)
     std::size_t input_points = 0;    ///< points of the input
     std::size_t dropped_points = 0;  ///< points dropped: NaN / Inf position
     std::size_t zero_normals = 0;    ///< points dropped: zero or NaN / Inf normal
@@ -334,6 +335,9 @@ protected:
   void performReconstruction (PointCloud<PointNT>& points, std::vector<Vertices>& polygons) override;
 
 private:
+  // A triangle of the extraction (vertex indices): no allocation of its own, as a pcl::Vertices has.
+  using Triangle = std::array<std::uint32_t, 3>;
+
   struct Subdomain
   {
     Eigen::Vector3d lo, hi;     // the box Ω_i
@@ -355,7 +359,7 @@ private:
     double scale = 1;
   };
 
-  // Subdomains of one lookup bucket (a range of buckets_); cached per thread because
+  // Subdomains of one lookup bucket (a range of bucket_subs_); cached per thread because
   // neighbouring grid corners mostly fall in the same bucket.
   struct BucketCache
   {
@@ -371,7 +375,7 @@ private:
   // The density spread of the points, and from it the largest hole to close.
   void measureDensitySpread (const pcl::KdTree<pcl::PointXYZ>& tree);
   // Closes the mesh's holes up to stats_.max_hole_size (a stage of extract ()).
-  void closeHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Vertices>& polygons);
+  void closeHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& triangles);
   // The search of setSearchMethod () over the input, answering for the valid points.
   std::unique_ptr<pclx::surface::detail::SearchOverValidPoints<PointNT>> searchOverValidPoints ();
   // Mean spacing, and every point's kNeighbours nearest neighbours for the vote (−1: fewer
@@ -396,7 +400,7 @@ private:
     return c < pts_.size () ? pts_[c] : off_[c - pts_.size ()].p;
   }
   // Marching cubes: vertex positions and triangles (vertex normals / attributes come after).
-  bool extract (std::vector<Eigen::Vector3f>& vertices, std::vector<Vertices>& polygons);
+  bool extract (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& triangles);
   // The stages of extract (), in order.
   struct ExtractState;  // defined in the .hpp
   bool setUpExtractGrid (ExtractState& g);
@@ -407,7 +411,10 @@ private:
   void sortCellsByKey (ExtractState& g);
   void collectCrossedEdges (ExtractState& g);
   void interpolateVertices (ExtractState& g, std::vector<Eigen::Vector3f>& vertices);
-  void triangulateCells (const ExtractState& g, std::vector<Vertices>& polygons);
+  void triangulateCells (const ExtractState& g, std::vector<Triangle>& triangles);
+  // The output polygons from the triangles (freed), one allocation each: made after the
+  // extraction's buffers are freed and before the output points, so that the peak holds neither.
+  void makePolygons (std::vector<Triangle>& triangles, std::vector<Vertices>& polygons);
   // Output points: positions (then freed), the attributes of the nearest input point and
   // area-weighted normals, written through at (i) -> PointNT& (the cloud or the blob).
   template <typename At> void
@@ -440,8 +447,10 @@ private:
   std::vector<std::uint32_t> sub_ids_;
   std::vector<float> sub_lambda_;
   std::vector<float> cpos_;  // x, y, z of every constraint, numbered in octree order
-  // Subdomain lookup: (bucket key, subdomain) sorted by key.
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> buckets_;
+  // Subdomain lookup: the sorted keys of the buckets some subdomain overlaps; bucket b's
+  // subdomains (ascending) are bucket_subs_[bucket_first_[b] .. bucket_first_[b + 1]).
+  std::vector<std::uint64_t> bucket_keys_;
+  std::vector<std::uint32_t> bucket_first_, bucket_subs_;
   Eigen::Vector3d bucket_origin_ = Eigen::Vector3d::Zero ();
   double bucket_size_ = 1;
 };

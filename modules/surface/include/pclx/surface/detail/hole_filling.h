@@ -4,12 +4,17 @@
 
 #include <Eigen/Core>
 
+#include <array>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace pclx {
 namespace surface {
 namespace detail {
+
+/** \brief A triangle as three vertex indices, without the allocation of a pcl::Vertices. */
+using Triangle = std::array<std::uint32_t, 3>;
 
 /** \brief What fillSmallHoles () found and did. */
 struct HoleFillingStats
@@ -40,6 +45,17 @@ struct HoleFillingStats
   */
 bool
 fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<pcl::Vertices>& triangles, double max_diameter,
+                HoleFillingStats& stats);
+
+/** \brief fillSmallHoles () on triangles held as index triples.
+  * \param[in,out] vertices the mesh's vertex positions
+  * \param[in,out] triangles the mesh's triangles
+  * \param[in] max_diameter the largest hole closed, in the units of the vertices (> 0)
+  * \param[out] stats the holes found, closed and left open
+  * \return false (with a PCL_ERROR, the mesh unchanged) as the pcl::Vertices overload
+  */
+bool
+fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& triangles, double max_diameter,
                 HoleFillingStats& stats);
 
 }  // namespace detail

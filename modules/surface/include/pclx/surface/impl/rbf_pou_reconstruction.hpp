@@ -467,15 +467,19 @@ RBFPOUReconstruction<PointNT>::forCovering (const Eigen::Vector3d& p, BucketCach
   const std::uint64_t key = pclx::surface::detail::pack (std::int64_t (b[0]), std::int64_t (b[1]), std::int64_t (b[2]));
   if (key != cache.key)
   {
-    auto it = std::lower_bound (buckets_.begin (), buckets_.end (), std::make_pair (key, std::uint32_t (0)));
+    const auto it = std::lower_bound (bucket_keys_.begin (), bucket_keys_.end (), key);
+    const std::size_t b = std::size_t (it - bucket_keys_.begin ());
     cache.key = key;
-    cache.begin = cache.end = std::size_t (it - buckets_.begin ());
-    while (cache.end < buckets_.size () && buckets_[cache.end].first == key)
-      ++cache.end;
+    cache.begin = cache.end = 0;
+    if (it != bucket_keys_.end () && *it == key)
+    {
+      cache.begin = bucket_first_[b];
+      cache.end = bucket_first_[b + 1];
+    }
   }
   for (std::size_t i = cache.begin; i < cache.end; ++i)
   {
-    const Subdomain& s = subs_[buckets_[i].second];
+    const Subdomain& s = subs_[bucket_subs_[i]];
     if ((p.array () > s.lo.array ()).all () && (p.array () < s.hi.array ()).all ())
       f (s);
   }
@@ -735,13 +739,13 @@ RBFPOUReconstruction<PointNT>::measureDensitySpread (const pcl::KdTree<pcl::Poin
 }
 
 template <typename PointNT> void
-RBFPOUReconstruction<PointNT>::closeHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Vertices>& polygons)
+RBFPOUReconstruction<PointNT>::closeHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& triangles)
 {
-  if (!(stats_.max_hole_size > 0) || polygons.empty ())
+  if (!(stats_.max_hole_size > 0) || triangles.empty ())
     return;
   const auto t0 = pclx::surface::detail::Clock::now ();
   pclx::surface::detail::HoleFillingStats holes;
-  if (pclx::surface::detail::fillSmallHoles (vertices, polygons, stats_.max_hole_size, holes))
+  if (pclx::surface::detail::fillSmallHoles (vertices, triangles, stats_.max_hole_size, holes))
   {
     stats_.holes = holes.holes;
     stats_.holes_filled = holes.filled;
@@ -1068,6 +1072,7 @@ RBFPOUReconstruction<PointNT>::buildBuckets ()
   std::nth_element (sizes.begin (), sizes.begin () + sizes.size () / 2, sizes.end ());
   bucket_size_ = sizes[sizes.size () / 2];
   bucket_origin_ = o.array () - bucket_size_;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> buckets;  // (key, subdomain)
   for (std::uint32_t i = 0; i < subs_.size (); ++i)
   {
     const Eigen::Array3i a = ((subs_[i].lo - bucket_origin_) / bucket_size_).array ().floor ().template cast<int> ();
@@ -1075,9 +1080,21 @@ RBFPOUReconstruction<PointNT>::buildBuckets ()
     for (int z = a[2]; z <= b[2]; ++z)
       for (int y = a[1]; y <= b[1]; ++y)
         for (int x = a[0]; x <= b[0]; ++x)
-          buckets_.emplace_back (pclx::surface::detail::pack (x, y, z), i);
+          buckets.emplace_back (pclx::surface::detail::pack (x, y, z), i);
   }
-  std::sort (buckets_.begin (), buckets_.end ());
+  std::sort (buckets.begin (), buckets.end ());
+  // Kept as one key per bucket and the subdomain numbers, not a key per (bucket, subdomain).
+  bucket_subs_.resize (buckets.size ());
+  for (std::size_t i = 0; i < buckets.size (); ++i)
+  {
+    if (i == 0 || buckets[i].first != buckets[i - 1].first)
+    {
+      bucket_keys_.push_back (buckets[i].first);
+      bucket_first_.push_back (std::uint32_t (i));
+    }
+    bucket_subs_[i] = buckets[i].second;
+  }
+  bucket_first_.push_back (std::uint32_t (buckets.size ()));
 }
 
 template <typename PointNT> bool
@@ -1178,7 +1195,8 @@ RBFPOUReconstruction<PointNT>::build ()
   stats_ = Stats ();
   error_.clear ();
   pts_.clear (); nrm_.clear (); src_.clear (); off_.clear (); subs_.clear ();
-  sub_ids_.clear (); sub_lambda_.clear (); cpos_.clear (); buckets_.clear ();
+  sub_ids_.clear (); sub_lambda_.clear (); cpos_.clear ();
+  bucket_keys_.clear (); bucket_first_.clear (); bucket_subs_.clear ();
   if (!checkParameters ())
     return false;
 
@@ -1237,7 +1255,10 @@ struct RBFPOUReconstruction<PointNT>::ExtractState
   Eigen::Vector3d origin = Eigen::Vector3d::Zero ();
   std::array<std::uint64_t, 3> stride{};  // key step of one cell along each axis
   std::array<int, 6> face_edges{};        // edges of each cell face (PCL corner order)
-  std::vector<std::uint64_t> frontier, band, visited;  // cells (sorted keys)
+  std::vector<std::uint64_t> frontier, visited;  // cells (sorted keys)
+  // The band as runs of cells along x, [band_first[r], band_last[r]] in keys (x is the lowest
+  // key field, so a run is a key range): a fraction of the memory of its cells' keys.
+  std::vector<std::uint64_t> band_first, band_last;
   std::vector<std::uint64_t> ckeys;    // evaluated corners (sorted)
   std::vector<double> cvals;           // F − iso at ckeys
   std::vector<std::uint64_t> mc_cells; // cells with a triangle, and their cube index
@@ -1269,6 +1290,19 @@ struct RBFPOUReconstruction<PointNT>::ExtractState
   cornerValue (std::uint64_t key) const
   {
     return cvals[std::size_t (std::lower_bound (ckeys.begin (), ckeys.end (), key) - ckeys.begin ())];
+  }
+  // Appends the cells of the sorted `cells` that lie in the band to `out`.
+  void
+  keepInBand (const std::vector<std::uint64_t>& cells, std::vector<std::uint64_t>& out) const
+  {
+    std::size_t r = 0;
+    for (const std::uint64_t c : cells)
+    {
+      while (r < band_last.size () && band_last[r] < c)
+        ++r;
+      if (r < band_last.size () && band_first[r] <= c)
+        out.push_back (c);
+    }
   }
 };
 
@@ -1308,12 +1342,34 @@ RBFPOUReconstruction<PointNT>::findBand (ExtractState& g)
     frontier[i] = pack (std::int64_t (c[0]), std::int64_t (c[1]), std::int64_t (c[2]));
   }
   sortUnique (frontier);
-  g.band = frontier;
-  for (int axis = 0; axis < 3; ++axis)
-    dilate (g.band, axis, -band_, band_);
-  stats_.band_cells = g.band.size ();
-  if (!continuation_)
-    frontier = g.band;
+  // Dilated along y and z as keys, then along x as runs: a key ± band_ stays in its row, since
+  // the grid's margin of band_ + 2 cells keeps every x ± band_ within [0, 2^20).
+  std::vector<std::uint64_t> rows = frontier;
+  dilate (rows, 1, -band_, band_);
+  dilate (rows, 2, -band_, band_);
+  stats_.band_cells = 0;
+  for (const std::uint64_t k : rows)
+  {
+    const std::uint64_t first = k - std::uint64_t (band_), last = k + std::uint64_t (band_);
+    if (!g.band_last.empty () && first <= g.band_last.back () + 1)
+    {
+      stats_.band_cells += last - g.band_last.back ();
+      g.band_last.back () = last;
+    }
+    else
+    {
+      stats_.band_cells += last - first + 1;
+      g.band_first.push_back (first);
+      g.band_last.push_back (last);
+    }
+  }
+  std::vector<std::uint64_t> ().swap (rows);
+  if (continuation_)
+    return;
+  frontier.clear ();
+  for (std::size_t r = 0; r < g.band_first.size (); ++r)
+    for (std::uint64_t c = g.band_first[r]; c <= g.band_last[r]; ++c)
+      frontier.push_back (c);
 }
 
 template <typename PointNT> void
@@ -1459,13 +1515,13 @@ RBFPOUReconstruction<PointNT>::marchWaves (ExtractState& g)
     std::vector<std::uint64_t> fresh_cells;
     std::set_difference (cand.begin (), cand.end (), visited.begin (), visited.end (), std::back_inserter (fresh_cells));
     frontier.clear ();
-    std::set_intersection (fresh_cells.begin (), fresh_cells.end (), g.band.begin (), g.band.end (),
-                           std::back_inserter (frontier));
+    g.keepInBand (fresh_cells, frontier);
   }
   stats_.active_cells = visited.size ();
   stats_.corners = g.ckeys.size ();
   stats_.uncovered_corners = g.uncovered;
-  std::vector<std::uint64_t> ().swap (g.band);
+  std::vector<std::uint64_t> ().swap (g.band_first);
+  std::vector<std::uint64_t> ().swap (g.band_last);
   std::vector<std::uint64_t> ().swap (visited);
   std::vector<std::uint64_t> ().swap (frontier);
   std::vector<std::vector<std::uint64_t>> ().swap (g.next_t);
@@ -1546,7 +1602,7 @@ RBFPOUReconstruction<PointNT>::interpolateVertices (ExtractState& g, std::vector
 }
 
 template <typename PointNT> void
-RBFPOUReconstruction<PointNT>::triangulateCells (const ExtractState& g, std::vector<Vertices>& polygons)
+RBFPOUReconstruction<PointNT>::triangulateCells (const ExtractState& g, std::vector<Triangle>& triangles)
 {
   // Marching cubes' triangles of every cell, their corners named by the crossed edges.
   using namespace pclx::surface::detail;
@@ -1561,15 +1617,14 @@ RBFPOUReconstruction<PointNT>::triangulateCells (const ExtractState& g, std::vec
       ++t;
     first_tri[ci + 1] = first_tri[ci] + t;
   }
-  polygons.resize (first_tri.back ());
+  triangles.resize (first_tri.back ());
 #pragma omp parallel for num_threads(g.nt) schedule(static)
   for (std::ptrdiff_t ci = 0; ci < std::ptrdiff_t (mc_cells.size ()); ++ci)
   {
     const int* tri = triTable[mc_cube[ci]];
     for (std::size_t t = first_tri[ci], i = 0; t < first_tri[ci + 1]; ++t)
     {
-      auto& v = polygons[t].vertices;
-      v.resize (3);
+      Triangle& v = triangles[t];
       for (int j = 0; j < 3; ++j, ++i)
         v[j] = std::uint32_t (std::lower_bound (edges.begin (), edges.end (), g.edgeKey (mc_cells[ci], tri[i])) - edges.begin ());
     }
@@ -1577,22 +1632,24 @@ RBFPOUReconstruction<PointNT>::triangulateCells (const ExtractState& g, std::vec
 }
 
 template <typename PointNT> bool
-RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, std::vector<Vertices>& polygons)
+RBFPOUReconstruction<PointNT>::extract (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& triangles)
 {
   using namespace pclx::surface::detail;
   const auto t0 = Clock::now ();
-  ExtractState g;
-  if (!setUpExtractGrid (g))
-    return false;
-  findBand (g);
-  marchWaves (g);
-  sortCellsByKey (g);
-  collectCrossedEdges (g);
-  interpolateVertices (g, vertices);
-  triangulateCells (g, polygons);
-  closeHoles (vertices, polygons);
+  {
+    ExtractState g;  // freed before the holes are closed
+    if (!setUpExtractGrid (g))
+      return false;
+    findBand (g);
+    marchWaves (g);
+    sortCellsByKey (g);
+    collectCrossedEdges (g);
+    interpolateVertices (g, vertices);
+    triangulateCells (g, triangles);
+  }
+  closeHoles (vertices, triangles);
   stats_.vertices = vertices.size ();
-  stats_.triangles = polygons.size ();
+  stats_.triangles = triangles.size ();
   stats_.t_extraction = seconds (t0);
   return true;
 }
@@ -1659,7 +1716,19 @@ RBFPOUReconstruction<PointNT>::makeVertices (std::vector<Eigen::Vector3f>& verti
     if (len > 0)
       p.getNormalVector3fMap () /= len;
   }
-  stats_.t_output = seconds (t0);
+  stats_.t_output += seconds (t0);
+}
+
+template <typename PointNT> void
+RBFPOUReconstruction<PointNT>::makePolygons (std::vector<Triangle>& triangles, std::vector<Vertices>& polygons)
+{
+  // Serial: the small allocations then come from one heap, where the extraction's freed buffers are.
+  const auto t0 = pclx::surface::detail::Clock::now ();
+  polygons.resize (triangles.size ());
+  for (std::size_t t = 0; t < triangles.size (); ++t)
+    polygons[t].vertices.assign (triangles[t].begin (), triangles[t].end ());
+  std::vector<Triangle> ().swap (triangles);
+  stats_.t_output = pclx::surface::detail::seconds (t0);
 }
 
 template <typename PointNT> void
@@ -1693,11 +1762,10 @@ RBFPOUReconstruction<PointNT>::performReconstruction (PointCloud<PointNT>& point
   points.clear ();
   std::vector<Vertices> ().swap (polygons);  // reconstruct () reserved 2 per input point
   std::vector<Eigen::Vector3f> vertices;
-  if (!build () || !extract (vertices, polygons))
-  {
-    polygons.clear ();
+  std::vector<Triangle> triangles;
+  if (!build () || !extract (vertices, triangles))
     return;
-  }
+  makePolygons (triangles, polygons);
   points.resize (vertices.size ());
   points.width = std::uint32_t (vertices.size ());
   points.height = 1;
@@ -1714,13 +1782,12 @@ RBFPOUReconstruction<PointNT>::performReconstruction (PolygonMesh& output)
   output.cloud.data.shrink_to_fit ();
   std::vector<Vertices> ().swap (output.polygons);
   std::vector<Eigen::Vector3f> vertices;
+  std::vector<Triangle> triangles;
   const PointCloud<PointNT> empty;
   pcl::toPCLPointCloud2 (empty, output.cloud);  // fields and point_step of PointNT, no data
-  if (!build () || !extract (vertices, output.polygons))
-  {
-    output.polygons.clear ();
+  if (!build () || !extract (vertices, triangles))
     return;
-  }
+  makePolygons (triangles, output.polygons);
   // The vertices are built in the blob itself, one PointNT per point_step as toPCLPointCloud2
   // lays them out, instead of in a PointCloud and then copied (one output cloud less at peak).
   auto& c = output.cloud;
