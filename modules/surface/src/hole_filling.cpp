@@ -25,50 +25,16 @@ using Kernel = CGAL::Simple_cartesian<double>;
 using Mesh = CGAL::Surface_mesh<Kernel::Point_3>;
 using Halfedge = Mesh::Halfedge_index;
 
-// Both triangle types seen alike: corner j, whether it has three corners, appending one.
-std::uint32_t
-corner (const pcl::Vertices& t, int j)
-{
-  return t.vertices[j];
-}
-std::uint32_t
-corner (const Triangle& t, int j)
-{
-  return t[j];
-}
-bool
-isTriangle (const pcl::Vertices& t)
-{
-  return t.vertices.size () == 3;
-}
-bool
-isTriangle (const Triangle&)
-{
-  return true;
-}
-void
-append (std::vector<pcl::Vertices>& triangles, const std::vector<std::uint32_t>& corners)
-{
-  pcl::Vertices t;
-  t.vertices.assign (corners.begin (), corners.end ());
-  triangles.push_back (std::move (t));
-}
-void
-append (std::vector<Triangle>& triangles, const std::vector<std::uint32_t>& corners)
-{
-  triangles.push_back ({corners[0], corners[1], corners[2]});  // the patches are triangulated
-}
-
 // True when some edge is used by one triangle only: most meshes need no halfedge structure.
-template <typename Tri> bool
-hasBoundary (const std::vector<Tri>& triangles)
+bool
+hasBoundary (const std::vector<Triangle>& triangles)
 {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
   edges.reserve (3 * triangles.size ());
   for (const auto& t : triangles)
     for (int j = 0; j < 3; ++j)
     {
-      const std::uint32_t a = corner (t, j), b = corner (t, (j + 1) % 3);
+      const std::uint32_t a = t[j], b = t[(j + 1) % 3];
       edges.emplace_back (std::min (a, b), std::max (a, b));
     }
   std::sort (edges.begin (), edges.end ());
@@ -84,8 +50,8 @@ hasBoundary (const std::vector<Tri>& triangles)
   return false;
 }
 
-template <typename Tri> bool
-toMesh (const std::vector<Eigen::Vector3f>& vertices, const std::vector<Tri>& triangles, Mesh& mesh)
+bool
+toMesh (const std::vector<Eigen::Vector3f>& vertices, const std::vector<Triangle>& triangles, Mesh& mesh)
 {
   mesh.reserve (Mesh::size_type (vertices.size ()), Mesh::size_type (3 * triangles.size () / 2),
                 Mesh::size_type (triangles.size ()));
@@ -93,9 +59,9 @@ toMesh (const std::vector<Eigen::Vector3f>& vertices, const std::vector<Tri>& tr
     mesh.add_vertex (Kernel::Point_3 (v.x (), v.y (), v.z ()));
   for (const auto& t : triangles)
   {
-    if (!isTriangle (t) || std::size_t (std::max ({corner (t, 0), corner (t, 1), corner (t, 2)})) >= vertices.size ())
+    if (std::size_t (std::max ({t[0], t[1], t[2]})) >= vertices.size ())
       return false;
-    const Mesh::Vertex_index a (corner (t, 0)), b (corner (t, 1)), c (corner (t, 2));
+    const Mesh::Vertex_index a (t[0]), b (t[1]), c (t[2]);
     if (mesh.add_face (a, b, c) == Mesh::null_face ())
       return false;
   }
@@ -134,9 +100,11 @@ triangleArea (const Mesh& mesh, Mesh::Face_index f)
   return std::sqrt (CGAL::squared_area (a, b, c));
 }
 
-template <typename Tri> bool
-fillHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Tri>& triangles, double max_diameter,
-           HoleFillingStats& stats)
+}  // namespace
+
+bool
+fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& triangles, double max_diameter,
+                HoleFillingStats& stats)
 {
   stats = HoleFillingStats ();
   if (!(max_diameter > 0) || !std::isfinite (max_diameter))
@@ -184,33 +152,18 @@ fillHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Tri>& triangles, 
     const auto& p = mesh.point (Mesh::Vertex_index (Mesh::size_type (v)));
     vertices.emplace_back (float (p.x ()), float (p.y ()), float (p.z ()));
   }
-  std::vector<std::uint32_t> corners;
   for (const auto f : added_faces)
   {
-    corners.clear ();
+    Triangle t;
+    std::size_t j = 0;
     for (const auto v : CGAL::vertices_around_face (mesh.halfedge (f), mesh))
-      corners.push_back (std::uint32_t (v));
-    append (triangles, corners);
+      if (j < t.size ())
+        t[j++] = std::uint32_t (v);  // the patches are triangulated
+    triangles.push_back (t);
     stats.filled_area += triangleArea (mesh, f);
   }
   stats.added_triangles = added_faces.size ();
   return true;
-}
-
-}  // namespace
-
-bool
-fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<pcl::Vertices>& triangles, double max_diameter,
-                HoleFillingStats& stats)
-{
-  return fillHoles (vertices, triangles, max_diameter, stats);
-}
-
-bool
-fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& triangles, double max_diameter,
-                HoleFillingStats& stats)
-{
-  return fillHoles (vertices, triangles, max_diameter, stats);
 }
 
 }  // namespace detail

@@ -17,11 +17,12 @@ namespace {
 
 using pclx::surface::detail::fillSmallHoles;
 using pclx::surface::detail::HoleFillingStats;
+using pclx::surface::detail::Triangle;
 
 struct Mesh
 {
   std::vector<Eigen::Vector3f> vertices;
-  std::vector<pcl::Vertices> triangles;
+  std::vector<Triangle> triangles;
 };
 
 // The unit icosphere without the triangles whose centroid lies within a hole's radius of the
@@ -40,27 +41,34 @@ sphereWithHoles (const std::vector<std::pair<Eigen::Vector3f, float>>& holes)
     });
     if (cut)
       continue;
-    pcl::Vertices t;
-    t.vertices = {f[0], f[1], f[2]};
-    m.triangles.push_back (t);
+    m.triangles.push_back ({std::uint32_t (f[0]), std::uint32_t (f[1]), std::uint32_t (f[2])});
   }
   return m;
 }
 
 std::size_t
-boundaryEdges (const std::vector<pcl::Vertices>& triangles)
+boundaryEdges (const std::vector<Triangle>& triangles)
 {
   std::map<std::pair<int, int>, int> uses;
   for (const auto& t : triangles)
     for (int j = 0; j < 3; ++j)
     {
-      const int a = t.vertices[j], b = t.vertices[(j + 1) % 3];
+      const int a = int (t[j]), b = int (t[(j + 1) % 3]);
       ++uses[{std::min (a, b), std::max (a, b)}];
     }
   std::size_t open = 0;
   for (const auto& [e, n] : uses)
     open += n == 1;
   return open;
+}
+
+std::size_t
+boundaryEdges (const std::vector<pcl::Vertices>& polygons)
+{
+  std::vector<Triangle> triangles;
+  for (const auto& p : polygons)
+    triangles.push_back ({std::uint32_t (p.vertices[0]), std::uint32_t (p.vertices[1]), std::uint32_t (p.vertices[2])});
+  return boundaryEdges (triangles);
 }
 
 // A scan-like sample of the unit sphere: density falling 5× along x, 5 % of it in 5 holes.
@@ -91,7 +99,7 @@ TEST (HoleFilling, ClosesTheHolesUpToTheLimitNearTheSurface)
   EXPECT_EQ (stats.added_vertices, m.vertices.size () - before.vertices.size ());
   // The input is kept as it was, and only the wide hole stays open.
   for (std::size_t i = 0; i < before.triangles.size (); ++i)
-    ASSERT_EQ (m.triangles[i].vertices, before.triangles[i].vertices);
+    ASSERT_EQ (m.triangles[i], before.triangles[i]);
   for (std::size_t v = 0; v < before.vertices.size (); ++v)
     ASSERT_EQ (m.vertices[v], before.vertices[v]);
   EXPECT_EQ (boundaryEdges (m.triangles), boundaryEdges (sphereWithHoles ({wide}).triangles));
@@ -118,11 +126,7 @@ TEST (HoleFilling, BadInputLeavesTheMeshUnchanged)
   Mesh fan;
   fan.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}};
   for (const std::uint32_t apex : {2u, 3u, 4u})
-  {
-    pcl::Vertices t;
-    t.vertices = {0, 1, int (apex)};
-    fan.triangles.push_back (t);
-  }
+    fan.triangles.push_back ({0u, 1u, apex});
   const Mesh fan_before = fan;
   EXPECT_FALSE (fillSmallHoles (fan.vertices, fan.triangles, 10.0, stats));
   EXPECT_EQ (fan.triangles.size (), fan_before.triangles.size ());

@@ -1,7 +1,5 @@
 #pragma once
 // Closing the small holes of a triangle mesh, for surfaces reconstructed from scans.
-#include <pcl/Vertices.h>
-
 #include <Eigen/Core>
 
 #include <array>
@@ -42,17 +40,6 @@ struct HoleFillingStats
   * 2-manifold that CGAL's halfedge structure can hold, or max_diameter is not positive
   * \note Liepa, "Filling holes in meshes", Eurographics Symposium on Geometry Processing 2003,
   * as CGAL::Polygon_mesh_processing::triangulate_refine_and_fair_hole implements it.
-  */
-bool
-fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<pcl::Vertices>& triangles, double max_diameter,
-                HoleFillingStats& stats);
-
-/** \brief fillSmallHoles () on triangles held as index triples.
-  * \param[in,out] vertices the mesh's vertex positions
-  * \param[in,out] triangles the mesh's triangles
-  * \param[in] max_diameter the largest hole closed, in the units of the vertices (> 0)
-  * \param[out] stats the holes found, closed and left open
-  * \return false (with a PCL_ERROR, the mesh unchanged) as the pcl::Vertices overload
   */
 bool
 fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& triangles, double max_diameter,
