@@ -328,6 +328,7 @@ CoupledSimplification::run (const Eigen::Matrix4d& pose, bool dense_only, pcl::F
   const auto t0 = Clock::now ();
   auto t = Clock::now ();
   measureSpacing ();
+  measureNoise ();
   stats_.t_spacing = ms (t, Clock::now ());
   t = Clock::now ();
   if (dense_only)
@@ -385,7 +386,6 @@ CoupledSimplification::cellPixels () const
 // from a quarter of the faces, and the averages keep the noise reduction of the pixels they
 // replace (as one level of the depth pyramid of Newcombe et al. 2011). Low-noise scans (laser
 // range scans) would only be blurred, and a second level blurs curved objects more than it saves.
-
 void
 CoupledSimplification::reduceResolution ()
 {
@@ -393,12 +393,10 @@ CoupledSimplification::reduceResolution ()
   if (min_cell_pixels_ <= 0 || cellPixels () < 2 * min_cell_pixels_ || w_ < 2 || h_ < 2 ||
       stats_.range_noise < kMinAveragedNoise)
     return;
-  const double input_noise = stats_.range_noise;
   halveResolution ();
   scale_ = 2;
   stats_.block_averaged = true;
   measureSpacing ();
-  stats_.range_noise = input_noise;  // the statistic describes the input frame
 }
 
 // Each 2 × 2 block becomes the mean of its valid pixels within the diagonal edge threshold of
@@ -517,9 +515,8 @@ CoupledSimplification::cluster ()
   stats_.clusters = ccount_.size ();
 }
 
-// Trimmed means of |p − q| / range over horizontal and vertical neighbours (§4.2's mean
-// neighbour distance, made depth-independent) and of the second difference of range along rows
-// (the sensor's noise, in pixel spacings), and the median range of the frame.
+// Trimmed mean of |p − q| / range over horizontal and vertical neighbours (§4.2's mean
+// neighbour distance, made depth-independent), and the median range of the frame.
 void
 CoupledSimplification::measureSpacing ()
 {
@@ -540,16 +537,6 @@ CoupledSimplification::measureSpacing ()
     }
   stats_.edge_ratio_mean = trimmedMean (r);
   r.clear ();
-  for (int v = 0; v < H; v += 2)
-    for (int u = 1; u + 1 < W; ++u)
-    {
-      const std::size_t i = static_cast<std::size_t> (v) * W + u;
-      if (range_[i - 1] > 0 && range_[i] > 0 && range_[i + 1] > 0)
-        r.push_back (std::abs (range_[i - 1] - 2 * range_[i] + range_[i + 1]) / range_[i]);
-    }
-  // A smooth surface's second difference is far below a pixel spacing; noise makes it ~√6 σ.
-  stats_.range_noise = trimmedMean (r) * pixelsPerRadian ();
-  r.clear ();
   for (std::size_t i = 0; i < range_.size (); i += 7)
     if (range_[i] > 0)
       r.push_back (range_[i]);
@@ -558,6 +545,24 @@ CoupledSimplification::measureSpacing ()
       if (x > 0) r.push_back (x);
   std::nth_element (r.begin (), r.begin () + r.size () / 2, r.end ());
   stats_.median_range = r.empty () ? 0 : r[r.size () / 2];
+}
+
+// Trimmed mean of the second difference of range along rows, in pixel spacings: a smooth
+// surface's is far below one, the sensor's noise makes it about √6 σ.
+void
+CoupledSimplification::measureNoise ()
+{
+  const int W = w_, H = h_;
+  std::vector<float>& r = ratios_;
+  r.clear ();
+  for (int v = 0; v < H; v += 2)
+    for (int u = 1; u + 1 < W; ++u)
+    {
+      const std::size_t i = static_cast<std::size_t> (v) * W + u;
+      if (range_[i - 1] > 0 && range_[i] > 0 && range_[i + 1] > 0)
+        r.push_back (std::abs (range_[i - 1] - 2 * range_[i] + range_[i + 1]) / range_[i]);
+    }
+  stats_.range_noise = trimmedMean (r) * pixelsPerRadian ();
 }
 
 // §3.2: 4-neighbour triangles under the edge threshold; each face's area-weighted plane

@@ -72,7 +72,7 @@ public:
     bool block_averaged = false;  ///< the frame was reduced by 2 × 2 block averages before clustering
     double max_error = 0;         ///< RMS quadric error (metres) of the worst accepted collapse
     double t_backproject = 0;     ///< back-projection (ms)
-    double t_spacing = 0;         ///< neighbour spacing (ms)
+    double t_spacing = 0;         ///< neighbour spacing and range noise (ms)
     double t_connect = 0;         ///< connected cloud (ms)
     double t_cluster = 0;         ///< clustering (ms)
     double t_collapse = 0;        ///< representatives and edge collapse (ms)
@@ -248,6 +248,7 @@ private:
   bool takePoints (const Eigen::Vector3f* pts, int width, int height, const Eigen::Matrix4d& pose);
   bool run (const Eigen::Matrix4d& pose, bool dense_only, pcl::FrameMesh& out);
   void measureSpacing ();
+  void measureNoise ();
   void connect (bool dense_only);
   double pixelsPerRadian () const;
   int cellPixels () const;

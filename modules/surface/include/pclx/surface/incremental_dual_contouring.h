@@ -73,7 +73,7 @@ public:
     std::size_t frame_triangles = 0;     ///< triangles of the last frame after §3.3
     std::size_t repolygonised_roots = 0; ///< roots redone by the last reconstruct
     std::size_t removed_plane_triangles = 0;  ///< triangles cut away with the dominant plane
-    std::size_t suspect_pose_frames = 0;  ///< frames that overlap the previous one only under the inverse poses
+    std::size_t suspect_pose_frames = 0;  ///< frames that, like the one before, line up with their predecessor only under the inverse poses
     double last_frame_ms = 0;       ///< last frame: total (ms)
     double last_frontend_ms = 0;    ///< last frame: front end, §3.2–3.3 (ms)
     double last_octree_ms = 0;      ///< last frame: octree update, §3.4–3.5 (ms)
@@ -156,9 +156,9 @@ public:
     * down, z forward) to the world, so its last column is the camera's position. Its inverse
     * (world-to-camera, as some SLAM tools export) is a rigid motion too and cannot be told apart
     * from one frame. Across frames it can: each frame is compared with the previous one under
-    * the given poses and under their inverses, and when only the inverses make them overlap, the
-    * frame is still fused, counted in Stats::suspect_pose_frames, and the first such frame prints
-    * a PCL_WARN.
+    * the given poses and under their inverses. When two frames in a row line up only under the
+    * inverses, the frame is still fused, counted in Stats::suspect_pose_frames, and the first
+    * such frame prints a PCL_WARN.
     * \param[in] organized_camera_frame_cloud the frame (NaN: no data)
     * \param[in] camera_to_world the rigid camera pose
     * \return false (with a PCL_ERROR and getLastError ()) on bad input; the map is then unchanged
