@@ -4,6 +4,8 @@
 #include <pcl/point_types.h>
 #include <pcl/surface/reconstruction.h>
 
+#include <pclx/surface/detail/hole_filling.h>
+
 #include <Eigen/Core>
 
 #include <array>
@@ -335,8 +337,8 @@ protected:
   void performReconstruction (PointCloud<PointNT>& points, std::vector<Vertices>& polygons) override;
 
 private:
-  // A triangle of the extraction (vertex indices): no allocation of its own, as a pcl::Vertices has.
-  using Triangle = std::array<std::uint32_t, 3>;
+  // A triangle of the extraction (vertex indices), the type the hole filling takes.
+  using Triangle = pclx::surface::detail::Triangle;
 
   struct Subdomain
   {
