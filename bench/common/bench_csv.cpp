@@ -7,7 +7,6 @@
 #include <sstream>
 #include <stdexcept>
 
-#include <malloc.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -88,14 +87,6 @@ progress ()
 {
   static std::ostream discard (nullptr);
   return verbose ? std::cerr : discard;
-}
-
-std::size_t
-resetPeakMemory ()
-{
-  malloc_trim (0);
-  std::ofstream ("/proc/self/clear_refs") << "5";
-  return procStatusKb ("VmRSS") * 1024;
 }
 
 std::string

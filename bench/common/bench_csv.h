@@ -120,16 +120,11 @@ std::ostream& progress ();
 
 // ---- Running a measurement in a forked child (its own peak memory, limits, crash isolation).
 
-// A key of /proc/self/status in kB (VmRSS, VmHWM, ...), 0 when absent, and the nearest-rank
-// percentile of a sample (test/support).
+// A key of /proc/self/status in kB (VmRSS, VmHWM, ...), 0 when absent, the nearest-rank
+// percentile of a sample, and the reset of VmHWM before a child's measurement (test/support).
 using pclx::testing::percentile;
 using pclx::testing::procStatusKb;
-
-/** \brief Returns freed heap to the system and resets VmHWM to the current RSS
-  * (clear_refs = 5, Linux >= 4.0).
-  * \return that RSS in bytes, the baseline of a child's peak
-  */
-std::size_t resetPeakMemory ();
+using pclx::testing::resetPeakMemory;
 
 /** \brief A row sent from a child through a pipe: "method\tparams\tseconds\tkey=value;key=value". */
 struct ChildRow

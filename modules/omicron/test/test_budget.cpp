@@ -252,7 +252,7 @@ TEST (ObliqueCutOctreeBudget, FromAFileLargerThanTheBudget)
 }
 
 // A budgeted build from a file in a forked child: its peak resident memory above the start
-// (VmHWM after clear_refs resets it) and its ledger's peak, in bytes; -1 when the build fails.
+// (VmHWM after resetPeakMemory ()) and its ledger's peak, in bytes; -1 when the build fails.
 std::pair<long long, long long>
 childPeak (const std::string& pcd, std::size_t budget)
 {
@@ -263,8 +263,7 @@ childPeak (const std::string& pcd, std::size_t budget)
   if (pid == 0)
   {
     ::close (fds[0]);
-    std::ofstream ("/proc/self/clear_refs") << "5";
-    const long long rss0 = static_cast<long long> (pclx::testing::procStatusKb ("VmRSS"));
+    const long long rss0 = static_cast<long long> (pclx::testing::resetPeakMemory ());
     Octree o;
     o.setInputFile (pcd);
     configure (o, 6, false);
@@ -272,7 +271,7 @@ childPeak (const std::string& pcd, std::size_t budget)
     long long out[2] = {-1, -1};
     if (o.build ())
     {
-      out[0] = (static_cast<long long> (pclx::testing::procStatusKb ("VmHWM")) - rss0) * 1024;
+      out[0] = static_cast<long long> (pclx::testing::procStatusKb ("VmHWM")) * 1024 - rss0;
       out[1] = static_cast<long long> (o.getStatistics ().accounted_peak_bytes);
     }
     const bool sent = ::write (fds[1], out, sizeof out) == static_cast<ssize_t> (sizeof out);

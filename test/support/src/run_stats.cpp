@@ -1,5 +1,7 @@
 #include <pclx/testing/run_stats.h>
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <cstring>
 #include <fstream>
@@ -18,6 +20,14 @@ procStatusKb (const char* key)
     if (line.compare (0, len, key) == 0 && line.size () > len && line[len] == ':')
       return std::stoull (line.substr (len + 1));
   return 0;
+}
+
+std::size_t
+resetPeakMemory ()
+{
+  malloc_trim (0);
+  std::ofstream ("/proc/self/clear_refs") << "5";
+  return procStatusKb ("VmRSS") * 1024;
 }
 
 double

@@ -15,6 +15,13 @@ namespace testing {
 std::size_t
 procStatusKb (const char* key);
 
+/** \brief Returns freed heap to the system and resets VmHWM to the current RSS
+  * (clear_refs = 5, Linux >= 4.0), so that VmHWM then measures the peak of what follows.
+  * \return that RSS in bytes, the baseline of the peak
+  */
+std::size_t
+resetPeakMemory ();
+
 /** \brief A percentile by nearest rank: the value at round (q (n - 1)) in sorted order.
   * \param[in] values the sample (copied: it is sorted)
   * \param[in] q the quantile in [0, 1]
