@@ -56,6 +56,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -99,7 +100,7 @@ struct Options
 {
   bool quick = false, verbose = false;
   int threads = 2;
-  std::string csv, data_dir, sweeps = "main,mcrbf,robust,noise,noisy,scanest,size";
+  std::string csv, data_dir, sweeps = "main,mcrbf,robust,noise,noisy,scanest,size", shapes;
   std::size_t main_points = 20000, sweep_points = 10000, noisy_points = 100000, eval_samples = 50000;
   std::vector<std::size_t> sizes{10000, 30000, 100000, 300000, 1000000};
   double mem_limit_gb = 8, time_limit = 240, slow_time_limit = 90, peer_time_limit = 150, eval_limit = 300;
@@ -695,6 +696,9 @@ main (int argc, char** argv)
   app.add_option ("--data-dir", opt.data_dir, "real data (bunny, fertility); default ../shared/data or $PCLX_DATA_DIR");
   app.add_option ("--sweeps", opt.sweeps, "comma-separated subset of main,mcrbf,robust,noise,noisy,scanest,size")
       ->capture_default_str ();
+  app.add_option ("--shapes", opt.shapes,
+                  "comma-separated shapes of the main, noisy and scanest sweeps (default: all of "
+                  "sphere,torus,box,thinplate,bunny,fertility that are available)");
   app.add_option ("--main-points", opt.main_points, "points of the main and peer sweeps")->capture_default_str ();
   app.add_option ("--sweep-points", opt.sweep_points, "points of the robustness and noise sweeps")
       ->capture_default_str ();
@@ -812,6 +816,12 @@ main (int argc, char** argv)
     if (shape (s))
       all.push_back (s);
   const std::string big_real = shape ("bunny") ? "bunny" : (shape ("fertility") ? "fertility" : "torus");
+  if (!opt.shapes.empty ())
+    all.erase (std::remove_if (all.begin (), all.end (),
+                               [&] (const std::string& name) {
+                                 return ("," + opt.shapes + ",").find ("," + name + ",") == std::string::npos;
+                               }),
+               all.end ());
 
   // 1. Main: every shape clean, the closed ones also scan-like; each method over its setting
   // sweep (Poisson depths beyond 9 give the same mesh at 20k points: the octree stops at the

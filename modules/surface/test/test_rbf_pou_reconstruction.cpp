@@ -608,6 +608,32 @@ TEST (RBFPOUReconstruction, NoisySphereIsOneClosedSurfaceWithinTwoSigma)
                r.mean_dist, r.max_dist, ri.mean_dist, ri.max_dist);
 }
 
+// A plate about four spacings thick: supports that hold both of its sides would read the
+// thickness as noise, smooth the clean samples with large quadrics and leave the rim open. The
+// estimate skips neighbours facing the other way, so clean samples are interpolated (closed,
+// near the plate) and noisy ones give their own σ.
+TEST (RBFPOUReconstruction, ThinPlateSidesAreNotReadAsNoise)
+{
+  const auto plate = pclx::testing::makeThinPlate (1.f, 0.02f, 16);
+  const std::size_t n = 20000;
+  Recon clean;
+  const auto r = inspect (run (clean, sample (plate, n, 47)), &plate);
+  EXPECT_EQ (clean.getStats ().noise, 0.0);
+  EXPECT_LT (clean.getStats ().noise_ratio, 0.1);
+  expectClosed (r, 2, "clean thin plate");
+  EXPECT_LT (r.mean_dist, 0.1 * clean.getStats ().mean_spacing);
+
+  auto s = pclx::testing::sampleUniform (plate, n, 47);
+  const double sigma = 0.0025 * plate.diagonal ();
+  pclx::testing::addGaussianNoise (s, 0.0025f, 53);
+  Recon noisy;
+  const auto rn = inspect (run (noisy, Cloud::Ptr (new Cloud (s.cloud))), &plate);
+  EXPECT_NEAR (noisy.getStats ().noise, sigma, 0.2 * sigma);
+  expectClosed (rn, 2, "noisy thin plate");
+  std::printf ("thin plate: clean mean %.2e (spacing %.2e), noise %.2e for sigma %.2e\n", r.mean_dist,
+               clean.getStats ().mean_spacing, noisy.getStats ().noise, sigma);
+}
+
 // Where a quadric cannot follow the surface within the noise (a box's edges under little noise)
 // the fit is Carr et al.'s smoothing spline with ρ between interpolation and the polynomial.
 TEST (RBFPOUReconstruction, SmoothingSplineWhereAQuadricMissesTheShape)

@@ -193,8 +193,9 @@ constexpr int kNeighbours = 8;
 // Noise below this share of the point spacing is left to interpolation (the normals module
 // calls noise above 0.15 spacing significant).
 constexpr double kCleanNoiseRatio = 0.1;
-// The noise estimate's sample count and neighbours (its largest support is 200).
-constexpr std::size_t kNoiseSamples = 500, kNoiseNeighbours = 201;
+// The noise estimate's sample count and neighbours (its largest support is 200), and how many
+// nearest points are searched for them: those on the other side of a thin sheet are skipped.
+constexpr std::size_t kNoiseSamples = 500, kNoiseNeighbours = 201, kNoiseSearched = 2 * kNoiseNeighbours;
 // Under noise Tmin and Tmax grow by this factor times σ / spacing, at most by the second.
 constexpr double kNoiseSubdomainGrowth = 8, kMaxSubdomainGrowth = 16;
 // Target RMS residual of a smoothing fit at its centres, in units of σ: pure noise leaves about
@@ -678,19 +679,23 @@ RBFPOUReconstruction<PointNT>::estimateNoise (const pcl::KdTree<pcl::PointXYZ>& 
   {
     // The normals module's estimate: quadric height-field residuals around a few hundred
     // evenly spread points, on the smallest support (24–200 neighbours) whose plane is defined.
+    // Neighbours whose normal is opposed to the point's (more than 120°, as in the vote) are
+    // left out: they lie on the other side of a thin sheet, and a support holding both sides
+    // reads the sheet's thickness as noise. Creases (normals about 90° apart) stay in.
     struct Scratch
     {
       pcl::Indices ids;
       std::vector<float> d2;
     };
-    const int k = int (std::min<std::size_t> (kNoiseNeighbours, pts_.size ()));
+    const int k = int (std::min<std::size_t> (kNoiseSearched, pts_.size ()));
     const pclx::normals::detail::NoiseEstimate e = pclx::normals::detail::estimateCloudNoise<Scratch> (
         pts_.size (), kNoiseSamples, 1, [&] (std::size_t i, std::vector<Eigen::Vector3f>& sorted, Scratch& t) {
           pcl::PointXYZ q;
           q.getVector3fMap () = pts_[i];
           tree.nearestKSearch (q, k, t.ids, t.d2);
           for (const auto id : t.ids)
-            sorted.push_back (pts_[id]);
+            if (sorted.size () < kNoiseNeighbours && nrm_[id].dot (nrm_[i]) >= -0.5f)
+              sorted.push_back (pts_[id]);
         });
     stats_.noise_ratio = e.ratio ();
     // Below this share of the spacing the residuals are sampling and shape, not noise.
