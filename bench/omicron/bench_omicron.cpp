@@ -12,7 +12,8 @@
 //   pcl_octree      pcl::octree::OctreePointCloudPointVector at the depth-7 leaf cell (no LOD)
 //   pcl_outofcore   pcl_outofcore_process -depth 7 -gen_lod (subprocess, /usr/bin/time -v)
 // Every build runs in a forked child of the process that loaded the cloud, which resets its
-// VmHWM (clear_refs 5) after the fork: peaks are per row, deltas over the loaded cloud.
+// VmHWM (clear_refs 5) after the fork: peaks are per row, deltas over the loaded cloud. The
+// builds from the file run in children forked before the load: their peak is the whole process's.
 // Rows (bench/common/bench_csv.h):
 //   omicron,<method>,sweep=..;ratio=..;collapse=..;worklist=..;chunks=..;front=..,<input>,<n>,<s>,metric,value,...
 #include "bench_csv.h"
@@ -338,10 +339,11 @@ finishedNodes (const pcl::ObliqueCut<pcl::PointXYZ>& cut)
 }
 
 std::vector<Row>
-runOurs (const Cloud::ConstPtr& cloud, const Config& c, std::size_t rss0)
+runOurs (const Cloud::ConstPtr& cloud, std::size_t n_points, const Config& c, std::size_t rss0)
 {
   Octree octree;
-  octree.setInputCloud (cloud);
+  if (cloud)
+    octree.setInputCloud (cloud);
   octree.setMaxDepth (c.depth);
   octree.setParentPointRatio (c.ratio);
   octree.setLeafCollapse (c.collapse);
@@ -419,7 +421,7 @@ runOurs (const Cloud::ConstPtr& cloud, const Config& c, std::size_t rss0)
   std::size_t nodes = 0;
   for (std::size_t k : st.nodes_per_level)
     nodes += k;
-  const double n = double (cloud->size ());
+  const double n = double (n_points);
   Metrics m{{"read_s", st.seconds_read},
             {"first_chunk_s", st.seconds_to_first_chunk},
             {"first_front_s", st.seconds_to_first_front},
@@ -872,6 +874,28 @@ main (int argc, char** argv)
           throw std::runtime_error ("short read of " + path);
       }
       emit ({"fread", "sweep=main", fread_s, {{"points_per_s", n / fread_s}, {"file_mb", file_mb}}});
+      // From the file (the build reads it in blocks): file to tree (and to a Potree folder), in
+      // children forked before this process loads the cloud, so their peaks are the whole
+      // process's. Emitted after the load, against pcl_load.
+      std::vector<Row> file_rows;
+      const bool file_rows_here = !budget_only;
+      for (bool front : {false, true})
+      {
+        if (!file_rows_here)
+          break;
+        Config ff;
+        ff.threads = threads;
+        ff.depth = depth;
+        ff.from_file = true;
+        ff.file = path;
+        ff.front = front;
+        if (!front)
+          ff.potree_dir = work + "/potree_" + name + "_" + label;
+        std::vector<Row> rows;
+        if (!inChild ([&] (std::size_t rss0) { return runOurs (nullptr, n, ff, rss0); }, rows))
+          std::cerr << "[omicron] " << name << " " << label << ": FAILED " << ff.params () << "\n";
+        file_rows.insert (file_rows.end (), rows.begin (), rows.end ());
+      }
       Cloud::Ptr cloud (new Cloud);
       const auto tl = Clock::now ();
       if (pcl::io::loadPCDFile<pcl::PointXYZ> (path, *cloud) < 0 || cloud->size () != n)
@@ -885,7 +909,7 @@ main (int argc, char** argv)
         c.threads = threads;
         c.depth = depth;
         std::vector<Row> rows;
-        if (!inChild ([&] (std::size_t rss0) { return runOurs (cloud, c, rss0); }, rows))
+        if (!inChild ([&] (std::size_t rss0) { return runOurs (cloud, n, c, rss0); }, rows))
           std::cerr << "[omicron] " << name << " " << label << ": FAILED " << c.params () << "\n";
         for (Row& r : rows)
         {
@@ -926,16 +950,12 @@ main (int argc, char** argv)
       Config fr = base;
       fr.front = true;
       ours (fr);
-      // From the file (the build reads it in blocks): file to tree, against pcl_load + ours.
-      for (bool front : {false, true})
+      for (Row& r : file_rows)
       {
-        Config ff = base;
-        ff.from_file = true;
-        ff.file = path;
-        ff.front = front;
-        if (!front)
-          ff.potree_dir = work + "/potree_" + name + "_" + label;
-        ours (ff);
+        r.metrics.emplace_back ("load_s", load_s);
+        r.metrics.emplace_back ("build_over_load", r.seconds / load_s);
+        emit (r);
+        log (r.method + " " + r.params, r.seconds);
       }
       for (bool collapse : {false, true})
       {

@@ -1,8 +1,12 @@
 // profile_omicron: stage breakdown of one in-memory ObliqueCutOctree build.
-//   profile_omicron FILE.pcd [--file] [--threads 2] [--repeat 3]
+//   profile_omicron FILE.pcd [--file] [--threads 2] [--repeat 3] [--potree DIR]
 // Loads FILE with pcl::io::loadPCDFile (or, with --file, builds from the file path) and prints
 // the build's stage times (Statistics) and the minor page faults of the build (getrusage).
+// With --potree, each build is also written to DIR as Potree 2.0 (PotreeWriter::write); the
+// last line is the process's VmHWM (the whole process: run it with --repeat 1 for one build).
 #include <pclx/omicron/oblique_cut_octree.h>
+#include <pclx/omicron/potree_writer.h>
+#include <pclx/testing/run_stats.h>
 
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
@@ -33,10 +37,11 @@ int main (int argc, char** argv)
 {
   if (argc < 2)
   {
-    std::fprintf (stderr, "usage: profile_omicron FILE.pcd [--file] [--threads N] [--repeat N]\n");
+    std::fprintf (stderr, "usage: profile_omicron FILE.pcd [--file] [--threads N] [--repeat N] [--potree DIR]\n");
     return 2;
   }
   const std::string path = argv[1];
+  std::string potree_dir;
   bool from_file = false;
   int threads = 2, repeat = 3;
   for (int i = 2; i < argc; ++i)
@@ -47,7 +52,10 @@ int main (int argc, char** argv)
       threads = std::atoi (argv[++i]);
     else if (!std::strcmp (argv[i], "--repeat") && i + 1 < argc)
       repeat = std::atoi (argv[++i]);
+    else if (!std::strcmp (argv[i], "--potree") && i + 1 < argc)
+      potree_dir = argv[++i];
   }
+  std::printf ("VmRSS at start %.1f MB\n", pclx::testing::procStatusKb ("VmRSS") / 1024.0);
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
   if (!from_file)
   {
@@ -76,7 +84,17 @@ int main (int argc, char** argv)
                  "cpu %.2f s  sorted %.0f MB hierarchy %.0f MB\n",
                  from_file ? "file " : "cloud", s.seconds_read, s.seconds_to_first_chunk, s.seconds_to_first_front,
                  s.seconds_total, f1 - f0, (f1 - f0) * 4096.0 / 1e6, c1 - c0, s.sorted_bytes / 1e6, s.hierarchy_bytes / 1e6);
+    if (!potree_dir.empty ())
+    {
+      std::printf ("VmHWM after the build %.1f MB\n", pclx::testing::procStatusKb ("VmHWM") / 1024.0);
+      const auto t = std::chrono::steady_clock::now ();
+      pcl::PotreeWriter<pcl::PointXYZ> writer;
+      if (!writer.write (octree, potree_dir))
+        return 1;
+      std::printf ("potree write %.3f s\n", std::chrono::duration<double> (std::chrono::steady_clock::now () - t).count ());
+    }
     std::fflush (stdout);
   }
+  std::printf ("VmHWM %.1f MB\n", pclx::testing::procStatusKb ("VmHWM") / 1024.0);
   return 0;
 }

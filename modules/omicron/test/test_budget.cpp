@@ -10,6 +10,7 @@
 #include <pclx/omicron/potree_writer.h>
 #include <pclx/testing/run_stats.h>
 
+#include <pcl/common/common.h>
 #include <pcl/io/pcd_io.h>
 
 #include <filesystem>
@@ -229,8 +230,9 @@ TEST (ObliqueCutOctreeBudget, FromAFileLargerThanTheBudget)
   pcl::PotreeWriter<pcl::PointXYZ> writer;
   writer.write (full, (tmp.path / "full").string ());
 
-  // A quarter of the in-memory footprint (its buffers, the whole cloud read into memory included).
-  const std::size_t budget = full.getStatistics ().accounted_peak_bytes / 4;
+  // A quarter of what loading the cloud and building in memory hold (the in-memory build from
+  // the file keeps no second copy of the points, so the cloud is added).
+  const std::size_t budget = (full.getStatistics ().accounted_peak_bytes + cloud->size () * sizeof (pcl::PointXYZ)) / 4;
   ASSERT_GT (fs::file_size (pcd), budget);
   Octree o;
   o.setInputFile (pcd);
@@ -461,9 +463,9 @@ TEST (ObliqueCutOctreeBudget, PlannerBoundsAndFitsTheBudget)
   EXPECT_NE (none.error.find ("5000 points"), std::string::npos) << none.error;
 }
 
-// The in-memory build from a file (read in blocks on a reader thread, bounds gathered as the
-// blocks arrive) equals the build from the loaded cloud: same root cube, same sorted array,
-// same hierarchy. 1.3M points: two blocks of the reader.
+// The in-memory build from a file (read twice in blocks on a reader thread: bounds and bucket
+// counts, then the scatter) equals the build from the loaded cloud: same root cube, same
+// sorted array, same hierarchy. 1.3M points: several blocks of the reader.
 TEST (ObliqueCutOctreeBudget, FileWithoutBudgetEqualsTheCloudBuild)
 {
   TempDir tmp;
@@ -503,6 +505,46 @@ TEST (ObliqueCutOctreeBudget, FileWithoutBudgetEqualsTheCloudBuild)
     writer.write (from_file, df);
     EXPECT_EQ (comparePotree (dc, df), "");
   }
+}
+
+// With a root cube that leaves points out, the file path drops the same points as the cloud
+// path (its second read scatters fewer points than the first one read).
+TEST (ObliqueCutOctreeBudget, FileWithARootCubeEqualsTheCloudBuild)
+{
+  TempDir tmp;
+  const auto cloud = mixedCloud (400000, 13);
+  const std::string pcd = (tmp.path / "in.pcd").string ();
+  ASSERT_EQ (pcl::io::savePCDFileBinary (pcd, *cloud), 0);
+  Eigen::Vector4f lo, hi;
+  pcl::getMinMax3D (*cloud, lo, hi);
+  const Eigen::Vector3d origin = lo.head<3> ().cast<double> ();
+  const double edge = 0.6 * static_cast<double> ((hi - lo).head<3> ().maxCoeff ());
+  Octree from_cloud, from_file;
+  from_cloud.setInputCloud (cloud);
+  from_file.setInputFile (pcd);
+  for (Octree* o : {&from_cloud, &from_file})
+  {
+    configure (*o, 7, true);
+    o->setRootCube (origin, edge);
+    ASSERT_TRUE (o->build ()) << o->getLastError ();
+  }
+  const auto sc = from_cloud.getStatistics (), sf = from_file.getStatistics ();
+  EXPECT_GT (sc.dropped_outside, 0u);
+  EXPECT_EQ (sf.dropped_outside, sc.dropped_outside);
+  EXPECT_EQ (sf.kept_points, sc.kept_points);
+  EXPECT_EQ (sf.nodes_per_level, sc.nodes_per_level);
+  const auto& a = from_cloud.getSortedPoints ();
+  const auto& b = from_file.getSortedPoints ();
+  ASSERT_EQ (a.size (), b.size ());
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < a.size (); ++i)
+    differ += (a[i].x != b[i].x || a[i].y != b[i].y || a[i].z != b[i].z) ? 1 : 0;
+  EXPECT_EQ (differ, 0u);
+  pcl::PotreeWriter<pcl::PointXYZ> writer;
+  const std::string dc = (tmp.path / "cloud").string (), df = (tmp.path / "file").string ();
+  writer.write (from_cloud, dc);
+  writer.write (from_file, df);
+  EXPECT_EQ (comparePotree (dc, df), "");
 }
 
 // A file that fails while it is read (truncated text) is a clear error of the build.

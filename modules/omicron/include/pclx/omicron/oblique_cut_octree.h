@@ -115,9 +115,10 @@ public:
     }
   }
   /** \brief Set an input file (replaces an input cloud). PCD/PLY/XYZ, read through
-    * pcl::PointStreamReader. Without a memory budget it is read into memory in blocks on a
-    * reader thread, with the bounds folded in as the blocks arrive (one pass over the bytes;
-    * the result equals the build from the loaded cloud).
+    * pcl::PointStreamReader. Without a memory budget it is read twice in blocks on a reader
+    * thread: into the sorted array in file order (bounds and bucket counts), then scattered
+    * from the second read into its buckets, so the points are held once; the result equals
+    * the build from the loaded cloud.
     * \param[in] path the file
     */
   void
@@ -329,6 +330,10 @@ private:
   // here, overlapped with the parsing of the next block. Returns false on a read error
   // (the reader's getLastError ()); rethrows what on_block throws.
   template <typename F> bool readFileBlocks (PointStreamReader& reader, F&& on_block);
+  // The file path of the in-memory build: the file read into sorted_ in file order (bounds
+  // folded in), the sorter's buckets counted from it, the file read again and scattered into
+  // them (so the points are held once). Returns false (fail () called) on an error.
+  bool readFileSorted (pclx::omicron::detail::MortonSorter<PointT>& sorter, std::size_t& kept);
   bool fail (const std::string& why);
   void removeTempOutput ();
   // True when no build runs; else PCL_ERROR naming `method` (the call is then ignored).

@@ -10,6 +10,7 @@
 //
 // Equal codes keep input order (both passes are stable), so what is built from the sorted
 // array does not depend on the thread or chunk count.
+#include <pclx/omicron/detail/worker_pool.h>
 #include <pclx/omicron/morton_code.h>
 
 #include <pcl/point_cloud.h>
@@ -52,6 +53,16 @@ public:
   // Reads `cloud` into `sorted` (resized to the kept points, bucketed). Returns the kept count.
   // Throws std::length_error above 2^32 - 1 points (the octree's build thread catches it).
   std::size_t prepare (const PointCloud<PointT>& cloud, PointVector& sorted);
+
+  // The same in two steps, for points streamed twice from a file (never held beside `sorted`):
+  // countBuckets (points, n) fixes the cube (bounds as prepare () takes them) and counts the
+  // points per bucket; returns the kept count, the size `sorted` must have. Then the same
+  // points, in the same order, are given to scatter () in blocks of any size, which places
+  // each kept one in its bucket, in arrival order (the order prepare () keeps). `points` may
+  // be `sorted`'s own storage: countBuckets only reads it. scatter throws std::runtime_error
+  // when the points differ from the counted ones (a bucket overflows).
+  std::size_t countBuckets (const PointT* points, std::size_t n);
+  void scatter (const PointT* points, std::size_t n, PointVector& sorted);
 
   std::size_t numChunks () const { return chunk_begin_.empty () ? 0 : chunk_begin_.size () - 1; }
   std::pair<std::size_t, std::size_t> chunkRange (std::size_t k) const { return {chunk_begin_[k], chunk_begin_[k + 1]}; }
@@ -96,6 +107,16 @@ private:
   };
   void radixSort (std::size_t n);
   void setCubeFromBounds (const Eigen::Array3f& lo, const Eigen::Array3f& hi);
+  // The stages prepare () and countBuckets () share, so both make the same buckets and chunks:
+  // the root cube (user cube, known bounds or a bounds pass) and the bucket bits; per-block
+  // bucket counts of the kept points (drops counted); chunk boundaries from bucket starts.
+  void fixCube (const PointT* points, std::size_t n, std::size_t blocks, WorkerPool& pool);
+  std::vector<std::size_t> countPerBlock (const PointT* points, std::size_t n, std::size_t blocks, WorkerPool& pool);
+  void makeChunks (const std::vector<std::size_t>& bucket_start);
+  // 0: keep, 1: NaN/Inf, 2: outside the user cube.
+  int classify (const PointT& p) const;
+  // The leaf-level interleaved bits of p's cell (no prefix bit) in the current cube.
+  std::uint64_t leafKey (const PointT& p) const;
 
   int max_depth_ = 7;
   std::size_t chunks_ = 16;
@@ -105,9 +126,12 @@ private:
   Eigen::Array3f known_lo_ = Eigen::Array3f::Zero (), known_hi_ = Eigen::Array3f::Zero ();
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero ();
   double edge_ = 1.0;
-  int bucket_bits_ = 0;
+  double scale_ = 1.0;  // leaf cells per unit length
+  Eigen::Vector3d hi_corner_ = Eigen::Vector3d::Ones ();
+  int bucket_bits_ = 0, shift_ = 0;
   std::size_t dropped_invalid_ = 0, dropped_outside_ = 0;
   std::vector<std::size_t> chunk_begin_;  // numChunks () + 1 offsets into the sorted array
+  std::vector<std::size_t> next_, end_;  // streaming scatter: next free slot and end per bucket
   std::vector<KeyIndex> keys_, keys_tmp_;
   PointVector points_tmp_;
 };

@@ -65,6 +65,114 @@ pclx::omicron::detail::MortonSorter<PointT>::setKnownBounds (const Eigen::Array3
   known_bounds_ = true;
 }
 
+template <typename PointT> int
+pclx::omicron::detail::MortonSorter<PointT>::classify (const PointT& p) const
+{
+  if (!std::isfinite (p.x) || !std::isfinite (p.y) || !std::isfinite (p.z))
+    return 1;
+  if (user_cube_ && (p.x < origin_.x () || p.y < origin_.y () || p.z < origin_.z () || p.x > hi_corner_.x () ||
+                     p.y > hi_corner_.y () || p.z > hi_corner_.z ()))
+    return 2;
+  return 0;
+}
+
+template <typename PointT> std::uint64_t
+pclx::omicron::detail::MortonSorter<PointT>::leafKey (const PointT& p) const
+{
+  return (MortonCode::spread (MortonCode::toCell (p.x, origin_.x (), scale_, max_depth_)) << 2) |
+         (MortonCode::spread (MortonCode::toCell (p.y, origin_.y (), scale_, max_depth_)) << 1) |
+         MortonCode::spread (MortonCode::toCell (p.z, origin_.z (), scale_, max_depth_));
+}
+
+template <typename PointT> void
+pclx::omicron::detail::MortonSorter<PointT>::fixCube (const PointT* points, std::size_t n, std::size_t blocks,
+                                                      WorkerPool& pool)
+{
+  if (known_bounds_ && !user_cube_)
+  {
+    setCubeFromBounds (known_lo_, known_hi_);
+    known_bounds_ = false;
+  }
+  else if (!user_cube_)
+  {
+    std::vector<Eigen::Array3f> lo (blocks, Eigen::Array3f::Constant (std::numeric_limits<float>::max ()));
+    std::vector<Eigen::Array3f> hi (blocks, Eigen::Array3f::Constant (-std::numeric_limits<float>::max ()));
+    pool.parallelFor (blocks, [&] (std::size_t b, int) {
+      for (std::size_t i = n * b / blocks; i < n * (b + 1) / blocks; ++i)
+        if (std::isfinite (points[i].x) && std::isfinite (points[i].y) && std::isfinite (points[i].z))
+        {
+          lo[b] = lo[b].min (points[i].getArray3fMap ());
+          hi[b] = hi[b].max (points[i].getArray3fMap ());
+        }
+    });
+    Eigen::Array3f l = lo[0], h = hi[0];
+    for (std::size_t b = 1; b < blocks; ++b)
+    {
+      l = l.min (lo[b]);
+      h = h.max (hi[b]);
+    }
+    setCubeFromBounds (l, h);
+  }
+  // Top bits per bucket: enough buckets to cut `chunks_` balanced chunks, but small enough
+  // that per-block histograms stay in cache.
+  const int total_bits = 3 * max_depth_;
+  int want = 12;
+  while (want < 16 && (std::size_t (1) << want) < 64 * chunks_)
+    ++want;
+  bucket_bits_ = std::min (total_bits, want);
+  shift_ = total_bits - bucket_bits_;
+  scale_ = static_cast<double> (std::uint64_t (1) << max_depth_) / edge_;
+  hi_corner_ = origin_ + Eigen::Vector3d::Constant (edge_);
+}
+
+template <typename PointT> std::vector<std::size_t>
+pclx::omicron::detail::MortonSorter<PointT>::countPerBlock (const PointT* points, std::size_t n, std::size_t blocks,
+                                                            WorkerPool& pool)
+{
+  const std::size_t nb = std::size_t (1) << bucket_bits_;
+  std::vector<std::size_t> hist (blocks * nb, 0);
+  std::vector<std::size_t> bad (blocks, 0), outside (blocks, 0);
+  pool.parallelFor (blocks, [&] (std::size_t b, int) {
+    std::size_t* h = hist.data () + b * nb;
+    for (std::size_t i = n * b / blocks; i < n * (b + 1) / blocks; ++i)
+    {
+      const int c = classify (points[i]);
+      if (c == 0)
+        ++h[leafKey (points[i]) >> shift_];
+      else
+        ++(c == 1 ? bad[b] : outside[b]);
+    }
+  });
+  for (std::size_t b = 0; b < blocks; ++b)
+  {
+    dropped_invalid_ += bad[b];
+    dropped_outside_ += outside[b];
+  }
+  return hist;
+}
+
+template <typename PointT> void
+pclx::omicron::detail::MortonSorter<PointT>::makeChunks (const std::vector<std::size_t>& bucket_start)
+{
+  // Chunks: whole buckets, boundaries at the bucket edge nearest each quantile j·n/k.
+  const std::size_t sum = bucket_start.back ();
+  chunk_begin_.assign (1, 0);
+  if (sum == 0)
+    return;
+  for (std::size_t k = 1; k < chunks_; ++k)
+  {
+    const double target = static_cast<double> (sum) * static_cast<double> (k) / static_cast<double> (chunks_);
+    const auto it = std::lower_bound (bucket_start.begin (), bucket_start.end (), target,
+                                      [] (std::size_t v, double t) { return static_cast<double> (v) < t; });
+    std::size_t pos = *it;
+    if (it != bucket_start.begin () && target - static_cast<double> (*(it - 1)) < static_cast<double> (*it) - target)
+      pos = *(it - 1);
+    if (pos > chunk_begin_.back () && pos < sum)
+      chunk_begin_.push_back (pos);
+  }
+  chunk_begin_.push_back (sum);
+}
+
 template <typename PointT> std::size_t
 pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector& sorted)
 {
@@ -76,81 +184,10 @@ pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& 
   pclx::omicron::detail::WorkerPool pool (threads_);
   // Contiguous blocks in input order: per-block histograms make the scatter stable.
   const std::size_t blocks = std::max<std::size_t> (1, std::min<std::size_t> (4 * threads_, n / 4096 + 1));
-  const auto blockRange = [&] (std::size_t b) {
-    return std::make_pair (n * b / blocks, n * (b + 1) / blocks);
-  };
-  const auto finite = [] (const PointT& p) {
-    return std::isfinite (p.x) && std::isfinite (p.y) && std::isfinite (p.z);
-  };
-
-  if (known_bounds_ && !user_cube_)
-  {
-    setCubeFromBounds (known_lo_, known_hi_);
-    known_bounds_ = false;
-  }
-  else if (!user_cube_)
-  {
-    std::vector<Eigen::Array3f> lo (blocks, Eigen::Array3f::Constant (std::numeric_limits<float>::max ()));
-    std::vector<Eigen::Array3f> hi (blocks, Eigen::Array3f::Constant (-std::numeric_limits<float>::max ()));
-    pool.parallelFor (blocks, [&] (std::size_t b, int) {
-      const auto r = blockRange (b);
-      for (std::size_t i = r.first; i < r.second; ++i)
-        if (finite (cloud[i]))
-        {
-          lo[b] = lo[b].min (cloud[i].getArray3fMap ());
-          hi[b] = hi[b].max (cloud[i].getArray3fMap ());
-        }
-    });
-    Eigen::Array3f l = lo[0], h = hi[0];
-    for (std::size_t b = 1; b < blocks; ++b)
-    {
-      l = l.min (lo[b]);
-      h = h.max (hi[b]);
-    }
-    setCubeFromBounds (l, h);
-  }
-
-  // Top bits per bucket: enough buckets to cut `chunks_` balanced chunks, but small enough
-  // that per-block histograms stay in cache.
-  const int total_bits = 3 * max_depth_;
-  int want = 12;
-  while (want < 16 && (std::size_t (1) << want) < 64 * chunks_)
-    ++want;
-  bucket_bits_ = std::min (total_bits, want);
-  const int shift = total_bits - bucket_bits_;
-  const std::size_t nb = std::size_t (1) << bucket_bits_;
-  const double scale = static_cast<double> (std::uint64_t (1) << max_depth_) / edge_;
-  const Eigen::Vector3d hi_corner = origin_ + Eigen::Vector3d::Constant (edge_);
-  // 0: keep, 1: NaN/Inf, 2: outside the user cube.
-  const auto classify = [&] (const PointT& p) -> int {
-    if (!finite (p))
-      return 1;
-    if (user_cube_ && (p.x < origin_.x () || p.y < origin_.y () || p.z < origin_.z () || p.x > hi_corner.x () ||
-                       p.y > hi_corner.y () || p.z > hi_corner.z ()))
-      return 2;
-    return 0;
-  };
-  const auto key = [&] (const PointT& p) {
-    return (MortonCode::spread (MortonCode::toCell (p.x, origin_.x (), scale, max_depth_)) << 2) |
-           (MortonCode::spread (MortonCode::toCell (p.y, origin_.y (), scale, max_depth_)) << 1) |
-           MortonCode::spread (MortonCode::toCell (p.z, origin_.z (), scale, max_depth_));
-  };
-
-  std::vector<std::size_t> hist (blocks * nb, 0);
-  std::vector<std::size_t> bad (blocks, 0), outside (blocks, 0);
-  pool.parallelFor (blocks, [&] (std::size_t b, int) {
-    std::size_t* h = hist.data () + b * nb;
-    const auto r = blockRange (b);
-    for (std::size_t i = r.first; i < r.second; ++i)
-    {
-      const int c = classify (cloud[i]);
-      if (c == 0)
-        ++h[key (cloud[i]) >> shift];
-      else
-        ++(c == 1 ? bad[b] : outside[b]);
-    }
-  });
+  fixCube (cloud.data (), n, blocks, pool);
+  std::vector<std::size_t> hist = countPerBlock (cloud.data (), n, blocks, pool);
   // Exclusive offsets, bucket-major then block: the scatter keeps input order per bucket.
+  const std::size_t nb = std::size_t (1) << bucket_bits_;
   std::vector<std::size_t> bucket_start (nb + 1, 0);
   std::size_t sum = 0;
   for (std::size_t k = 0; k < nb; ++k)
@@ -164,41 +201,61 @@ pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& 
     }
   }
   bucket_start[nb] = sum;
-  for (std::size_t b = 0; b < blocks; ++b)
-  {
-    dropped_invalid_ += bad[b];
-    dropped_outside_ += outside[b];
-  }
   // Fresh storage advised for huge pages before resize () first touches it.
   PointVector ().swap (sorted);
   pclx::omicron::detail::reserveHuge (sorted, sum);
   sorted.resize (sum);
   pool.parallelFor (blocks, [&] (std::size_t b, int) {
     std::size_t* h = hist.data () + b * nb;
-    const auto r = blockRange (b);
-    for (std::size_t i = r.first; i < r.second; ++i)
+    for (std::size_t i = n * b / blocks; i < n * (b + 1) / blocks; ++i)
       if (classify (cloud[i]) == 0)
-        sorted[h[key (cloud[i]) >> shift]++] = cloud[i];
+        sorted[h[leafKey (cloud[i]) >> shift_]++] = cloud[i];
   });
-
-  // Chunks: whole buckets, boundaries at the bucket edge nearest each quantile j·n/k.
-  chunk_begin_.push_back (0);
-  if (sum > 0)
-  {
-    for (std::size_t k = 1; k < chunks_; ++k)
-    {
-      const double target = static_cast<double> (sum) * static_cast<double> (k) / static_cast<double> (chunks_);
-      const auto it = std::lower_bound (bucket_start.begin (), bucket_start.end (), target,
-                                        [] (std::size_t v, double t) { return static_cast<double> (v) < t; });
-      std::size_t pos = *it;
-      if (it != bucket_start.begin () && target - static_cast<double> (*(it - 1)) < static_cast<double> (*it) - target)
-        pos = *(it - 1);
-      if (pos > chunk_begin_.back () && pos < sum)
-        chunk_begin_.push_back (pos);
-    }
-    chunk_begin_.push_back (sum);
-  }
+  makeChunks (bucket_start);
   return sum;
+}
+
+template <typename PointT> std::size_t
+pclx::omicron::detail::MortonSorter<PointT>::countBuckets (const PointT* points, std::size_t n)
+{
+  if (n >= std::numeric_limits<std::uint32_t>::max ())
+    throw std::length_error ("MortonSorter: more than 2^32 - 1 points (32-bit point counts per node)");
+  chunk_begin_.clear ();
+  dropped_invalid_ = dropped_outside_ = 0;
+  pclx::omicron::detail::WorkerPool pool (threads_);
+  const std::size_t blocks = std::max<std::size_t> (1, std::min<std::size_t> (4 * threads_, n / 4096 + 1));
+  fixCube (points, n, blocks, pool);
+  const std::vector<std::size_t> hist = countPerBlock (points, n, blocks, pool);
+  // Bucket starts; scatter () advances next_ as the points arrive, so each bucket keeps the
+  // order they arrive in.
+  const std::size_t nb = std::size_t (1) << bucket_bits_;
+  std::vector<std::size_t> bucket_start (nb + 1, 0);
+  std::size_t sum = 0;
+  for (std::size_t k = 0; k < nb; ++k)
+  {
+    bucket_start[k] = sum;
+    for (std::size_t b = 0; b < blocks; ++b)
+      sum += hist[b * nb + k];
+  }
+  bucket_start[nb] = sum;
+  next_.assign (bucket_start.begin (), bucket_start.end () - 1);
+  end_.assign (bucket_start.begin () + 1, bucket_start.end ());
+  makeChunks (bucket_start);
+  return sum;
+}
+
+template <typename PointT> void
+pclx::omicron::detail::MortonSorter<PointT>::scatter (const PointT* points, std::size_t n, PointVector& sorted)
+{
+  for (std::size_t i = 0; i < n; ++i)
+    if (classify (points[i]) == 0)
+    {
+      const std::size_t k = leafKey (points[i]) >> shift_;
+      std::size_t& at = next_[k];
+      if (at >= end_[k] || at >= sorted.size ())
+        throw std::runtime_error ("MortonSorter: the streamed points differ from the counted ones");
+      sorted[at++] = points[i];
+    }
 }
 
 template <typename PointT> void
@@ -237,7 +294,6 @@ template <typename PointT> void
 pclx::omicron::detail::MortonSorter<PointT>::sortChunk (std::size_t k, PointVector& sorted, std::vector<MortonCode>& codes)
 {
   const std::size_t b = chunk_begin_[k], e = chunk_begin_[k + 1], n = e - b;
-  const double scale = static_cast<double> (std::uint64_t (1) << max_depth_) / edge_;
   if (keys_.size () < n)
   {
     std::size_t largest = 0;
@@ -252,10 +308,7 @@ pclx::omicron::detail::MortonSorter<PointT>::sortChunk (std::size_t k, PointVect
   }
   for (std::size_t i = 0; i < n; ++i)
   {
-    const PointT& p = sorted[b + i];
-    keys_[i].key = (MortonCode::spread (MortonCode::toCell (p.x, origin_.x (), scale, max_depth_)) << 2) |
-                   (MortonCode::spread (MortonCode::toCell (p.y, origin_.y (), scale, max_depth_)) << 1) |
-                   MortonCode::spread (MortonCode::toCell (p.z, origin_.z (), scale, max_depth_));
+    keys_[i].key = leafKey (sorted[b + i]);
     keys_[i].index = static_cast<std::uint32_t> (i);
   }
   radixSort (n);
@@ -276,6 +329,8 @@ pclx::omicron::detail::MortonSorter<PointT>::release ()
 {
   keys_ = {};
   keys_tmp_ = {};
+  next_ = {};
+  end_ = {};
   points_tmp_ = PointVector ();
 }
 

@@ -212,7 +212,9 @@ template <typename PointT> template <typename F> bool
 pcl::ObliqueCutOctree<PointT>::readFileBlocks (PointStreamReader& reader, F&& on_block)
 {
   // Two blocks in flight: the reader thread fills one while on_block consumes the other.
-  constexpr std::size_t kBlock = std::size_t (1) << 20;
+  // 2^18 points: the reader's buffers and the two blocks stay a small share of the memory
+  // beside the points held once, while a block still amortises the hand-over.
+  constexpr std::size_t kBlock = std::size_t (1) << 18;
   PointCloud blocks[2];
   bool full[2] = {false, false}, done = false;
   std::exception_ptr error;
@@ -334,6 +336,56 @@ pcl::ObliqueCutOctree<PointT>::concatenateLeaves (const std::vector<MortonCode>&
   return leaves;
 }
 
+template <typename PointT> bool
+pcl::ObliqueCutOctree<PointT>::readFileSorted (pclx::omicron::detail::MortonSorter<PointT>& sorter, std::size_t& kept)
+{
+  PointStreamReader reader;
+  if (!reader.open (input_file_))
+    return fail (reader.getLastError ());
+  // Pass 1: the points in file order into sorted_ (storage for the declared count, advised for
+  // huge pages before the first touch), their bounds folded in as the blocks arrive.
+  Eigen::Array3f lo = Eigen::Array3f::Constant (std::numeric_limits<float>::max ());
+  Eigen::Array3f hi = Eigen::Array3f::Constant (-std::numeric_limits<float>::max ());
+  typename PointCloud::VectorType ().swap (sorted_);
+  pclx::omicron::detail::reserveHuge (sorted_, static_cast<std::size_t> (reader.getDeclaredPoints ()));
+  const bool read = readFileBlocks (reader, [&] (const PointCloud& block) {
+    for (const PointT& p : block)
+    {
+      lo = lo.min (p.getArray3fMap ());
+      hi = hi.max (p.getArray3fMap ());
+    }
+    sorted_.insert (sorted_.end (), block.begin (), block.end ());
+  });
+  if (!read)
+    return fail (reader.getLastError ());
+  const std::size_t n = sorted_.size ();
+  stats_.input_points = n + reader.getDroppedInvalid ();
+  // The reader drops NaN/Inf rows, so every point here is finite and the bounds are exact.
+  if (!user_cube_)
+    sorter.setKnownBounds (lo, hi);
+  kept = sorter.countBuckets (sorted_.data (), n);
+  stats_.dropped_invalid = reader.getDroppedInvalid () + sorter.getDroppedInvalid ();
+  // Pass 2: the same points from the file again, each into its bucket of the same array
+  // (kept <= n: shrinking keeps the storage). The file-order copy is overwritten as it goes,
+  // and nothing reads it any more.
+  sorted_.resize (kept);
+  if (!reader.rewind ())
+    return fail (reader.getLastError ());
+  std::size_t again = 0;
+  const bool reread = readFileBlocks (reader, [&] (const PointCloud& block) {
+    again += block.size ();
+    if (again > n)
+      throw std::runtime_error ("the file changed between its two reads (more points the second time)");
+    sorter.scatter (block.data (), block.size (), sorted_);
+  });
+  if (!reread)
+    return fail (reader.getLastError ());
+  if (again != n)
+    return fail ("the file changed between its two reads (" + std::to_string (n) + " then " + std::to_string (again) +
+                 " points)");
+  return true;
+}
+
 // The build thread's body: no exception leaves it (an I/O error deep in the budgeted build,
 // or a failed allocation, becomes false + getLastError ()).
 template <typename PointT> bool
@@ -357,41 +409,9 @@ pcl::ObliqueCutOctree<PointT>::runInMemory (std::chrono::steady_clock::time_poin
 {
   using Clock = std::chrono::steady_clock;
   const auto since = [&] { return std::chrono::duration<double> (Clock::now () - t0).count (); };
-  // The input: the cloud, or the file read whole in blocks (the in-memory build). The file
-  // path is one pass over the bytes: a reader thread parses block k + 1 while this thread
-  // appends block k to the cloud (storage for the declared count) and folds
-  // it into the bounds, so the sorter skips its own bounds pass.
-  PointCloudConstPtr input = input_;
-  bool file_bounds = false;
-  Eigen::Array3f file_lo = Eigen::Array3f::Constant (std::numeric_limits<float>::max ());
-  Eigen::Array3f file_hi = Eigen::Array3f::Constant (-std::numeric_limits<float>::max ());
-  if (!input_file_.empty ())
-  {
-    PointStreamReader reader;
-    if (!reader.open (input_file_))
-      return fail (reader.getLastError ());
-    typename PointCloud::Ptr all (new PointCloud);
-    // Storage for the declared count (no regrowth copies), on ordinary pages: the sorted
-    // array and the chunk buffers are the ones that gain from huge pages.
-    if (reader.getDeclaredPoints () > 0)
-      all->points.reserve (static_cast<std::size_t> (reader.getDeclaredPoints ()));
-    const bool read = readFileBlocks (reader, [&] (const PointCloud& block) {
-      for (const PointT& p : block)
-      {
-        file_lo = file_lo.min (p.getArray3fMap ());
-        file_hi = file_hi.max (p.getArray3fMap ());
-      }
-      all->points.insert (all->points.end (), block.begin (), block.end ());
-    });
-    if (!read)
-      return fail (reader.getLastError ());
-    all->width = static_cast<std::uint32_t> (all->points.size ());
-    all->height = 1;
-    stats_.dropped_invalid = reader.getDroppedInvalid ();
-    input = all;
-    file_bounds = true;
-  }
-  if (!input)
+  // The input: the cloud, bucketed by the sorter into sorted_, or the file, read twice in
+  // blocks into sorted_ (readFileSorted).
+  if (input_file_.empty () && !input_)
     return fail ("no input cloud");
   const int lmax = params_.max_depth;
   pclx::omicron::detail::MortonSorter<PointT> sorter;
@@ -400,19 +420,20 @@ pcl::ObliqueCutOctree<PointT>::runInMemory (std::chrono::steady_clock::time_poin
   sorter.setThreads (params_.threads);
   if (user_cube_)
     sorter.setRootCube (origin_, edge_);
-  else if (file_bounds)
-    sorter.setKnownBounds (file_lo, file_hi);
-  const std::size_t file_dropped = stats_.dropped_invalid;
-  stats_.input_points = input->size () + file_dropped;
-  const std::size_t kept = sorter.prepare (*input, sorted_);
-  // The cloud read from the file is not needed after the scatter: freed before the sort and
-  // fix phases (still counted in accounted_peak_bytes, which stays an upper bound).
-  const std::size_t file_cloud_bytes = input_file_.empty () ? 0 : input->size () * sizeof (PointT);
+  std::size_t kept = 0;
   if (!input_file_.empty ())
-    input.reset ();
+  {
+    if (!readFileSorted (sorter, kept))
+      return false;
+  }
+  else
+  {
+    stats_.input_points = input_->size ();
+    kept = sorter.prepare (*input_, sorted_);
+    stats_.dropped_invalid = sorter.getDroppedInvalid ();
+  }
   stats_.seconds_read = since ();
   stats_.kept_points = kept;
-  stats_.dropped_invalid = sorter.getDroppedInvalid () + file_dropped;
   stats_.dropped_outside = sorter.getDroppedOutside ();
   stats_.chunks = sorter.numChunks ();
   stats_.sorted_bytes = sorted_.capacity () * sizeof (PointT);
@@ -459,8 +480,7 @@ pcl::ObliqueCutOctree<PointT>::runInMemory (std::chrono::steady_clock::time_poin
   stats_.seconds_to_first_front = front_.secondsToFirstLeaf () < 0 ? stats_.seconds_total
                                                                    : stats_.seconds_to_first_chunk + front_.secondsToFirstLeaf ();
   stats_.hierarchy_bytes = cut_->memoryBytes ();
-  stats_.accounted_peak_bytes = stats_.sorted_bytes + sort_buffer_bytes + stats_.hierarchy_bytes +
-                                file_cloud_bytes;
+  stats_.accounted_peak_bytes = stats_.sorted_bytes + sort_buffer_bytes + stats_.hierarchy_bytes;
   stats_.nodes_per_level.assign (lmax + 1, 0);
   stats_.points_per_level.assign (lmax + 1, 0);
   stats_.leaves_per_level.assign (lmax + 1, 0);
