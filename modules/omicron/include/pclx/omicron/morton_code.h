@@ -78,7 +78,9 @@ public:
   static std::uint32_t
   toCell (float v, double origin, double scale, int level)
   {
-    const double c = std::floor ((static_cast<double> (v) - origin) * scale);
+    // Clamped first, then truncated: on [0, hi] truncation is the floor, and below 0 or above
+    // hi the clamp gives what the floor would clamp to (no floor emulation on baseline x86-64).
+    const double c = (static_cast<double> (v) - origin) * scale;
     const double hi = static_cast<double> ((std::uint64_t (1) << level) - 1);
     return static_cast<std::uint32_t> (c < 0.0 ? 0.0 : (c > hi ? hi : c));
   }
