@@ -39,6 +39,9 @@ namespace pcl {
   * On noisy input (a noise level measured from the points, or set) each fit approximates
   * instead of interpolating: Carr et al. 2001's smoothing spline (A + ρI) with a quadratic
   * polynomial, ρ chosen per subdomain so that the residual at the centres matches the noise.
+  * A subdomain that holds two opposed sheets (the sides of a thin plate, told apart by their
+  * normals) gets one height-field fit per side, combined by max or min as in Ohtake et al.
+  * 2003's sharp features, so that the noise does not push the sides apart.
   * The zero set of F − iso is polygonised by marching cubes (PCL's tables) on a sparse grid:
   * only the cells within a band of the input points, so no sheets appear far from the data.
   * F is undefined where no subdomain covers a point (evaluate () gives NaN); band corners no
@@ -60,7 +63,9 @@ namespace pcl {
   * R. M. Musmanno, 2016, "Estimação de Normais em Nuvens de Pontos para Reconstrução de
   * Superfícies 3D com Funções de Base Radial", MSc dissertation, UFF; J. C. Carr, R. K. Beatson,
   * J. B. Cherrie, T. J. Mitchell, W. R. Fright, B. C. McCallum, T. R. Evans, 2001,
-  * "Reconstruction and Representation of 3D Objects with Radial Basis Functions", ACM SIGGRAPH.
+  * "Reconstruction and Representation of 3D Objects with Radial Basis Functions", ACM SIGGRAPH;
+  * Y. Ohtake, A. Belyaev, M. Alexa, G. Turk, H.-P. Seidel, 2003, "Multi-level Partition of
+  * Unity Implicits", ACM SIGGRAPH (piecewise fits combined by max / min).
   * \tparam PointNT a point type with x, y, z and normal_x, normal_y, normal_z; other fields of
   * the output vertices come from the nearest input point
   * \ingroup surface
@@ -123,6 +128,7 @@ public:
     int max_constraints = 0;               ///< Tmax used (grown under noise)
     std::size_t smoothed_subdomains = 0;   ///< fits with a smoothing term ρ > 0
     std::size_t polynomial_subdomains = 0; ///< of those, fits by the least-squares polynomial alone
+    std::size_t two_sheet_subdomains = 0;  ///< of those, fits of two opposed sheets (one per side)
     double density_spread = 0;   ///< 90th / 10th percentile of the 16th-neighbour distance
     double max_hole_size = 0;    ///< the largest hole closed (0: none)
     std::size_t holes = 0;         ///< boundary loops of the mesh
@@ -349,6 +355,9 @@ private:
     std::uint32_t first, count;         // range in sub_ids_ and sub_lambda_
     float smoothing = 0;                // ρ of the fit (0: interpolating, ∞: polynomial alone)
     bool rbf = true;                    // false: the r³ terms are all 0
+    // Two opposed sheets, one fit each (poly and sheet_poly_ of this subdomain): f_i is their
+    // max (+1: solid between the sheets), their min (−1: empty between), or poly alone (0).
+    std::int8_t sheets = 0;
   };
 
   // An octree leaf before it becomes a subdomain: centre, half size of its enlarged box, the
@@ -390,12 +399,16 @@ private:
   void placeOffSurfaceConstraints (const pcl::KdTree<pcl::PointXYZ>& tree);
   std::vector<Leaf> splitOctree ();
   void growLeaves (std::vector<Leaf>& leaves);
-  // Subdomains from the kept leaves (freed); returns the value h of every renumbered constraint.
-  std::vector<float> makeSubdomains (std::vector<Leaf>& leaves);
+  // Subdomains from the kept leaves (freed); returns the value h of every renumbered constraint
+  // and, under noise, the input point that made it (`origin`, for its normal).
+  std::vector<float> makeSubdomains (std::vector<Leaf>& leaves, std::vector<std::uint32_t>& origin);
   void buildBuckets ();
-  void fitSubdomains (const std::vector<float>& value);
+  void fitSubdomains (const std::vector<float>& value, const std::vector<std::uint32_t>& origin);
   // One local fit with np polynomial terms (4 or 10); false when it needed least squares.
-  bool fitSubdomain (Subdomain& s, const std::vector<float>& value, int np);
+  bool fitSubdomain (Subdomain& s, const std::vector<float>& value, const std::vector<std::uint32_t>& origin, int np);
+  // Under noise, a subdomain holding two opposed sheets (a thin plate's sides) gets one
+  // height-field fit per sheet; false (nothing set) when it holds one sheet or a fit misses.
+  bool fitTwoSheets (Subdomain& s, const std::vector<float>& value, const std::vector<std::uint32_t>& origin);
   // Constraint c: an input point (c < pts_.size ()) or an off-surface point.
   const Eigen::Vector3f& constraintPosition (std::uint32_t c) const
   {
@@ -443,6 +456,8 @@ private:
   std::vector<int> src_;  // input index of every filtered point
   std::vector<Constraint> off_;
   std::vector<Subdomain> subs_;
+  // The second sheet's fit of every subdomain (under noise only; used where sheets != 0).
+  std::vector<Eigen::Matrix<double, 10, 1>> sheet_poly_;
   // Per subdomain: its centres (constraint numbers into cpos_) and their RBF weights λ (float:
   // half the memory of doubles, without a measurable change of the mesh): 8 bytes per centre,
   // where a local float copy of every centre would add 12 (docs/surface.md has the numbers).

@@ -204,6 +204,28 @@ constexpr double kNoiseResidual = 1.5;
 // Polynomial terms of a fit: [1 x y z] or [1 x y z x² y² z² xy xz yz].
 constexpr int kLinearTerms = 4, kQuadricTerms = 10;
 
+// Two opposed sheets in one subdomain: each side needs this many constraints (three per
+// height-field term), and at most this share of the constraints may face neither side.
+constexpr int kHeightFieldTerms = 7, kMinSheetConstraints = 3 * kHeightFieldTerms;
+constexpr double kMaxBetweenSheets = 0.05;
+// A point of one side may lie this many σ beyond the other side's surface (noise, not a
+// crossing of the two fits).
+constexpr double kSheetTolerance = 2;
+
+// The height field c · [1 u v w u² v² uv] (u, v, w along e1, e2, e3) as [1 q q²] coefficients.
+inline Eigen::Matrix<double, kQuadricTerms, 1>
+heightFieldToQuadric (const Eigen::VectorXd& c, const Eigen::Vector3d& e1, const Eigen::Vector3d& e2,
+                      const Eigen::Vector3d& e3)
+{
+  Eigen::Matrix3d quad = c[4] * e1 * e1.transpose () + c[5] * e2 * e2.transpose () +
+                         0.5 * c[6] * (e1 * e2.transpose () + e2 * e1.transpose ());
+  const Eigen::Vector3d lin = c[1] * e1 + c[2] * e2 + c[3] * e3;
+  Eigen::Matrix<double, kQuadricTerms, 1> p;
+  p << c[0], lin[0], lin[1], lin[2], quad (0, 0), quad (1, 1), quad (2, 2), 2 * quad (0, 1), 2 * quad (0, 2),
+      2 * quad (1, 2);
+  return p;
+}
+
 inline Eigen::Matrix<double, kQuadricTerms, 1>
 polynomialBasis (const Eigen::Vector3d& q)
 {
@@ -454,7 +476,14 @@ RBFPOUReconstruction<PointNT>::local (const Subdomain& s, const Eigen::Vector3d&
   const double rbf = s.rbf ? pclx::surface::detail::sumR3 (cpos_.data (), sub_ids_.data () + s.first,
                                                    sub_lambda_.data () + s.first, s.count, p[0], p[1], p[2])
                            : 0.0;
-  return s.poly.dot (pclx::surface::detail::polynomialBasis (q)) + rbf / (s.scale * s.scale * s.scale);
+  const Eigen::Matrix<double, 10, 1> b = pclx::surface::detail::polynomialBasis (q);
+  double f = s.poly.dot (b);
+  if (s.sheets != 0)
+  {
+    const double g = sheet_poly_[std::size_t (&s - subs_.data ())].dot (b);
+    f = s.sheets > 0 ? std::max (f, g) : std::min (f, g);
+  }
+  return f + rbf / (s.scale * s.scale * s.scale);
 }
 
 template <typename PointNT> template <typename F> void
@@ -1016,7 +1045,7 @@ RBFPOUReconstruction<PointNT>::growLeaves (std::vector<Leaf>& leaves)
 }
 
 template <typename PointNT> std::vector<float>
-RBFPOUReconstruction<PointNT>::makeSubdomains (std::vector<Leaf>& leaves)
+RBFPOUReconstruction<PointNT>::makeSubdomains (std::vector<Leaf>& leaves, std::vector<std::uint32_t>& origin)
 {
   for (const Leaf& leaf : leaves)
   {
@@ -1057,6 +1086,12 @@ RBFPOUReconstruction<PointNT>::makeSubdomains (std::vector<Leaf>& leaves)
     Eigen::Map<Eigen::Vector3f> dst (&cpos_[3 * std::size_t (rank[c])]);
     dst = constraintPosition (c);
     value[rank[c]] = c < pts_.size () ? 0.f : off_[c - pts_.size ()].value;
+  }
+  if (stats_.noise > 0)
+  {
+    origin.resize (nc);
+    for (std::uint32_t c = 0; c < nc; ++c)
+      origin[rank[c]] = c < pts_.size () ? c : std::uint32_t (off_[c - pts_.size ()].origin);
   }
   stats_.subdomains = subs_.size ();
   stats_.subdomain_centres = sub_ids_.size ();
@@ -1103,7 +1138,8 @@ RBFPOUReconstruction<PointNT>::buildBuckets ()
 }
 
 template <typename PointNT> bool
-RBFPOUReconstruction<PointNT>::fitSubdomain (Subdomain& s, const std::vector<float>& value, int np)
+RBFPOUReconstruction<PointNT>::fitSubdomain (Subdomain& s, const std::vector<float>& value,
+                                             const std::vector<std::uint32_t>& origin, int np)
 {
   using namespace pclx::surface::detail;
   const int m = int (s.count);
@@ -1120,8 +1156,10 @@ RBFPOUReconstruction<PointNT>::fitSubdomain (Subdomain& s, const std::vector<flo
   }
   ProjectedFit fit (p);
   if (!fit.valid () && np > kLinearTerms)
-    return fitSubdomain (s, value, kLinearTerms);  // centres too flat for a quadric
+    return fitSubdomain (s, value, origin, kLinearTerms);  // centres too flat for a quadric
   const double target = std::sqrt (double (m)) * kNoiseResidual * stats_.noise;
+  if (smooth && np == kQuadricTerms && fitTwoSheets (s, value, origin))
+    return true;
   if (smooth && fit.valid ())
   {
     // As ρ grows the smoothing spline tends to the least-squares polynomial; when that one's
@@ -1171,26 +1209,118 @@ RBFPOUReconstruction<PointNT>::fitSubdomain (Subdomain& s, const std::vector<flo
   return !fallback;
 }
 
+template <typename PointNT> bool
+RBFPOUReconstruction<PointNT>::fitTwoSheets (Subdomain& s, const std::vector<float>& value,
+                                             const std::vector<std::uint32_t>& origin)
+{
+  using namespace pclx::surface::detail;
+  // Across a plate thinner than the subdomain one quadric models both sides through its
+  // quadratic term along the normal, whose least squares read the noise as thickness (the
+  // sides move apart). Split by the normals (Ohtake et al. 2003's MPU splits sharp features
+  // the same way): each side gets a height field over its own tangent plane, linear along
+  // the normal, so it cannot bend back to the other side, and f_i is their max or min.
+  const int m = int (s.count);
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero ();
+  for (int j = 0; j < m; ++j)
+  {
+    const Eigen::Vector3d n = nrm_[origin[sub_ids_[s.first + j]]].template cast<double> ();
+    scatter.noalias () += n * n.transpose ();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig (scatter);
+  const Eigen::Vector3d axis = eig.eigenvectors ().col (2);
+  // Side of every constraint: +1 / −1 within 60° of ±axis, 0 between (a rim, a crease).
+  std::vector<std::int8_t> side (m);
+  int count[3] = {0, 0, 0};
+  for (int j = 0; j < m; ++j)
+  {
+    const double a = axis.dot (nrm_[origin[sub_ids_[s.first + j]]].template cast<double> ());
+    side[j] = std::int8_t (a > 0.5 ? 1 : a < -0.5 ? -1 : 0);
+    ++count[side[j] + 1];
+  }
+  if (std::min (count[0], count[2]) < kMinSheetConstraints || count[1] > kMaxBetweenSheets * m)
+    return false;
+  // Tangent frame (u, v, axis): rows [1 u v w u² v² uv], w along the axis.
+  const Eigen::Vector3d e1 = axis.unitOrthogonal (), e2 = axis.cross (e1);
+  std::array<Eigen::Matrix<double, kQuadricTerms, 1>, 2> poly;
+  std::array<Eigen::Vector3d, 2> mean;
+  auto position = [&] (int j) -> Eigen::Vector3d {
+    return (Eigen::Vector3f (&cpos_[3 * std::size_t (sub_ids_[s.first + j])]).template cast<double> () - s.centre) /
+           s.scale;
+  };
+  for (int g = 0; g < 2; ++g)
+  {
+    const std::int8_t want = g == 0 ? 1 : -1;
+    const int k = count[want + 1];
+    Eigen::MatrixXd rows (k, kHeightFieldTerms);
+    Eigen::VectorXd h (k);
+    mean[g].setZero ();
+    for (int j = 0, r = 0; j < m; ++j)
+    {
+      if (side[j] != want)
+        continue;
+      const Eigen::Vector3d q = position (j);
+      const double u = e1.dot (q), v = e2.dot (q), w = axis.dot (q);
+      rows.row (r) << 1, u, v, w, u * u, v * v, u * v;
+      h[r++] = double (value[sub_ids_[s.first + j]]);
+      mean[g] += q / k;
+    }
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr (rows);
+    const Eigen::VectorXd r = qr.matrixQR ().topLeftCorner (kHeightFieldTerms, kHeightFieldTerms).diagonal ().cwiseAbs ();
+    if (!(r.minCoeff () > 1e-9 * r.maxCoeff ()))
+      return false;
+    const Eigen::VectorXd c = qr.solve (h);
+    if (!c.allFinite () || (rows * c - h).norm () > std::sqrt (double (k)) * kNoiseResidual * stats_.noise)
+      return false;
+    poly[g] = heightFieldToQuadric (c, e1, e2, axis);
+  }
+  // The second side lies behind the first one's outside (a plate: solid between, F = max) or
+  // in front of it (a slot: empty between, F = min).
+  s.sheets = std::int8_t ((mean[1] - mean[0]).dot (axis) < 0 ? 1 : -1);
+  // Each side's fit must put the other side's points inside its solid (max) or outside it
+  // (min), up to the noise; otherwise the max / min would let one fit's far field cut the
+  // other's surface.
+  for (int j = 0; j < m; ++j)
+    if (side[j] != 0 && value[sub_ids_[s.first + j]] == 0.f)
+    {
+      const double other = poly[side[j] > 0 ? 1 : 0].dot (polynomialBasis (position (j)));
+      if (s.sheets * other >= kSheetTolerance * stats_.noise)
+      {
+        s.sheets = 0;
+        return false;
+      }
+    }
+  s.poly = poly[0];
+  sheet_poly_[std::size_t (&s - subs_.data ())] = poly[1];
+  s.smoothing = std::numeric_limits<float>::infinity ();
+  s.rbf = false;
+  return true;
+}
+
 template <typename PointNT> void
-RBFPOUReconstruction<PointNT>::fitSubdomains (const std::vector<float>& value)
+RBFPOUReconstruction<PointNT>::fitSubdomains (const std::vector<float>& value, const std::vector<std::uint32_t>& origin)
 {
   sub_lambda_.assign (sub_ids_.size (), 0.f);
-  std::size_t fallbacks = 0, smoothed = 0, polynomial = 0;
+  if (stats_.noise > 0)
+    sheet_poly_.assign (subs_.size (), Eigen::Matrix<double, 10, 1>::Zero ());
+  std::size_t fallbacks = 0, smoothed = 0, polynomial = 0, two_sheets = 0;
 #pragma omp parallel for num_threads(pclx::surface::detail::threadCount (threads_)) \
-    reduction(+ : fallbacks, smoothed, polynomial) \
+    reduction(+ : fallbacks, smoothed, polynomial, two_sheets) \
     schedule(dynamic, 4)
   for (std::ptrdiff_t si = 0; si < std::ptrdiff_t (subs_.size ()); ++si)
   {
     // Smoothing fits also carry the quadratic terms: for a large ρ the fit tends to the
     // least-squares quadric through the constraints, which follows curvature a plane cannot.
-    fallbacks += !fitSubdomain (subs_[si], value, stats_.noise > 0 ? pclx::surface::detail::kQuadricTerms
-                                                                   : pclx::surface::detail::kLinearTerms);
+    fallbacks += !fitSubdomain (subs_[si], value, origin,
+                                stats_.noise > 0 ? pclx::surface::detail::kQuadricTerms
+                                                 : pclx::surface::detail::kLinearTerms);
     smoothed += subs_[si].smoothing > 0;
     polynomial += !subs_[si].rbf;
+    two_sheets += subs_[si].sheets != 0;
   }
   stats_.fit_fallbacks = fallbacks;
   stats_.smoothed_subdomains = smoothed;
   stats_.polynomial_subdomains = polynomial;
+  stats_.two_sheet_subdomains = two_sheets;
 }
 
 template <typename PointNT> bool
@@ -1199,7 +1329,7 @@ RBFPOUReconstruction<PointNT>::build ()
   using namespace pclx::surface::detail;
   stats_ = Stats ();
   error_.clear ();
-  pts_.clear (); nrm_.clear (); src_.clear (); off_.clear (); subs_.clear ();
+  pts_.clear (); nrm_.clear (); src_.clear (); off_.clear (); subs_.clear (); sheet_poly_.clear ();
   sub_ids_.clear (); sub_lambda_.clear (); cpos_.clear ();
   bucket_keys_.clear (); bucket_first_.clear (); bucket_subs_.clear ();
   if (!checkParameters ())
@@ -1239,14 +1369,15 @@ RBFPOUReconstruction<PointNT>::build ()
   t0 = Clock::now ();
   std::vector<Leaf> leaves = splitOctree ();
   growLeaves (leaves);
-  const std::vector<float> value = makeSubdomains (leaves);
+  std::vector<std::uint32_t> origin;
+  const std::vector<float> value = makeSubdomains (leaves, origin);
   if (subs_.empty ())
     return fail ("no subdomain reached Tmin = " + std::to_string (stats_.min_constraints) + " constraints");
   buildBuckets ();
   stats_.t_octree = seconds (t0);
 
   t0 = Clock::now ();
-  fitSubdomains (value);
+  fitSubdomains (value, origin);
   stats_.t_fits = seconds (t0);
   return true;
 }
