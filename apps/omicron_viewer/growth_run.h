@@ -14,6 +14,8 @@
 #include <pclx/omicron/oblique_cut_octree.h>
 #include <pclx/omicron/potree_writer.h>
 
+#include <pcl/console/print.h>
+
 #include <vtkCamera.h>
 #include <vtkRenderWindow.h>
 #include <vtkRenderer.h>
@@ -87,7 +89,7 @@ public:
 
   /** \brief A run of `opt` (which must outlive it) on `in`.
     * \param[in] opt the options
-    * \param[in] in the input (a loaded cloud, or the file a budgeted build streams)
+    * \param[in] in the input (a loaded cloud, or the file the octree reads itself)
     */
   GrowthRun (const Options& opt, Input<PointT> in)
     : opt_ (opt), in_ (std::move (in)), offscreen_ (!opt.screenshot.empty () || opt.screenshot_every > 0),
@@ -114,9 +116,17 @@ public:
     if (!(up_f_.norm () > 0) || !up_f_.allFinite ())
       throw std::invalid_argument ("--up must be a non-zero direction");
     setUpView ();
+    // A build that reads the file itself meets the file's errors (e.g. no finite point): they
+    // come back through getLastError () as the app's one error line, so PCL's own copy of
+    // them is silenced while the build runs.
+    const pcl::console::VERBOSITY_LEVEL verbosity = pcl::console::getVerbosityLevel ();
+    if (!in_.file.empty ())
+      pcl::console::setVerbosityLevel (pcl::console::L_ALWAYS);
     startBuild ();
     growLoop ();
-    if (!octree_.wait ())
+    const bool built = octree_.wait ();
+    pcl::console::setVerbosityLevel (verbosity);
+    if (!built)
       throw std::runtime_error (octree_.getLastError ().empty () ? "the build failed" : octree_.getLastError ());
     if (log_.build_s < 0)
       log_.build_s = secondsSince (t0_);
@@ -126,6 +136,8 @@ public:
   }
 
 private:
+  // A memory budget: the octree builds out of core and writes the Potree folder itself.
+  bool budgeted () const { return opt_.budget_mb > 0; }
   void configureOctree ();
   SplatColouring::Mode colourMode () const;
   void setUpView ();
@@ -156,7 +168,7 @@ private:
   const Eigen::Vector3d view_dir_, up_;
   Octree octree_;
   SplatColouring::Mode mode_ = SplatColouring::Mode::HEIGHT;
-  // Bounds: from the loaded cloud, or (budgeted build) the root cube once the octree has read
+  // Bounds: from the loaded cloud, or (file read by the octree) the root cube once it has read
   // the file; camera framing and height colours wait for them.
   Eigen::Vector3f lo_, hi_;
   bool framed_ = false;
@@ -181,12 +193,15 @@ GrowthRun<PointT>::configureOctree ()
     octree_.setInputCloud (in_.cloud);
   else
   {
-    // Out of core: the octree reads the file in blocks, subtrees below its spill level go to
-    // the Potree folder as they are finished (the front stops at that level).
+    // The octree reads the file in blocks. Out of core (a budget), subtrees below its spill
+    // level go to the Potree folder as they are finished (the front stops at that level).
     octree_.setInputFile (in_.file);
-    octree_.setMemoryBudget (static_cast<std::size_t> (opt_.budget_mb * 1048576.0));
-    if (!opt_.output.empty ())
-      octree_.setOutputDirectory (opt_.output);
+    if (budgeted ())
+    {
+      octree_.setMemoryBudget (static_cast<std::size_t> (opt_.budget_mb * 1048576.0));
+      if (!opt_.output.empty ())
+        octree_.setOutputDirectory (opt_.output);
+    }
   }
   octree_.setMaxDepth (opt_.depth);
   octree_.setParentPointRatio (opt_.ratio);
@@ -377,7 +392,7 @@ GrowthRun<PointT>::updateLabel (bool building)
 {
   const double pct = building ? completion_->percent () : 100.0;
   char text[160];
-  if (building && !in_.file.empty ())
+  if (building && budgeted ())
     std::snprintf (text, sizeof text, "building out of core: front %zu nodes", items_.size ());
   else if (building && pct < 0)
     std::snprintf (text, sizeof text, "building: front %zu nodes", items_.size ());
@@ -481,7 +496,7 @@ GrowthRun<PointT>::writeOutputs ()
     std::printf ("wrote %d growth pictures %s ... %s\n", log_.shots, shotName (0).c_str (),
                  shotName (log_.shots - 1).c_str ());
   }
-  if (!in_.file.empty ())
+  if (budgeted ())
     std::printf ("Potree 2.0 files written by the build to %s%s\n", octree_.getOutputDirectory ().c_str (),
                  opt_.output.empty () ? " (temporary: removed on exit; give --output to keep them)" : "");
   else if (!opt_.output.empty ())

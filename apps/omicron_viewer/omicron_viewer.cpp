@@ -102,7 +102,7 @@ run (const Options& opt, Input<PointT> in)
 }
 
 // Checks the input file and runs on it with the point type it calls for (colour or not),
-// loaded into memory or (--memory-budget) streamed by the octree.
+// loaded into memory or read by the octree itself (--memory-budget, or no frames).
 int
 runOnFile (const Options& o)
 {
@@ -117,15 +117,20 @@ runOnFile (const Options& o)
       throw std::runtime_error (header.getLastError ());
     color = header.hasColor ();
   }
-  if (o.budget_mb > 0)
+  // With a budget, or without frames on a PCD/PLY (nothing here needs the points: no framing,
+  // no completion share), the octree reads the file itself, so the points are held once.
+  const bool frames = !o.no_render || o.orbit;
+  if (o.budget_mb > 0 || (!frames && check.format != pclx::apps::CloudFormat::XYZ))
   {
     // The octree streams the file; nothing is loaded here.
     pcl::PointStreamReader reader (o.input);
     if (!reader.isOpen ())
       throw std::runtime_error (reader.getLastError ());
-    const auto summary = o.input + ": " + std::to_string (reader.getDeclaredPoints ()) + " points declared (xyz" +
-                         (reader.hasColor () ? " rgb" : "") + "), streamed by the octree (memory budget " +
-                         formatMb (static_cast<std::size_t> (o.budget_mb * 1048576.0)) + ")";
+    const std::string how = o.budget_mb > 0
+                                ? "memory budget " + formatMb (static_cast<std::size_t> (o.budget_mb * 1048576.0))
+                                : "in memory";
+    const auto summary = o.input + ": " + std::to_string (reader.getDeclaredPoints ()) + " points (xyz" +
+                         (reader.hasColor () ? " rgb" : "") + "), read by the octree (" + how + ")";
     Input<pcl::PointXYZRGB> rgb;
     Input<pcl::PointXYZ> xyz;
     rgb.file = xyz.file = o.input;

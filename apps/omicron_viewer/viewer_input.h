@@ -1,6 +1,6 @@
 #pragma once
-// omicron_viewer's input: the cloud read into memory with its bounds, or (memory budget) the
-// file the octree streams itself.
+// omicron_viewer's input: the cloud read into memory with its bounds, or (memory budget, or no
+// frames) the file the octree reads itself.
 #include <pclx/apps/cloud_loader.h>
 #include <pclx/apps/file_check.h>
 #include <pclx/apps/process_stats.h>
@@ -26,7 +26,7 @@ struct Input
   Eigen::Vector3f lo = Eigen::Vector3f::Constant (std::numeric_limits<float>::max ());  ///< minimum corner
   Eigen::Vector3f hi = -lo;  ///< maximum corner
   bool color = false;        ///< the file has rgb
-  std::string file;          ///< memory budget: the octree streams this file itself (cloud left empty)
+  std::string file;          ///< the octree reads this file itself (budget or no frames; cloud left empty)
   std::string summary;       ///< one line about the input
   double seconds = 0;        ///< the time the reading took
 };
