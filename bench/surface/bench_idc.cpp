@@ -500,7 +500,7 @@ struct Bench
   {
     if (mesh_dir.empty ())
       return;
-    std::string name = s.name + "_" + method + "_" + params;
+    std::string name = s.name + "_" + method + (params.empty () ? "" : "_" + params);
     for (char& c : name)
       if (c == ';' || c == '=')
         c = '_';
@@ -602,7 +602,7 @@ struct Bench
     idc.getSimplification ().setCollapseMaxError (collapse_error);
     idc.getSimplification ().setMinCellPixels (min_cell_pixels);
     idc.setDepthRange (0.1f, float (s.depth_trunc));  // as Open3D's depth_trunc
-    std::vector<double> ms, recon_ms, frontend_ms, octree_ms;
+    std::vector<double> ms, recon_ms, frontend_ms, octree_ms, intersect_ms, merge_ms;
     std::size_t failed = 0;
     pcl::PolygonMesh mesh;
     for (const auto& f : s.frames)
@@ -616,6 +616,8 @@ struct Bench
       {
         frontend_ms.push_back (idc.getStats ().last_frontend_ms);
         octree_ms.push_back (idc.getStats ().last_octree_ms);
+        intersect_ms.push_back (idc.getOctree ().getStats ().t_intersect_ms);
+        merge_ms.push_back (idc.getOctree ().getStats ().t_merge_ms);
       }
       if (incremental)
       {
@@ -644,7 +646,8 @@ struct Bench
          {{"leaves", double (st.leaves)}, {"escaped_vertices", double (st.escaped_vertices)},
           {"failed_frames", double (failed)},
           {"reconstruct_ms_median", percentile (recon_ms, 0.5)},
-          {"frontend_ms_median", percentile (frontend_ms, 0.5)}, {"octree_ms_median", percentile (octree_ms, 0.5)}});
+          {"frontend_ms_median", percentile (frontend_ms, 0.5)}, {"octree_ms_median", percentile (octree_ms, 0.5)},
+          {"intersect_ms_median", percentile (intersect_ms, 0.5)}, {"merge_ms_median", percentile (merge_ms, 0.5)}});
     if (frame_rows)
       frameRows (s, incremental ? "idc_incremental" : "idc", leaf, ms);
   }
@@ -787,6 +790,8 @@ struct Bench
 struct Options
 {
   bool quick = false;
+  bool no_sweeps = false;           // IDC at ε = 0 and the TSDF only (profiling)
+  std::vector<double> leaves;       // replaces every input's leaves and TSDF voxels when set
   std::string only, preview;
 };
 
@@ -850,6 +855,12 @@ loadSequences (const Options& opt)
       seqs.back ().leaves = {0.004};
   }
   for (auto& s : seqs)
+    if (!opt.leaves.empty ())
+    {
+      s.leaves = opt.leaves;
+      s.tsdf_voxels = s.pinhole ? opt.leaves : std::vector<double>{};
+    }
+  for (auto& s : seqs)
     if (s.pinhole && s.tsdf_voxels.empty ())
       s.tsdf_voxels = quick ? std::vector<double>{0.02, 0.01} : std::vector<double>{0.04, 0.02, 0.01, 0.005};
   return seqs;
@@ -898,12 +909,16 @@ runSequence (Bench& bench, const Sequence& s, const Options& opt)
   if (truth)
     pclx::bench::progress () << "bench_idc:   truth seen by the frames: " << truth->samples.size () << " of "
                              << truth->all_samples << " samples (" << 100.0 * truth->seenFraction () << " %)\n";
+  if (s.has_truth)
+    bench.saveMesh (s, "truth", "", pclx::testing::toPolygonMesh (s.truth));
   for (double leaf : s.leaves)
     bench.idc (s, leaf, 0, false, truth.get (), true);
 #ifdef PCLX_HAVE_OPEN3D
   for (double voxel : s.tsdf_voxels)
     bench.open3d (s, voxel, truth.get (), true);
 #endif
+  if (opt.no_sweeps)
+    return;
   // ε in metres: how far a merged vertex may lie from the crossing planes it replaces
   // (IncrementalDualContouring::setSimplificationError), swept at every leaf of inputs with truth
   // (at the middle leaf otherwise), so that the chart shows each leaf's error against triangles.
@@ -930,10 +945,12 @@ main (int argc, char** argv)
   Options opt;
   app.add_option ("--csv", csv, "also write the rows to this file");
   std::string mesh_dir;
-  app.add_option ("--mesh-dir", mesh_dir, "write every IDC and TSDF mesh to this folder (PLY)");
+  app.add_option ("--mesh-dir", mesh_dir, "write the truth and every IDC and TSDF mesh to this folder (PLY)");
   app.add_option ("--frames-csv", frames_csv, "per-frame times: input,method,leaf,frame,ms");
   app.add_option ("--only", opt.only, "run only the inputs whose name contains this");
   app.add_flag ("--quick", opt.quick, "small sequences, two detail levels (< 1 min)");
+  app.add_option ("--leaves", opt.leaves, "IDC leaves and TSDF voxels (m) instead of each input's own");
+  app.add_flag ("--no-sweeps", opt.no_sweeps, "only IDC at ε = 0 and the TSDF (no ε sweep, incremental run or PCL peers)");
   app.add_option ("--preview", opt.preview,
                   "write a few depth frames of every input as 16-bit PGM and the seen truth samples as XYZ "
                   "into this folder, and exit");

@@ -116,6 +116,10 @@ trimmedMean (const std::vector<float>& x)
 
 // Frames whose range noise (in pixel spacings) is below this keep every pixel.
 constexpr double kMinAveragedNoise = 0.5;
+// Mean |second difference| of white noise per standard deviation: E|N (0, 6 σ²)| = √(12 / π) σ.
+const double kSecondDifferencePerSigma = std::sqrt (12.0 / M_PI);
+// Most input pixels per side that block averaging merges (two levels of the pyramid).
+constexpr int kMaxAveragingScale = 4;
 
 inline std::uint64_t triKey (int a, int b, int c)
 {
@@ -381,22 +385,31 @@ CoupledSimplification::cellPixels () const
   return std::max (1, cell_pixels_ / scale_);
 }
 
-// One level of 2 × 2 block averages when a frustum cell is at least twice the set number of
-// pixels wide and the range noise is at least half a pixel spacing: the cell quadrics then come
-// from a quarter of the faces, and the averages keep the noise reduction of the pixels they
-// replace (as one level of the depth pyramid of Newcombe et al. 2011). Low-noise scans (laser
-// range scans) would only be blurred, and a second level blurs curved objects more than it saves.
+// Levels of 2 × 2 block averages (the depth pyramid of Newcombe et al. 2011) before
+// clustering, on noisy frames only (range noise of at least half a pixel spacing; low-noise range
+// scans would only be blurred). One level when a frustum cell is at least twice the set number of
+// pixels wide: the cells then come from a quarter of the faces, each less noisy. Further levels,
+// up to kMaxAveragingScale, while a pixel's noise at the median range exceeds half a frustum cell
+// (a leaf of the octree), as in a depth camera's distant views: at full resolution their bumps
+// would cross the lattice as surface, in front of and behind the true one.
 void
 CoupledSimplification::reduceResolution ()
 {
   scale_ = 1;
-  if (min_cell_pixels_ <= 0 || cellPixels () < 2 * min_cell_pixels_ || w_ < 2 || h_ < 2 ||
-      stats_.range_noise < kMinAveragedNoise)
+  if (min_cell_pixels_ <= 0 || stats_.range_noise < kMinAveragedNoise)
     return;
-  halveResolution ();
-  scale_ = 2;
-  stats_.block_averaged = true;
-  measureSpacing ();
+  double sigma = stats_.range_noise / (kSecondDifferencePerSigma * pixelsPerRadian ()) * stats_.median_range;
+  const bool wide_cells = cellPixels () >= 2 * min_cell_pixels_;
+  const auto noisier_than_cells = [this, &sigma] { return cell_size_ > 0 && sigma > 0.5 * cell_size_; };
+  while (w_ >= 2 && h_ >= 2 && scale_ < kMaxAveragingScale && ((scale_ == 1 && wide_cells) || noisier_than_cells ()))
+  {
+    halveResolution ();
+    scale_ *= 2;
+    sigma *= 0.5;  // the mean of four independent pixels
+    measureSpacing ();
+  }
+  stats_.block_averaged = scale_ > 1;
+  stats_.averaging_scale = scale_;
 }
 
 // Each 2 × 2 block becomes the mean of its valid pixels within the diagonal edge threshold of

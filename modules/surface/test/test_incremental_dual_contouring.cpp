@@ -762,6 +762,46 @@ TEST (IncrementalDualContouring, HermiteDataAverageNoisyFrames)
   EXPECT_LT (twenty, 0.25 * one) << "one frame " << one;
 }
 
+// A wall seen close by low-noise frames and from afar by noisy ones (depth noise grows with
+// range): the far frames, whose pixel noise exceeds the leaf, are block averaged down to it, so
+// they leave no bubbles a few leaves in front of the wall or inside it.
+TEST (IncrementalDualContouring, NoisyDistantViewsLeaveNoBubbles)
+{
+  const float face = 0.025f;  // the wall's front face, z = face
+  TriangleMesh wall = pclx::testing::makeBox (Eigen::Vector3f (8.f, 8.f, 0.05f), 32);
+  pclx::testing::RayCaster caster (wall);
+  const auto K = smallCamera ();
+  pclx::testing::KinectNoise noise;
+  IDC idc;
+  idc.setLeafSize (0.01);
+  idc.setDepthRange (0.1f, 4.5f);
+  std::uint32_t seed = 7;
+  for (int k = 0; k < 8; ++k)
+    for (const float range : {1.f, 3.8f})
+    {
+      const float a = 0.7f * k, r = 0.05f * range;
+      const Eigen::Vector3f eye (r * std::cos (a), r * std::sin (a), face + range);
+      const Eigen::Isometry3f pose = pclx::testing::lookAt (eye, Eigen::Vector3f (0.f, 0.f, face), Eigen::Vector3f::UnitY ());
+      const auto depth = pclx::testing::renderDepth (caster, K, pose, noise, seed++);
+      ASSERT_TRUE (idc.addFrame (depth.depth_mm.data (), depth.width, depth.height, toK (K),
+                                 pose.matrix ().cast<double> ()))
+          << idc.getLastError ();
+      EXPECT_EQ (idc.getSimplification ().getStats ().averaging_scale, range > 2.f ? 4 : 2) << "range " << range;
+    }
+  pcl::PolygonMesh mesh;
+  idc.reconstruct (mesh);
+  expectManifold (check (mesh));
+  std::size_t seen = 0, off = 0;
+  for (const auto& p : points (mesh))
+    if (std::abs (p.x ()) < 0.3f && std::abs (p.y ()) < 0.3f)
+    {
+      ++seen;
+      off += std::abs (p.z () - face) > 0.015f;
+    }
+  EXPECT_GT (seen, 1000u);
+  EXPECT_EQ (off, 0u) << "of " << seen << " vertices";
+}
+
 // A refused call says why once and leaves its reason in getLastError (); the next call that
 // succeeds clears it.
 // Poses given as world-to-camera are fused (one frame cannot tell), but consecutive frames only

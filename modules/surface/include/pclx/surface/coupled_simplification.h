@@ -70,6 +70,7 @@ public:
     double range_noise = 0;       ///< the input's trimmed mean |second difference of range| along rows, in pixel spacings
     int cell_pixels = 0;          ///< frustum cell side used (pixels of the input frame)
     bool block_averaged = false;  ///< the frame was reduced by 2 × 2 block averages before clustering
+    int averaging_scale = 1;      ///< input pixels per side of a pixel after block averaging (1, 2 or 4)
     double max_error = 0;         ///< RMS quadric error (metres) of the worst accepted collapse
     double t_backproject = 0;     ///< back-projection (ms)
     double t_spacing = 0;         ///< neighbour spacing and range noise (ms)
@@ -118,8 +119,10 @@ public:
     * that wide and the frame is noisy (range noise of at least half a pixel spacing, as with
     * structured-light and time-of-flight cameras; see Stats::range_noise), the frame is first
     * reduced by 2 × 2 block averages (pixels across a depth edge are not mixed), so the cells
-    * are built from a quarter of the pixels, each less noisy. Low-noise range scans keep every
-    * pixel.
+    * are built from a quarter of the pixels, each less noisy. A frame whose pixel noise at its
+    * median range exceeds half a frustum cell (a distant view of a depth camera) is averaged
+    * once more, whatever the cell width, and again while that holds (at most 4 × 4 pixels).
+    * Low-noise range scans keep every pixel.
     * \param[in] pixels the fewest pixels per cell side (default 2); 0: always the full resolution
     */
   void setMinCellPixels (int pixels) { min_cell_pixels_ = pixels; }
@@ -276,7 +279,7 @@ private:
   double boundary_weight_ = 10, max_turn_deg_ = 60, cell_size_ = 0;
   float min_depth_ = 0.1f, max_depth_ = 8.f;
   int cell_pixels_ = 8, min_cell_pixels_ = 2;
-  int scale_ = 1;  // input pixels per pixel side after block averaging (1 or 2)
+  int scale_ = 1;  // input pixels per pixel side after block averaging (1, 2 or 4)
 
   Stats stats_;
   std::string error_;
