@@ -343,6 +343,7 @@ rbfJob (const std::string& normals, double grid, bool orient, int threads, doubl
                {"normals_voted", double (s.normals_voted)}, {"noise", s.noise},
                {"smoothed_subdomains", double (s.smoothed_subdomains)},
                {"polynomial_subdomains", double (s.polynomial_subdomains)},
+               {"two_sheet_subdomains", double (s.two_sheet_subdomains)},
                {"density_spread", s.density_spread}, {"max_hole_size", s.max_hole_size},
                {"holes", double (s.holes)}, {"holes_filled", double (s.holes_filled)},
                {"hole_area", s.hole_area}, {"t_holes", s.t_holes}};
