@@ -662,6 +662,50 @@ pcl::PointStreamReader::readText (std::size_t max_points, pcl::PointCloud<pcl::P
 }
 
 bool
+pcl::PointStreamReader::readFloatXYZ (std::size_t max_points, float* first, std::size_t stride, std::size_t& n)
+{
+  n = 0;
+  if (!file_)
+    return error ("read", path_ + ": not open");
+  try
+  {
+    auto* out = reinterpret_cast<std::uint8_t*> (first);
+    while (n < max_points && consumed_ < declared_)
+    {
+      const std::size_t batch = static_cast<std::size_t> (std::min<std::uint64_t> (max_points - n, declared_ - consumed_));
+      buffer_.resize (batch * record_bytes_);
+      const std::size_t got = std::fread (buffer_.data (), 1, buffer_.size (), file_);
+      if (got != buffer_.size ())
+        fail ("truncated: the file ends after " + std::to_string (consumed_ + got / record_bytes_) + " of " +
+              std::to_string (declared_) + " points");
+      for (std::size_t i = 0; i < batch; ++i)
+      {
+        const std::uint8_t* r = buffer_.data () + i * record_bytes_;
+        float v[3];
+        std::memcpy (v, r + x_.index, sizeof (float));
+        std::memcpy (v + 1, r + y_.index, sizeof (float));
+        std::memcpy (v + 2, r + z_.index, sizeof (float));
+        if (!std::isfinite (v[0]) || !std::isfinite (v[1]) || !std::isfinite (v[2]))
+        {
+          ++dropped_;
+          continue;
+        }
+        std::memcpy (out + n * stride, v, sizeof v);
+        ++n;
+      }
+      consumed_ += batch;
+    }
+  }
+  catch (const std::exception& e)
+  {
+    n = 0;
+    return error ("read", e.what ());
+  }
+  read_ += n;
+  return true;
+}
+
+bool
 pcl::PointStreamReader::read (std::size_t max_points, pcl::PointCloud<pcl::PointXYZRGB>& out)
 {
   out.clear ();

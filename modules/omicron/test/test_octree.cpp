@@ -133,7 +133,10 @@ TEST (ObliqueCutOctree, BackgroundBuildWithAConcurrentFront)
         break;
     }
     ASSERT_TRUE (o.wait ());
-    // Converge with a close camera: all leaves, every point drawn exactly once.
+    // Converge with a close camera on the final root cube (the loop's last camera may predate
+    // it when the build ran to its end while this thread was preempted): all leaves, every
+    // point drawn exactly once.
+    cam = topView (o.getRootOrigin (), o.getRootEdge (), 1.f);
     o.setProjectionThreshold (1e-7f);
     for (int k = 0; k < 40; ++k)
       o.evaluate (cam, items);

@@ -139,6 +139,19 @@ TEST (PointStreamReader, EveryPCLFormatReadsBackInChunks)
       while (r.read (chunk == 1 ? 1000 : chunk, part))
         again += part;
       EXPECT_EQ (again.size (), got.size ());
+      // Read as PointXYZ (binary float files take the direct path): the same coordinates.
+      r.rewind ();
+      pcl::PointCloud<pcl::PointXYZ> xyz, xyz_part;
+      while (r.read (chunk, xyz_part))
+        xyz += xyz_part;
+      EXPECT_TRUE (r.getLastError ().empty ()) << r.getLastError ();
+      ASSERT_EQ (xyz.size (), got.size ());
+      std::size_t differ = 0;
+      for (std::size_t i = 0; i < xyz.size (); ++i)
+        differ += (xyz[i].x != got[i].x || xyz[i].y != got[i].y || xyz[i].z != got[i].z) ? 1 : 0;
+      EXPECT_EQ (differ, 0u);
+      EXPECT_EQ (r.getPointsRead (), got.size ());
+      EXPECT_EQ (r.getDroppedInvalid () + r.getPointsRead (), cloud.size ());
     }
   // Other point types: xyz only.
   pcl::PointStreamReader r (base + "_b.pcd");
@@ -241,4 +254,14 @@ TEST (PointStreamReader, EmptyTruncatedAndGarbageFilesAreClearErrors)
   EXPECT_TRUE (r.isOpen ());
   EXPECT_TRUE (r.read (10, block));
   EXPECT_EQ (block.size (), 10u);
+  // The direct PointXYZ path: a refused max_points and a reader closed by an error.
+  pcl::PointCloud<pcl::PointXYZ> xyz;
+  EXPECT_FALSE (r.read (0, xyz));
+  EXPECT_TRUE (r.isOpen ());
+  EXPECT_TRUE (r.read (10, xyz));
+  EXPECT_EQ (xyz.size (), 10u);
+  pcl::PointStreamReader t;
+  EXPECT_FALSE (t.open (p ("tb.pcd")));
+  EXPECT_FALSE (t.read (100, xyz));
+  EXPECT_TRUE (xyz.empty ());
 }

@@ -3,8 +3,10 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
+#include <exception>
 #include <memory>
 #include <string>
 #include <vector>
@@ -133,6 +135,11 @@ private:
   std::size_t readBinary (std::size_t max_points, pcl::PointCloud<pcl::PointXYZRGB>& out);
   std::size_t readText (std::size_t max_points, pcl::PointCloud<pcl::PointXYZRGB>& out);
   bool keep (pcl::PointXYZRGB& p);
+  // The next at most max_points finite points of a binary little-endian float x/y/z file, their
+  // x, y, z written as floats at `first` + i * stride bytes (NaN/Inf rows dropped and counted);
+  // n: the points written. Returns false on an error (as read ()). An empty `first` range
+  // (max_points 0, or at the end) writes nothing and returns true.
+  bool readFloatXYZ (std::size_t max_points, float* first, std::size_t stride, std::size_t& n);
 
   std::string path_;
   Format format_ = Format::PCD;
@@ -155,6 +162,27 @@ private:
 template <typename PointT> bool
 PointStreamReader::read (std::size_t max_points, pcl::PointCloud<PointT>& out)
 {
+  // Binary little-endian float x/y/z without colour in the point type: straight into `out`.
+  if constexpr (!pcl::traits::has_color_v<PointT>)
+    if (file_ && binary_ && !compressed_ && !big_endian_ && x_.type == F32 && y_.type == F32 && z_.type == F32 &&
+        max_points > 0)
+    {
+      out.clear ();
+      try
+      {
+        out.resize (static_cast<std::size_t> (std::min<std::uint64_t> (max_points, declared_ - consumed_)));
+      }
+      catch (const std::exception& e)  // a declared count far beyond memory
+      {
+        return error ("read", path_ + ": " + e.what ());
+      }
+      std::size_t n = 0;
+      const bool ok = readFloatXYZ (out.size (), out.empty () ? nullptr : &out[0].x, sizeof (PointT), n);
+      out.resize (n);
+      out.width = static_cast<std::uint32_t> (n);
+      out.height = 1;
+      return ok && n > 0;
+    }
   const bool more = read (max_points, tmp_);
   out.clear ();
   out.resize (tmp_.size ());
