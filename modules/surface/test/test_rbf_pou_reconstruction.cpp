@@ -669,6 +669,16 @@ TEST (RBFPOUReconstruction, NoisyThinPlateSidesStayWhereTheyAre)
   Recon round;
   run (round, Cloud::Ptr (new Cloud (sphere.cloud)));
   EXPECT_EQ (round.getStats ().two_sheet_subdomains, 0u);
+
+  // One surface whose normals disagree (a cap flipped, the vote off) is not two sides: their
+  // fits lie on each other, so no fit is split.
+  for (auto& p : sphere.cloud)
+    if (p.z > 0.8f)
+      p.getNormalVector3fMap () *= -1.f;
+  Recon flipped;
+  flipped.setNormalVote (false);
+  run (flipped, Cloud::Ptr (new Cloud (sphere.cloud)));
+  EXPECT_EQ (flipped.getStats ().two_sheet_subdomains, 0u);
 }
 
 // Where a quadric cannot follow the surface within the noise (a box's edges under little noise)

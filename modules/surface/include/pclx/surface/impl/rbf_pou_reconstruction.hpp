@@ -208,9 +208,12 @@ constexpr int kLinearTerms = 4, kQuadricTerms = 10;
 // height-field term), and at most this share of the constraints may face neither side.
 constexpr int kHeightFieldTerms = 7, kMinSheetConstraints = 3 * kHeightFieldTerms;
 constexpr double kMaxBetweenSheets = 0.05;
-// A point of one side may lie this many σ beyond the other side's surface (noise, not a
-// crossing of the two fits).
-constexpr double kSheetTolerance = 2;
+// How many σ a point of one side may lie beyond the other side's surface (noise, not a crossing
+// of the two fits), and how many σ apart the sides must lie on average (one surface whose
+// normals disagree lies at 0).
+constexpr double kSheetTolerance = 2, kSheetSeparation = 1;
+// The sides' centres may lie this share of their tangential spread apart.
+constexpr double kSheetOverlap = 0.25;
 
 // The height field c · [1 u v w u² v² uv] (u, v, w along e1, e2, e3) as [1 q q²] coefficients.
 inline Eigen::Matrix<double, kQuadricTerms, 1>
@@ -1243,6 +1246,7 @@ RBFPOUReconstruction<PointNT>::fitTwoSheets (Subdomain& s, const std::vector<flo
   const Eigen::Vector3d e1 = axis.unitOrthogonal (), e2 = axis.cross (e1);
   std::array<Eigen::Matrix<double, kQuadricTerms, 1>, 2> poly;
   std::array<Eigen::Vector3d, 2> mean;
+  std::array<double, 2> slope;  // |∂f/∂w| per unit of length: f / slope is a distance
   auto position = [&] (int j) -> Eigen::Vector3d {
     return (Eigen::Vector3f (&cpos_[3 * std::size_t (sub_ids_[s.first + j])]).template cast<double> () - s.centre) /
            s.scale;
@@ -1272,23 +1276,53 @@ RBFPOUReconstruction<PointNT>::fitTwoSheets (Subdomain& s, const std::vector<flo
     if (!c.allFinite () || (rows * c - h).norm () > std::sqrt (double (k)) * kNoiseResidual * stats_.noise)
       return false;
     poly[g] = heightFieldToQuadric (c, e1, e2, axis);
+    slope[g] = std::abs (c[3]) / s.scale;
+    if (!(slope[g] > 0))
+      return false;
+  }
+  // The sides must lie over each other: their centres apart along the tangent plane by less than
+  // kSheetOverlap of the points' spread there (a wrongly oriented patch lies beside the rest).
+  {
+    const Eigen::Vector3d d = mean[1] - mean[0];
+    const double apart = std::hypot (e1.dot (d), e2.dot (d));
+    double spread = 0;
+    for (int j = 0; j < m; ++j)
+      if (side[j] != 0)
+      {
+        const Eigen::Vector3d q = position (j) - mean[side[j] > 0 ? 0 : 1];
+        spread += (q.dot (e1) * q.dot (e1) + q.dot (e2) * q.dot (e2)) / (count[0] + count[2]);
+      }
+    if (!(apart < kSheetOverlap * std::sqrt (spread)))
+      return false;
   }
   // The second side lies behind the first one's outside (a plate: solid between, F = max) or
   // in front of it (a slot: empty between, F = min).
   s.sheets = std::int8_t ((mean[1] - mean[0]).dot (axis) < 0 ? 1 : -1);
   // Each side's fit must put the other side's points inside its solid (max) or outside it
-  // (min), up to the noise; otherwise the max / min would let one fit's far field cut the
-  // other's surface.
+  // (min), each up to the noise and on average beyond it, as distances (under noise a fit's
+  // slope along the normal is below 1): otherwise the max / min would let one fit's far field
+  // cut the other's surface, or the "sides" are one surface whose normals disagree (wrongly
+  // oriented patches), where a split makes islands.
+  double depth = 0;
+  int on_surface = 0;
   for (int j = 0; j < m; ++j)
     if (side[j] != 0 && value[sub_ids_[s.first + j]] == 0.f)
     {
-      const double other = poly[side[j] > 0 ? 1 : 0].dot (polynomialBasis (position (j)));
-      if (s.sheets * other >= kSheetTolerance * stats_.noise)
+      const int g = side[j] > 0 ? 1 : 0;  // the other side's fit
+      const double other = s.sheets * poly[g].dot (polynomialBasis (position (j))) / slope[g];
+      depth += other;
+      ++on_surface;
+      if (other >= kSheetTolerance * stats_.noise)
       {
         s.sheets = 0;
         return false;
       }
     }
+  if (!(on_surface > 0 && depth / on_surface < -kSheetSeparation * stats_.noise))
+  {
+    s.sheets = 0;
+    return false;
+  }
   s.poly = poly[0];
   sheet_poly_[std::size_t (&s - subs_.data ())] = poly[1];
   s.smoothing = std::numeric_limits<float>::infinity ();
