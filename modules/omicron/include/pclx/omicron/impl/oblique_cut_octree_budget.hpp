@@ -25,6 +25,9 @@
 #include <cstdlib>
 #include <cstring>
 #include <fcntl.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <filesystem>
 #include <functional>
 #include <limits>
@@ -107,6 +110,17 @@ private:
   std::string path_, error_;
   int fd_ = -1;
 };
+
+// Hands the heap that freed buffers leave behind back to the system. glibc keeps freed blocks in
+// the arena of the thread that allocated them, where the next stage's other threads cannot reuse
+// them; without this the resident memory exceeds the live buffers the budget plans for.
+inline void
+releaseFreedHeap ()
+{
+#ifdef __GLIBC__
+  ::malloc_trim (0);
+#endif
+}
 
 }  // namespace detail
 }  // namespace omicron
@@ -290,8 +304,10 @@ pcl::ObliqueCutOctree<PointT>::runBudgeted (std::chrono::steady_clock::time_poin
   if (b.lmax - (params_.leaf_collapse ? 2 : 1) < 1)
     return failBudgeted (
         b, "a memory budget needs max depth >= 2 (>= 3 with leaf collapse): the tree needs a level to spill at");
-  if (!planSizes (b) || !prepareOutput (b) || !readBounds (b) || !countAndPlan (b) || !scatterChunks (b) ||
-      !openPotreeOutput (b) || !fixChunks (b) || !writeRetainedTree (b))
+  if (!planSizes (b) || !prepareOutput (b) || !readBounds (b) || !countAndPlan (b) || !scatterChunks (b))
+    return false;
+  pclx::omicron::detail::releaseFreedHeap ();
+  if (!openPotreeOutput (b) || !fixChunks (b) || !writeRetainedTree (b))
     return false;
   collectBudgetedStatistics (b);
   return true;
@@ -635,6 +651,7 @@ pcl::ObliqueCutOctree<PointT>::fixChunks (Budgeted& b)
     b.ledger.set (Ledger::kScratchTree, 0);
     b.ledger.set (Ledger::kSorted, 0);
     b.ledger.set (Ledger::kWorklists, 0);
+    pclx::omicron::detail::releaseFreedHeap ();
   }
   cut_->finishInput ();
   cut_->fix ();
