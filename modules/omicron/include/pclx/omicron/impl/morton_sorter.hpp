@@ -173,19 +173,27 @@ pclx::omicron::detail::MortonSorter<PointT>::makeChunks (const std::vector<std::
   chunk_begin_.push_back (sum);
 }
 
-template <typename PointT> std::size_t
-pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector& sorted)
+template <typename PointT> std::vector<std::size_t>
+pclx::omicron::detail::MortonSorter<PointT>::startPass (const PointT* points, std::size_t n, WorkerPool& pool,
+                                                        std::size_t& blocks)
 {
-  const std::size_t n = cloud.size ();
   if (n >= std::numeric_limits<std::uint32_t>::max ())
     throw std::length_error ("MortonSorter: more than 2^32 - 1 points (32-bit point counts per node)");
   chunk_begin_.clear ();
   dropped_invalid_ = dropped_outside_ = 0;
-  pclx::omicron::detail::WorkerPool pool (threads_);
   // Contiguous blocks in input order: per-block histograms make the scatter stable.
-  const std::size_t blocks = std::max<std::size_t> (1, std::min<std::size_t> (4 * threads_, n / 4096 + 1));
-  fixCube (cloud.data (), n, blocks, pool);
-  std::vector<std::size_t> hist = countPerBlock (cloud.data (), n, blocks, pool);
+  blocks = std::max<std::size_t> (1, std::min<std::size_t> (4 * threads_, n / 4096 + 1));
+  fixCube (points, n, blocks, pool);
+  return countPerBlock (points, n, blocks, pool);
+}
+
+template <typename PointT> std::size_t
+pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& cloud, PointVector& sorted)
+{
+  const std::size_t n = cloud.size ();
+  pclx::omicron::detail::WorkerPool pool (threads_);
+  std::size_t blocks = 0;
+  std::vector<std::size_t> hist = startPass (cloud.data (), n, pool, blocks);
   // Exclusive offsets, bucket-major then block: the scatter keeps input order per bucket.
   const std::size_t nb = std::size_t (1) << bucket_bits_;
   std::vector<std::size_t> bucket_start (nb + 1, 0);
@@ -218,14 +226,9 @@ pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& 
 template <typename PointT> std::size_t
 pclx::omicron::detail::MortonSorter<PointT>::countBuckets (const PointT* points, std::size_t n)
 {
-  if (n >= std::numeric_limits<std::uint32_t>::max ())
-    throw std::length_error ("MortonSorter: more than 2^32 - 1 points (32-bit point counts per node)");
-  chunk_begin_.clear ();
-  dropped_invalid_ = dropped_outside_ = 0;
   pclx::omicron::detail::WorkerPool pool (threads_);
-  const std::size_t blocks = std::max<std::size_t> (1, std::min<std::size_t> (4 * threads_, n / 4096 + 1));
-  fixCube (points, n, blocks, pool);
-  const std::vector<std::size_t> hist = countPerBlock (points, n, blocks, pool);
+  std::size_t blocks = 0;
+  const std::vector<std::size_t> hist = startPass (points, n, pool, blocks);
   // Bucket starts; scatter () advances next_ as the points arrive, so each bucket keeps the
   // order they arrive in.
   const std::size_t nb = std::size_t (1) << bucket_bits_;
