@@ -113,9 +113,12 @@ private:
   void fixCube (const PointT* points, std::size_t n, std::size_t blocks, WorkerPool& pool);
   std::vector<std::size_t> countPerBlock (const PointT* points, std::size_t n, std::size_t blocks, WorkerPool& pool);
   void makeChunks (const std::vector<std::size_t>& bucket_start);
-  // The start of both passes: the count checked, chunks and drop counts reset, the cube fixed
-  // and the per-block bucket counts of `blocks` contiguous blocks in input order.
-  std::vector<std::size_t> startPass (const PointT* points, std::size_t n, WorkerPool& pool, std::size_t& blocks);
+  // The start of both passes: the count checked, chunks and drop counts reset, the cube fixed,
+  // the points counted per bucket in `blocks` contiguous blocks in input order. Returns each
+  // block's first slot per bucket (block-major); bucket_start gets the bucket starts and the
+  // total at the end.
+  std::vector<std::size_t> startPass (const PointT* points, std::size_t n, WorkerPool& pool, std::size_t& blocks,
+                                      std::vector<std::size_t>& bucket_start);
   // 0: keep, 1: NaN/Inf, 2: outside the user cube.
   int classify (const PointT& p) const;
   // The leaf-level interleaved bits of p's cell (no prefix bit) in the current cube.

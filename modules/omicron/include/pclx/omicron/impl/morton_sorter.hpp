@@ -175,7 +175,7 @@ pclx::omicron::detail::MortonSorter<PointT>::makeChunks (const std::vector<std::
 
 template <typename PointT> std::vector<std::size_t>
 pclx::omicron::detail::MortonSorter<PointT>::startPass (const PointT* points, std::size_t n, WorkerPool& pool,
-                                                        std::size_t& blocks)
+                                                        std::size_t& blocks, std::vector<std::size_t>& bucket_start)
 {
   if (n >= std::numeric_limits<std::uint32_t>::max ())
     throw std::length_error ("MortonSorter: more than 2^32 - 1 points (32-bit point counts per node)");
@@ -184,7 +184,23 @@ pclx::omicron::detail::MortonSorter<PointT>::startPass (const PointT* points, st
   // Contiguous blocks in input order: per-block histograms make the scatter stable.
   blocks = std::max<std::size_t> (1, std::min<std::size_t> (4 * threads_, n / 4096 + 1));
   fixCube (points, n, blocks, pool);
-  return countPerBlock (points, n, blocks, pool);
+  std::vector<std::size_t> offsets = countPerBlock (points, n, blocks, pool);
+  // Exclusive offsets, bucket-major then block: a scatter keeps input order per bucket.
+  const std::size_t nb = std::size_t (1) << bucket_bits_;
+  bucket_start.assign (nb + 1, 0);
+  std::size_t sum = 0;
+  for (std::size_t k = 0; k < nb; ++k)
+  {
+    bucket_start[k] = sum;
+    for (std::size_t b = 0; b < blocks; ++b)
+    {
+      const std::size_t c = offsets[b * nb + k];
+      offsets[b * nb + k] = sum;
+      sum += c;
+    }
+  }
+  bucket_start[nb] = sum;
+  return offsets;
 }
 
 template <typename PointT> std::size_t
@@ -193,28 +209,15 @@ pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& 
   const std::size_t n = cloud.size ();
   pclx::omicron::detail::WorkerPool pool (threads_);
   std::size_t blocks = 0;
-  std::vector<std::size_t> hist = startPass (cloud.data (), n, pool, blocks);
-  // Exclusive offsets, bucket-major then block: the scatter keeps input order per bucket.
-  const std::size_t nb = std::size_t (1) << bucket_bits_;
-  std::vector<std::size_t> bucket_start (nb + 1, 0);
-  std::size_t sum = 0;
-  for (std::size_t k = 0; k < nb; ++k)
-  {
-    bucket_start[k] = sum;
-    for (std::size_t b = 0; b < blocks; ++b)
-    {
-      const std::size_t c = hist[b * nb + k];
-      hist[b * nb + k] = sum;
-      sum += c;
-    }
-  }
-  bucket_start[nb] = sum;
+  std::vector<std::size_t> bucket_start;
+  std::vector<std::size_t> offsets = startPass (cloud.data (), n, pool, blocks, bucket_start);
+  const std::size_t nb = bucket_start.size () - 1, sum = bucket_start.back ();
   // Fresh storage advised for huge pages before resize () first touches it.
   PointVector ().swap (sorted);
   pclx::omicron::detail::reserveHuge (sorted, sum);
   sorted.resize (sum);
   pool.parallelFor (blocks, [&] (std::size_t b, int) {
-    std::size_t* h = hist.data () + b * nb;
+    std::size_t* h = offsets.data () + b * nb;
     for (std::size_t i = n * b / blocks; i < n * (b + 1) / blocks; ++i)
       if (classify (cloud[i]) == 0)
         sorted[h[leafKey (cloud[i]) >> shift_]++] = cloud[i];
@@ -228,19 +231,10 @@ pclx::omicron::detail::MortonSorter<PointT>::countBuckets (const PointT* points,
 {
   pclx::omicron::detail::WorkerPool pool (threads_);
   std::size_t blocks = 0;
-  const std::vector<std::size_t> hist = startPass (points, n, pool, blocks);
-  // Bucket starts; scatter () advances next_ as the points arrive, so each bucket keeps the
-  // order they arrive in.
-  const std::size_t nb = std::size_t (1) << bucket_bits_;
-  std::vector<std::size_t> bucket_start (nb + 1, 0);
-  std::size_t sum = 0;
-  for (std::size_t k = 0; k < nb; ++k)
-  {
-    bucket_start[k] = sum;
-    for (std::size_t b = 0; b < blocks; ++b)
-      sum += hist[b * nb + k];
-  }
-  bucket_start[nb] = sum;
+  std::vector<std::size_t> bucket_start;
+  startPass (points, n, pool, blocks, bucket_start);
+  // scatter () advances next_ as the points arrive, so each bucket keeps their arrival order.
+  const std::size_t sum = bucket_start.back ();
   next_.assign (bucket_start.begin (), bucket_start.end () - 1);
   end_.assign (bucket_start.begin () + 1, bucket_start.end ());
   makeChunks (bucket_start);
