@@ -163,6 +163,7 @@ struct Truth
   double diag = 1;
   std::unique_ptr<pclx::testing::MeshDistance> distance;
   std::vector<Eigen::Vector3f> samples;
+  std::vector<Eigen::Vector3f> boundary;  // points along the truth's own open edges (its holes)
 };
 
 struct Case
@@ -528,6 +529,8 @@ runChild (const Job& job, const Case& c, const Options& opt, std::vector<ChildRo
                                  {"triangles", double (topo.triangles)},
                                  {"vertices", double (topo.vertices)},
                                  {"boundary_edges", double (topo.boundary_edges)},
+                                 {"boundary_edges_off_truth_holes",
+                                  double (rbf_bench::boundaryEdgesAwayFrom (m, c.truth->boundary, kFarFromTruth * d))},
                                  {"nonmanifold_edges", double (topo.nonmanifold_edges)},
                                  {"euler", double (topo.euler)},
                                  {"components", double (topo.components)},
@@ -593,6 +596,7 @@ struct Bench
       const auto s = pclx::testing::sampleUniform (t->mesh, opt.eval_samples, 99);
       for (const auto& p : s.cloud)
         t->samples.push_back (p.getVector3fMap ());
+      t->boundary = rbf_bench::boundaryPoints (t->mesh, 0.25 * kFarFromTruth * t->diag);
     }
     return t.get ();
   }

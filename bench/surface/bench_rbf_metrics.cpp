@@ -3,6 +3,7 @@
 #include <pclx/testing/mesh_sampling.h>
 
 #include <pcl/conversions.h>
+#include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/point_types.h>
 
 #include <algorithm>
@@ -37,6 +38,31 @@ findRoot (std::vector<int>& parent, int i)
     i = parent[i];
   }
   return i;
+}
+
+// Each edge (as a sorted vertex pair) and how many triangles use it.
+std::vector<std::pair<std::uint64_t, int>>
+edgeUses (const TriangleMesh& mesh)
+{
+  std::vector<std::uint64_t> edges;
+  edges.reserve (3 * mesh.faces.size ());
+  for (const auto& f : mesh.faces)
+    for (int k = 0; k < 3; ++k)
+    {
+      const std::uint32_t a = std::uint32_t (f[k]), b = std::uint32_t (f[(k + 1) % 3]);
+      edges.push_back ((std::uint64_t (std::min (a, b)) << 32) | std::max (a, b));
+    }
+  std::sort (edges.begin (), edges.end ());
+  std::vector<std::pair<std::uint64_t, int>> uses;
+  for (std::size_t i = 0; i < edges.size ();)
+  {
+    std::size_t j = i;
+    while (j < edges.size () && edges[j] == edges[i])
+      ++j;
+    uses.emplace_back (edges[i], int (j - i));
+    i = j;
+  }
+  return uses;
 }
 
 }  // namespace
@@ -94,36 +120,24 @@ topology (const TriangleMesh& mesh)
 {
   Topology t;
   t.triangles = mesh.faces.size ();
-  std::vector<std::uint64_t> edges;
-  edges.reserve (3 * mesh.faces.size ());
   std::vector<char> used (mesh.vertices.size (), 0);
   std::vector<int> parent (mesh.vertices.size ());
   std::iota (parent.begin (), parent.end (), 0);
   for (const auto& f : mesh.faces)
     for (int k = 0; k < 3; ++k)
     {
-      const std::uint32_t a = std::uint32_t (f[k]), b = std::uint32_t (f[(k + 1) % 3]);
-      edges.push_back ((std::uint64_t (std::min (a, b)) << 32) | std::max (a, b));
+      const int a = f[k], b = f[(k + 1) % 3];
       used[a] = 1;
-      const int ra = findRoot (parent, int (a)), rb = findRoot (parent, int (b));
+      const int ra = findRoot (parent, a), rb = findRoot (parent, b);
       if (ra != rb)
         parent[ra] = rb;
     }
-  std::sort (edges.begin (), edges.end ());
-  std::size_t unique_edges = 0;
-  for (std::size_t i = 0; i < edges.size ();)
-  {
-    std::size_t j = i;
-    while (j < edges.size () && edges[j] == edges[i])
-      ++j;
-    const std::size_t n = j - i;
-    ++unique_edges;
+  const auto uses = edgeUses (mesh);
+  for (const auto& [key, n] : uses)
     if (n == 1)
       ++t.boundary_edges;
     else if (n > 2)
       ++t.nonmanifold_edges;
-    i = j;
-  }
   for (std::size_t v = 0; v < used.size (); ++v)
     if (used[v])
     {
@@ -131,8 +145,47 @@ topology (const TriangleMesh& mesh)
       if (findRoot (parent, int (v)) == int (v))
         ++t.components;
     }
-  t.euler = long (t.vertices) - long (unique_edges) + long (t.triangles);
+  t.euler = long (t.vertices) - long (uses.size ()) + long (t.triangles);
   return t;
+}
+
+std::vector<Eigen::Vector3f>
+boundaryPoints (const TriangleMesh& mesh, double step)
+{
+  std::vector<Eigen::Vector3f> points;
+  for (const auto& [key, n] : edgeUses (mesh))
+    if (n == 1)
+    {
+      const Eigen::Vector3f& a = mesh.vertices[key >> 32];
+      const Eigen::Vector3f& b = mesh.vertices[key & 0xFFFFFFFFu];
+      const int pieces = std::max (1, int (std::ceil ((b - a).norm () / step)));
+      for (int k = 0; k < pieces; ++k)
+        points.push_back (a + (b - a) * ((float (k) + 0.5f) / float (pieces)));
+    }
+  return points;
+}
+
+std::size_t
+boundaryEdgesAwayFrom (const TriangleMesh& mesh, const std::vector<Eigen::Vector3f>& truth_boundary,
+                       double radius)
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr near (new pcl::PointCloud<pcl::PointXYZ>);
+  for (const auto& p : truth_boundary)
+    near->push_back (pcl::PointXYZ (p.x (), p.y (), p.z ()));
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  if (!near->empty ())
+    tree.setInputCloud (near);
+  pcl::Indices idx (1);
+  std::vector<float> d2 (1);
+  std::size_t away = 0;
+  for (const auto& [key, n] : edgeUses (mesh))
+    if (n == 1)
+    {
+      const Eigen::Vector3f m = 0.5f * (mesh.vertices[key >> 32] + mesh.vertices[key & 0xFFFFFFFFu]);
+      away += near->empty () || tree.nearestKSearch (pcl::PointXYZ (m.x (), m.y (), m.z ()), 1, idx, d2) != 1 ||
+              double (d2[0]) > radius * radius;
+    }
+  return away;
 }
 
 Error

@@ -26,6 +26,13 @@ struct Topology
 };
 Topology topology (const pclx::testing::TriangleMesh& mesh);
 
+// Points every `step` along the edges that only one triangle uses (their midpoints at least).
+std::vector<Eigen::Vector3f> boundaryPoints (const pclx::testing::TriangleMesh& mesh, double step);
+// Boundary edges of `mesh` whose midpoint lies farther than `radius` from every point of
+// `truth_boundary`: open edges that the truth's own holes do not explain.
+std::size_t boundaryEdgesAwayFrom (const pclx::testing::TriangleMesh& mesh,
+                                   const std::vector<Eigen::Vector3f>& truth_boundary, double radius);
+
 struct Error
 {
   double out_to_truth_mean = 0, out_to_truth_max = 0;  // samples of the output, distance to the truth
