@@ -12,6 +12,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <mutex>
 #include <unordered_set>
 
 #ifdef _OPENMP
@@ -374,6 +375,19 @@ struct DualContouringOctree::Impl
   findCell (int x, int y, int z) const
   {
     return find (floorDiv (x), floorDiv (y), floorDiv (z));
+  }
+  // Gives the new roots from `first` on ids in key order, so that the ids do not depend on
+  // which thread of the parallel merge created a root first.
+  void
+  numberRootsFrom (std::size_t first)
+  {
+    std::sort (roots.begin () + static_cast<std::ptrdiff_t> (first), roots.end (),
+               [] (const std::unique_ptr<Root>& a, const std::unique_ptr<Root>& b) { return a->key < b->key; });
+    for (std::size_t i = first; i < roots.size (); ++i)
+    {
+      roots[i]->id = static_cast<std::uint32_t> (i);
+      root_of[roots[i]->key] = roots[i]->id;
+    }
   }
   Root*
   get (int bx, int by, int bz)
@@ -797,17 +811,56 @@ edgeStart (std::uint64_t key)
   return b * kRootSide + Eigen::Vector3i (li % kRootSide, (li / kRootSide) % kRootSide, li / (kRootSide * kRootSide));
 }
 
-// Fuses one frame's sorted crossings into the map: per edge the weighted Hermite sums, the sign
-// votes of the grid vertices and the leaves around the edge.
+// Fuses sorted crossings into the map: per edge the weighted Hermite sums, the sign votes of
+// the grid vertices and the leaves around the edge. Several mergers may run at once on
+// crossings whose writes cannot meet (see mergeCrossings); they create roots under `create`.
 class FrameMerger
 {
 public:
   using Root = DualContouringOctree::Impl::Root;
 
-  FrameMerger (DualContouringOctree::Impl& m, DualContouringOctree::Stats& st, const FrameTriangles& ft)
-    : m_ (m), st_ (st), ft_ (ft)
+  // What a merger added to the map's and the frame's counters.
+  struct Counts
+  {
+    std::size_t multi_intersection_edges = 0, touched_roots = 0, voted = 0, leaves = 0, edges = 0;
+
+    Counts&
+    operator+= (const Counts& o)
+    {
+      multi_intersection_edges += o.multi_intersection_edges;
+      touched_roots += o.touched_roots;
+      voted += o.voted;
+      leaves += o.leaves;
+      edges += o.edges;
+      return *this;
+    }
+  };
+
+  FrameMerger (DualContouringOctree::Impl& m, std::size_t frame_stamp, const FrameTriangles& ft, std::mutex& create)
+    : m_ (m), stamp_ (frame_stamp), ft_ (ft), create_ (create)
   {}
 
+  // Merges the crossings [first, last), sorted by edge.
+  void
+  mergeRange (const Crossing* first, const Crossing* last)
+  {
+    while (first != last)
+    {
+      const Crossing* e = first + 1;
+      while (e != last && e->key == first->key)
+        ++e;
+      mergeEdge (first, e);
+      first = e;
+    }
+  }
+
+  const Counts&
+  counts () const
+  {
+    return counts_;
+  }
+
+private:
   void
   mergeEdge (const Crossing* first, const Crossing* last)
   {
@@ -817,7 +870,7 @@ public:
     recentre (s);
     const std::size_t count = static_cast<std::size_t> (last - first);
     if (count > 1)
-      ++st_.multi_intersection_edges;
+      ++counts_.multi_intersection_edges;
     const Eigen::Vector3d& n = ft_.normals[c.tri];
     // Eq. 3.1: S = (C − A)·N = frac · N_axis. With N pointing out, S > 0 means A lies behind
     // the surface, i.e. inside (the dissertation's text says exterior; its figure and the
@@ -837,7 +890,12 @@ public:
     markLeaves (s, axis);
   }
 
-private:
+  Root*
+  getRoot (int bx, int by, int bz)
+  {
+    std::lock_guard<std::mutex> lock (create_);
+    return m_.get (bx, by, bz);
+  }
   Root*
   rootOf (int x, int y, int z)
   {
@@ -850,12 +908,12 @@ private:
       if (*slot)
         return *slot;
     }
-    Root* r = m_.get (bx, by, bz);
+    Root* r = getRoot (bx, by, bz);
     r->dirty = true;
-    if (r->stamp != st_.frames + 1)
+    if (r->stamp != stamp_)
     {
-      r->stamp = st_.frames + 1;
-      ++st_.touched_roots;
+      r->stamp = stamp_;
+      ++counts_.touched_roots;
     }
     if (slot)
       *slot = r;
@@ -889,7 +947,7 @@ private:
         const bool cached = static_cast<unsigned> (dx) < 3u && static_cast<unsigned> (dy) < 3u &&
                             static_cast<unsigned> (dz) < 3u && near_[dx + 3 * dy + 9 * dz];
         if (!cached)
-          m_.get (floorDiv (x), floorDiv (y), floorDiv (z));
+          getRoot (floorDiv (x), floorDiv (y), floorDiv (z));
       }
   }
   // `weighted_ext`: the vertex's own reading of its nearest crossing (for the WEIGHTED rule),
@@ -901,7 +959,7 @@ private:
     const int i = localIndex (v.x (), v.y (), v.z ());
     std::uint8_t& c = exterior ? r->out_votes[i] : r->in_votes[i];
     if (r->out_votes[i] == 0 && r->in_votes[i] == 0)
-      ++m_.voted;
+      ++counts_.voted;
     if (c < 255)
       ++c;
     const std::int32_t d = static_cast<std::int32_t> (std::lround (weight * std::min (dist, 1.0) * 4096));
@@ -942,7 +1000,7 @@ private:
     {
       ei = static_cast<std::uint16_t> (r->edges.size ());
       r->edges.emplace_back ();
-      ++m_.edges;
+      ++counts_.edges;
     }
     EdgeData& e = r->edges[ei];
     for (const Crossing* x = first; x != last; ++x)
@@ -974,18 +1032,71 @@ private:
         li = static_cast<std::uint16_t> (r->leaves.size ());
         r->leaves.emplace_back ();
         r->leaves.back ().cell = static_cast<std::uint16_t> (ci);
-        ++m_.leaves;
+        ++counts_.leaves;
       }
       r->leaves[li].crossed |= static_cast<std::uint16_t> (1u << (axis * 4 + du + 2 * dw));
     }
   }
 
   DualContouringOctree::Impl& m_;
-  DualContouringOctree::Stats& st_;
+  const std::size_t stamp_;
   const FrameTriangles& ft_;
+  std::mutex& create_;
+  Counts counts_;
   Eigen::Vector3i centre_ = Eigen::Vector3i::Constant (1 << 24);
   std::array<Root*, 27> near_{};
 };
+
+// The slab of roots along x that an edge key's root lies in (the root key's top field).
+inline std::uint64_t
+slabOf (std::uint64_t edge_key)
+{
+  return edge_key >> 46;
+}
+
+// Merges one frame's sorted crossings in three phases of root slabs along x. The edges of slab
+// bx write only to roots of slabs bx − 1 … bx + 1, so the slabs with the same bx mod 3 run in
+// parallel, and each record receives its writes in the same order for any number of threads.
+void
+mergeCrossings (DualContouringOctree::Impl& m, DualContouringOctree::Stats& st, const FrameTriangles& ft,
+                const std::vector<Crossing>& crossings)
+{
+  std::array<std::vector<std::pair<std::size_t, std::size_t>>, 3> phases;
+  for (std::size_t g = 0; g < crossings.size ();)
+  {
+    const std::uint64_t slab = slabOf (crossings[g].key);
+    std::size_t e = g + 1;
+    while (e < crossings.size () && slabOf (crossings[e].key) == slab)
+      ++e;
+    phases[slab % 3].emplace_back (g, e);
+    g = e;
+  }
+  const std::size_t first_new_root = m.roots.size ();
+  std::mutex create;
+  FrameMerger::Counts total;
+  for (const auto& slabs : phases)
+  {
+#pragma omp parallel
+    {
+      FrameMerger::Counts local;
+#pragma omp for schedule(dynamic, 1) nowait
+      for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t> (slabs.size ()); ++i)
+      {
+        FrameMerger merger (m, st.frames + 1, ft, create);
+        merger.mergeRange (crossings.data () + slabs[i].first, crossings.data () + slabs[i].second);
+        local += merger.counts ();
+      }
+#pragma omp critical
+      total += local;
+    }
+  }
+  m.numberRootsFrom (first_new_root);
+  st.multi_intersection_edges += total.multi_intersection_edges;
+  st.touched_roots += total.touched_roots;
+  m.voted += total.voted;
+  m.leaves += total.leaves;
+  m.edges += total.edges;
+}
 
 }  // namespace
 
@@ -1100,15 +1211,7 @@ DualContouringOctree::addFrameMesh (const pcl::FrameMesh& mesh)
   st.t_intersect_ms = msSince (t0);
 
   const auto t1 = Clock::now ();
-  FrameMerger merger (*impl_, st, ft);
-  for (std::size_t g = 0; g < crossings.size ();)
-  {
-    std::size_t e = g + 1;
-    while (e < crossings.size () && crossings[e].key == crossings[g].key)
-      ++e;
-    merger.mergeEdge (crossings.data () + g, crossings.data () + e);
-    g = e;
-  }
+  mergeCrossings (*impl_, st, ft, crossings);
   st.t_merge_ms = msSince (t1);
   ++st.frames;
   const Impl& m = *impl_;

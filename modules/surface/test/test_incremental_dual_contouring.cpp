@@ -10,6 +10,8 @@
 
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
 #include <cmath>
 #include <limits>
 #include <map>
@@ -712,6 +714,45 @@ TEST (IncrementalDualContouring, SphereFromDepthFrames)
       prev = coarse.polygons.size ();
     }
   }
+}
+
+// The frame merge runs slabs of roots in parallel: one and two threads give the same map and
+// the same mesh, with noise making the saturating sign sums and the votes matter.
+TEST (IncrementalDualContouring, MergeDoesNotDependOnThreadCount)
+{
+  const float R = 0.5f;
+  const Eigen::Vector3f centre (0.9f, -0.6f, 0.4f);
+  const TriangleMesh sphere = pclx::testing::makeSphere (R, 5, centre);
+  pclx::testing::RayCaster caster (sphere);
+  const auto K = smallCamera ();
+  const auto build = [&] (int threads, pcl::PolygonMesh& mesh) {
+    const int saved = omp_get_max_threads ();
+    omp_set_num_threads (threads);
+    IDC idc;
+    idc.setLeafSize (0.01);
+    pclx::testing::KinectNoise noise;
+    std::uint32_t seed = 1;
+    for (const auto& pose : orbit (centre, 2.0f))
+    {
+      const auto depth = pclx::testing::renderDepth (caster, K, pose, noise, seed++);
+      EXPECT_TRUE (idc.addFrame (depth.depth_mm.data (), depth.width, depth.height, toK (K),
+                                 pose.matrix ().cast<double> ()))
+          << idc.getLastError ();
+    }
+    idc.reconstruct (mesh);
+    omp_set_num_threads (saved);
+    return idc.getOctree ().getStats ();
+  };
+  pcl::PolygonMesh one, two;
+  const auto s1 = build (1, one);
+  const auto s2 = build (2, two);
+  // Several slabs per phase (roots of 16 leaves across a 1 m sphere), so slabs ran at once.
+  EXPECT_GT (s1.roots, 150u);
+  EXPECT_EQ (s1.roots, s2.roots);
+  EXPECT_EQ (s1.leaves, s2.leaves);
+  EXPECT_EQ (s1.grid_vertices, s2.grid_vertices);
+  ASSERT_GT (one.polygons.size (), 10000u);
+  expectIdentical (one, two);
 }
 
 // Hermite data averaged over frames: a plane seen in 20 noisy frames is recovered with the
