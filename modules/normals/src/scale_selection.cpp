@@ -162,6 +162,132 @@ residualGrows (double p_error, int p_count, double p_residual, double residual)
          residual > p_residual * (1.0 + kResidualZ * std::sqrt (2.0 / (p_count - 6)));
 }
 
+// Least-squares height field (coefficients c) over the first k rows whose residual under
+// the current c is at most `limit` (all of them for an infinite limit); absres gets every
+// row's absolute residual under the new fit. False, with c and absres unchanged, when fewer
+// than 12 rows are used or the fit fails.
+bool
+fitHeightField (const std::vector<Eigen::Matrix<double, 6, 1>>& rows, const std::vector<double>& heights, int k,
+                double limit, Eigen::Matrix<double, 6, 1>& c, std::vector<double>& absres)
+{
+  Eigen::Matrix<double, 6, 6> ata = Eigen::Matrix<double, 6, 6>::Zero ();
+  Eigen::Matrix<double, 6, 1> ath = Eigen::Matrix<double, 6, 1>::Zero ();
+  int used = 0;
+  for (int i = 0; i < k; ++i)
+    if (std::isinf (limit) || absres[i] <= limit)
+    {
+      ata.noalias () += rows[i] * rows[i].transpose ();
+      ath += rows[i] * heights[i];
+      ++used;
+    }
+  if (used < 12)
+    return false;
+  const Eigen::Matrix<double, 6, 1> fit = ata.ldlt ().solve (ath);
+  if (!fit.allFinite ())
+    return false;
+  c = fit;
+  absres.resize (k);
+  for (int i = 0; i < k; ++i)
+    absres[i] = std::abs (heights[i] - c.dot (rows[i]));
+  return true;
+}
+
+// The r-th smallest of the first k values (a copy is partially sorted).
+double
+orderStatistic (const std::vector<double>& values, int k, int r, std::vector<double>& scratch)
+{
+  scratch.assign (values.begin (), values.begin () + k);
+  std::nth_element (scratch.begin (), scratch.begin () + r, scratch.end ());
+  return scratch[r];
+}
+
+// Sum of the h smallest squared residuals: the least-trimmed-squares objective.
+double
+trimmedObjective (const std::vector<double>& absres, int k, int h, std::vector<double>& scratch)
+{
+  scratch.assign (absres.begin (), absres.begin () + k);
+  std::nth_element (scratch.begin (), scratch.begin () + (h - 1), scratch.end ());
+  double sum = 0;
+  for (int i = 0; i < h; ++i)
+    sum += scratch[i] * scratch[i];
+  return sum;
+}
+
+// Least trimmed squares over h of k rows by concentration steps (refit on the h rows of
+// smallest residual; Rousseeuw and Van Driessen 2006, FAST-LTS) from two starts: the
+// least-squares fit (c, absres on entry) and the plane through row 0 (the sample itself)
+// parallel to the support's plane. Returns the lower trimmed objective, with its fit in
+// lts and its residuals in lts_res; infinity when neither start can be concentrated.
+double
+trimmedHeightField (const std::vector<Eigen::Matrix<double, 6, 1>>& rows, const std::vector<double>& heights, int k,
+                    int h, const Eigen::Matrix<double, 6, 1>& c, const std::vector<double>& absres,
+                    Eigen::Matrix<double, 6, 1>& lts, std::vector<double>& lts_res)
+{
+  thread_local std::vector<double> scratch, res;
+  double best = std::numeric_limits<double>::infinity ();
+  for (int start = 0; start < 2; ++start)
+  {
+    Eigen::Matrix<double, 6, 1> fit = c;
+    res = absres;
+    if (start == 1)
+      for (int i = 0; i < k; ++i)
+        res[i] = std::abs (heights[i] - heights[0]);
+    bool ok = true;
+    for (int step = 0; step < 2 && ok; ++step)
+      ok = fitHeightField (rows, heights, k, orderStatistic (res, k, h - 1, scratch), fit, res);
+    const double objective = ok ? trimmedObjective (res, k, h, scratch) : best;
+    if (objective < best)
+    {
+      best = objective;
+      lts = fit;
+      lts_res = res;
+    }
+  }
+  return best;
+}
+
+// Robust height field over k rows: a least-squares fit, refitted without rows beyond 3
+// robust sigmas (1.4826 × the median absolute residual over all rows). Where a second
+// surface holds a large minority of the rows (the other sheet across a thin plate a few
+// spacings thick), the least-squares fit splits the difference, its median residual reads
+// the gap as noise and the limit keeps both sheets. So the refit starts from least
+// trimmed squares over h = (k + 7) / 2 rows instead where that fits its rows more than 3×
+// better in scale (a noisy single sheet stays far from that ratio). mad: the median
+// absolute residual of the final fit over the `used` rows it kept; false when the
+// least-squares fit fails.
+bool
+robustHeightField (const std::vector<Eigen::Matrix<double, 6, 1>>& rows, const std::vector<double>& heights, int k,
+                   Eigen::Matrix<double, 6, 1>& c, std::vector<double>& absres, double& mad, int& used)
+{
+  thread_local std::vector<double> scratch, start_res;
+  if (!fitHeightField (rows, heights, k, std::numeric_limits<double>::infinity (), c, absres))
+    return false;
+  const int h = (k + 7) / 2;
+  Eigen::Matrix<double, 6, 1> lts;
+  if (trimmedHeightField (rows, heights, k, h, c, absres, lts, start_res) < trimmedObjective (absres, k, h, scratch) / 9)
+  {
+    c = lts;
+    absres = start_res;
+  }
+  // The scale is read over the rows the refit kept; without enough of them, the start stands.
+  const double limit = 3.0 * 1.4826 * orderStatistic (absres, k, k / 2, scratch);
+  start_res = absres;
+  used = k;
+  if (fitHeightField (rows, heights, k, limit, c, absres))
+  {
+    scratch.clear ();
+    for (int i = 0; i < k; ++i)
+      if (start_res[i] <= limit)
+        scratch.push_back (absres[i]);
+    used = static_cast<int> (scratch.size ());
+    std::nth_element (scratch.begin (), scratch.begin () + used / 2, scratch.end ());
+    mad = scratch[used / 2];
+    return true;
+  }
+  mad = orderStatistic (absres, k, k / 2, scratch);
+  return true;
+}
+
 }  // namespace
 
 double
@@ -279,10 +405,9 @@ sampleNoise (const std::vector<Eigen::Vector3f>& sorted, double& residual2, doub
     if (!(l (2) > 0) || l (1) <= 1e-12 * l (2))
       return any;
     // Height field h = c0 x² + c1 xy + c2 y² + c3 x + c4 y + c5 over the PCA plane, in
-    // coordinates scaled by the largest spread (normal equations: 6 × 6), fitted twice:
-    // the second time without points beyond 3 robust sigmas (a few points of another
-    // sheet, e.g. across a thin plate, must not read as noise). σ from the median
-    // absolute residual.
+    // coordinates scaled by the largest spread (normal equations: 6 × 6), fitted robustly
+    // (robustHeightField): a few points of another sheet, or up to half the support across
+    // a thin plate, must not read as noise. σ from the median absolute residual.
     const double scale = std::sqrt (l (2));
     thread_local std::vector<Eigen::Matrix<double, 6, 1>> rows;
     thread_local std::vector<double> heights, absres;
@@ -295,33 +420,12 @@ sampleNoise (const std::vector<Eigen::Vector3f>& sorted, double& residual2, doub
       rows[i] << u * u, u * w, w * w, u, w, 1.0;
       heights[i] = d.dot (v.col (0));
     }
-    double limit = std::numeric_limits<double>::infinity (), mad = 0;
-    Eigen::Matrix<double, 6, 1> c = Eigen::Matrix<double, 6, 1>::Zero ();
-    for (int pass = 0; pass < 2; ++pass)
-    {
-      Eigen::Matrix<double, 6, 6> ata = Eigen::Matrix<double, 6, 6>::Zero ();
-      Eigen::Matrix<double, 6, 1> ath = Eigen::Matrix<double, 6, 1>::Zero ();
-      int used = 0;
-      for (int i = 0; i < k; ++i)
-        if (pass == 0 || std::abs (heights[i] - c.dot (rows[i])) <= limit)
-        {
-          ata.noalias () += rows[i] * rows[i].transpose ();
-          ath += rows[i] * heights[i];
-          ++used;
-        }
-      if (used < 12)
-        break;
-      c = ata.ldlt ().solve (ath);
-      if (!c.allFinite ())
-        return any;
-      absres.resize (k);
-      for (int i = 0; i < k; ++i)
-        absres[i] = std::abs (heights[i] - c.dot (rows[i]));
-      std::nth_element (absres.begin (), absres.begin () + k / 2, absres.end ());
-      mad = absres[k / 2];
-      limit = 3.0 * 1.4826 * mad;
-    }
-    const double sigma = 1.4826 * mad * std::sqrt (static_cast<double> (k) / (k - 6));
+    Eigen::Matrix<double, 6, 1> c;
+    double mad = 0;
+    int used = k;
+    if (!robustHeightField (rows, heights, k, c, absres, mad, used))
+      return any;
+    const double sigma = 1.4826 * mad * std::sqrt (static_cast<double> (used) / (used - 6));
     residual2 = sigma * sigma;
     any = true;
     if (l (1) > 9.0 * residual2)

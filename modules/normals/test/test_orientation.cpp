@@ -188,6 +188,35 @@ TEST (MSTOrientation, ThinPlateSheetsGetOppositeNormals)
   EXPECT_GT (flippedShare (n, s.cloud), 0.3);
 }
 
+TEST (MSTOrientation, ThinPlateTwoSpacingsThickGetsBothSheetsOutward)
+{
+  // At 20000 points the plate's sheets are two spacings apart: a noise estimate that read the
+  // other sheet as noise (σ ≈ 0.7 of the thickness) made the estimator treat the cloud as noisy
+  // and the MST's edge-side reading insignificant, and both sheets came out facing +z.
+  const auto s = pclx::testing::sampleUniform (pclx::testing::makeThinPlate (1.f, 0.02f, 16), 20000, 2);
+  const auto cloud = positions (s.cloud);
+  pcl::PlanarOctreeNormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
+  ne.setInputCloud (cloud);
+  pcl::PointCloud<pcl::Normal> n;
+  ne.compute (n);
+  ASSERT_EQ (n.size (), s.cloud.size ());
+  EXPECT_LT (ne.getNoiseEstimate ().sigma, 0.01 * ne.getNoiseEstimate ().spacing);
+  pcl::MSTNormalOrientation<pcl::PointXYZ, pcl::Normal> mst;
+  mst.setInputCloud (cloud);
+  ASSERT_TRUE (mst.orient (n));
+  EXPECT_LT (mst.getUsedNoiseScale (), 0.01 * ne.getNoiseEstimate ().spacing);
+  std::size_t bottom = 0, bottom_flipped = 0;
+  for (std::size_t i = 0; i < n.size (); ++i)
+    if (s.cloud[i].normal_z < -0.5f)
+    {
+      ++bottom;
+      bottom_flipped += n[i].normal_z > 0.f;
+    }
+  ASSERT_GT (bottom, 9000u);
+  EXPECT_LT (static_cast<double> (bottom_flipped) / bottom, 0.01);
+  EXPECT_LT (flippedShare (n, s.cloud), 0.01);
+}
+
 namespace {
 
 // A closed slab [-0.5, 0.5]² × [-0.2, profile] whose top profile (along x, extruded along y)

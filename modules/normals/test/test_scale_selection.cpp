@@ -17,6 +17,7 @@
 namespace {
 
 using pclx::normals::detail::ladderRungs;
+using pclx::normals::detail::sampleNoise;
 using pclx::normals::detail::selectScale;
 
 // A noisy surface patch around the origin: points uniform in [-1, 1]² lifted by height(u, v),
@@ -121,7 +122,51 @@ runTrials (const Patch& p, const std::function<Eigen::Vector3f (const Eigen::Vec
   return t;
 }
 
+// Median noise estimate (σ from sampleNoise) over `queries` points of the first `sheet`
+// points of p (their middle, so that 200 neighbours stay inside the patch).
+double
+medianNoiseSample (const Patch& p, std::size_t sheet, int queries)
+{
+  std::vector<double> sigmas;
+  for (std::size_t i = 0; i < sheet && static_cast<int> (sigmas.size ()) < queries; ++i)
+  {
+    const Eigen::Vector3f& x = p.points[i];
+    if (std::abs (x.x ()) > 0.5f || std::abs (x.y ()) > 0.5f)
+      continue;
+    double residual2 = 0, spacing2 = 0;
+    EXPECT_TRUE (sampleNoise (sortedFrom (x, p.points, 200), residual2, spacing2));
+    sigmas.push_back (std::sqrt (residual2));
+  }
+  std::nth_element (sigmas.begin (), sigmas.begin () + sigmas.size () / 2, sigmas.end ());
+  return sigmas[sigmas.size () / 2];
+}
+
 }  // namespace
+
+TEST (ScaleSelection, NoiseSamplesLeaveASecondSheetOut)
+{
+  // Two parallel sheets two spacings apart (a thin plate at 20k points): a quarter to nearly
+  // half of every support lies on the other sheet. A least-squares height field splits the
+  // difference and reads the gap as noise (σ ≈ 0.7 of the gap); the trimmed fit keeps the
+  // sample's own sheet.
+  const int n = 20000;
+  for (const double sigma_share : {0.0, 0.1})
+  {
+    Patch top = makePatch (n, [] (double, double) { return 0.0; }, 0.0, 11);
+    const double sigma = sigma_share * top.spacing, gap = 2.0 * top.spacing;
+    top = makePatch (n, [] (double, double) { return 0.0; }, sigma, 11);
+    const Patch bottom = makePatch (n, [&] (double, double) { return -gap; }, sigma, 12);
+    Patch both = top;
+    both.points.insert (both.points.end (), bottom.points.begin (), bottom.points.end ());
+    const double estimate = medianNoiseSample (both, n, 60);
+    if (sigma == 0)
+      EXPECT_LT (estimate, 0.01 * top.spacing);
+    else
+      EXPECT_NEAR (estimate, sigma, 0.25 * sigma);
+    // One sheet alone: the same estimate.
+    EXPECT_NEAR (medianNoiseSample (top, n, 60), estimate, 0.25 * sigma + 0.01 * top.spacing);
+  }
+}
 
 TEST (ScaleSelection, StopsBeforeARippleBiasesTheNormal)
 {

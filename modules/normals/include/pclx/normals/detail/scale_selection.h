@@ -31,11 +31,12 @@ struct NoiseEstimate
 };
 
 // Noise of one sample from its neighbours sorted by distance (the point first, >= 50 of
-// them): RMS residual (corrected for 6 unknowns) of a quadric height field over the
+// them): robust RMS residual (corrected for 6 unknowns) of a quadric height field over the
 // first 24, 50, 100 or 200 neighbours, the smallest support whose plane is well defined
-// (λ2 > 9 residual²): small supports keep shape (and a second sheet: a thin plate read as
-// noise from 50 points) out of the estimate on clean data, large ones are needed once the
-// noise is as wide as a small support. Returns false when the
+// (λ2 > 9 residual²): small supports keep shape out of the estimate on clean data, large
+// ones are needed once the noise is as wide as a small support. A second sheet in the
+// support (a thin plate a few spacings thick) is left out by a least-trimmed-squares start
+// (Rousseeuw and Van Driessen 2006) rather than read as noise. Returns false when the
 // neighbours span no plane. spacing2: π d50² / 50.
 bool sampleNoise (const std::vector<Eigen::Vector3f>& sorted, double& residual2, double& spacing2);
 
