@@ -1047,28 +1047,29 @@ private:
   std::array<Root*, 27> near_{};
 };
 
-// The slab of roots along x that an edge key's root lies in (the root key's top field).
+// The column of roots (bx, by) that an edge key's root lies in: the root key's two top fields.
 inline std::uint64_t
-slabOf (std::uint64_t edge_key)
+columnOf (std::uint64_t edge_key)
 {
-  return edge_key >> 46;
+  return edge_key >> 30;
 }
 
-// Merges one frame's sorted crossings in three phases of root slabs along x. The edges of slab
-// bx write only to roots of slabs bx − 1 … bx + 1, so the slabs with the same bx mod 3 run in
-// parallel, and each record receives its writes in the same order for any number of threads.
+// Merges one frame's sorted crossings in nine phases of root columns (bx mod 3, by mod 3). The
+// edges of column (bx, by) write only to roots of columns bx − 1 … bx + 1, by − 1 … by + 1, so
+// the columns of one phase run in parallel, and each record receives its writes in the same
+// order for any number of threads. Columns, not slabs: a wall across x or y spreads over many.
 void
 mergeCrossings (DualContouringOctree::Impl& m, DualContouringOctree::Stats& st, const FrameTriangles& ft,
                 const std::vector<Crossing>& crossings)
 {
-  std::array<std::vector<std::pair<std::size_t, std::size_t>>, 3> phases;
+  std::array<std::vector<std::pair<std::size_t, std::size_t>>, 9> phases;
   for (std::size_t g = 0; g < crossings.size ();)
   {
-    const std::uint64_t slab = slabOf (crossings[g].key);
+    const std::uint64_t column = columnOf (crossings[g].key);
     std::size_t e = g + 1;
-    while (e < crossings.size () && slabOf (crossings[e].key) == slab)
+    while (e < crossings.size () && columnOf (crossings[e].key) == column)
       ++e;
-    phases[slab % 3].emplace_back (g, e);
+    phases[3 * ((column >> 16) % 3) + (column & 0xFFFF) % 3].emplace_back (g, e);
     g = e;
   }
   const std::size_t first_new_root = m.roots.size ();
