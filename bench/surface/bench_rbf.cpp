@@ -702,8 +702,9 @@ main (int argc, char** argv)
   app.add_option ("--sweeps", opt.sweeps, "comma-separated subset of main,mcrbf,robust,noise,noisy,scanest,size")
       ->capture_default_str ();
   app.add_option ("--shapes", opt.shapes,
-                  "comma-separated shapes of the main, noisy and scanest sweeps (default: all of "
-                  "sphere,torus,box,thinplate,bunny,fertility that are available)");
+                  "comma-separated shapes of the main, noisy, scanest and size sweeps (default: all of "
+                  "sphere,torus,box,thinplate,bunny,fertility that are available; the size sweep: the sphere "
+                  "and the first real shape)");
   app.add_option ("--main-points", opt.main_points, "points of the main and peer sweeps")->capture_default_str ();
   app.add_option ("--sweep-points", opt.sweep_points, "points of the robustness and noise sweeps")
       ->capture_default_str ();
@@ -935,8 +936,11 @@ main (int argc, char** argv)
     j.skipped = why;
     return j;
   };
+  // The size sweep's shapes: the sphere and the first real one, or the shapes given.
+  const std::vector<std::string> size_shapes =
+      opt.shapes.empty () ? std::vector<std::string>{"sphere", big_real} : all;
   if (want ("size"))
-    for (const std::string& name : {std::string ("sphere"), big_real})
+    for (const std::string& name : size_shapes)
       for (std::size_t n : opt.sizes)
       {
         const bool sphere = name == "sphere";
