@@ -4,6 +4,7 @@
 #include <pclx/omicron/morton_code.h>
 #include <pclx/omicron/detail/morton_sorter.h>
 
+#include <algorithm>
 #include <limits>
 
 using pcl::MortonCode;
@@ -226,6 +227,46 @@ TEST (MortonSorter, SameOutputForAnyThreadCount)
   ASSERT_EQ (a.points.size (), b.points.size ());
   for (std::size_t i = 0; i < a.points.size (); ++i)
     ASSERT_TRUE (samePoint (a.points[i], b.points[i]));
+}
+
+// The streaming pair (countBuckets, then scatter in blocks) gives what prepare () gives; points
+// that moved between the count and the scatter are flagged by the chunk sort, and more points
+// than were counted are refused.
+TEST (MortonSorter, StreamedScatterEqualsPrepareAndFlagsMovedPoints)
+{
+  const auto cloud = makeCloud (Shape::UNIFORM, 50000, 21);
+  const SortResult ref = sortCloud (*cloud, 7, 6, 2);
+  const auto stream = [&] (const Cloud& counted, const Cloud& scattered, SortResult& r) {
+    pclx::omicron::detail::MortonSorter<pcl::PointXYZ> s;
+    s.setMaxDepth (7);
+    s.setChunks (6);
+    s.setThreads (2);
+    r.points.resize (s.countBuckets (counted.data (), counted.size ()));
+    for (std::size_t b = 0; b < scattered.size (); b += 7000)
+      s.scatter (scattered.data () + b, std::min<std::size_t> (7000, scattered.size () - b), r.points);
+    std::vector<MortonCode> codes;
+    for (std::size_t k = 0; k < s.numChunks (); ++k)
+    {
+      s.sortChunk (k, r.points, codes);
+      r.codes.insert (r.codes.end (), codes.begin (), codes.end ());
+    }
+    return s.pointsDifferFromCounted ();
+  };
+  SortResult same;
+  EXPECT_FALSE (stream (*cloud, *cloud, same));
+  ASSERT_EQ (same.points.size (), ref.points.size ());
+  EXPECT_EQ (same.codes, ref.codes);
+  for (std::size_t i = 0; i < ref.points.size (); ++i)
+    ASSERT_TRUE (samePoint (same.points[i], ref.points[i])) << i;
+
+  Cloud reversed = *cloud;
+  std::reverse (reversed.begin (), reversed.end ());
+  SortResult moved;
+  EXPECT_TRUE (stream (*cloud, reversed, moved));
+
+  pclx::omicron::detail::MortonSorter<pcl::PointXYZ> s;
+  Cloud::VectorType sorted (s.countBuckets (cloud->data (), 1000));
+  EXPECT_THROW (s.scatter (cloud->data (), 1001, sorted), std::runtime_error);
 }
 
 TEST (MortonSorter, RejectsBadParameters)

@@ -55,14 +55,19 @@ public:
   std::size_t prepare (const PointCloud<PointT>& cloud, PointVector& sorted);
 
   // The same in two steps, for points streamed twice from a file (never held beside `sorted`):
-  // countBuckets (points, n) fixes the cube (bounds as prepare () takes them) and counts the
-  // points per bucket; returns the kept count, the size `sorted` must have. Then the same
-  // points, in the same order, are given to scatter () in blocks of any size, which places
-  // each kept one in its bucket, in arrival order (the order prepare () keeps). `points` may
-  // be `sorted`'s own storage: countBuckets only reads it. scatter throws std::runtime_error
-  // when the points differ from the counted ones (a bucket overflows).
+  // countBuckets (points, n) fixes the cube (bounds as prepare () takes them), counts the
+  // points per bucket and records each point's bucket; returns the kept count, the size
+  // `sorted` must have. Then the same points, in the same order, are given to scatter () in
+  // blocks of any size, which places each kept one in its recorded bucket, in arrival order
+  // (the order prepare () keeps), without computing its code again. `points` may be `sorted`'s
+  // own storage: countBuckets only reads it. scatter throws std::runtime_error when more
+  // points arrive than were counted or a bucket overflows; a point that moved between the two
+  // reads is found by sortChunk () (pointsDifferFromCounted ()).
   std::size_t countBuckets (const PointT* points, std::size_t n);
   void scatter (const PointT* points, std::size_t n, PointVector& sorted);
+  // Whether a sorted chunk held a point whose code lies outside the chunk's buckets: the
+  // scattered points were not the counted ones (a file that changed between its reads).
+  bool pointsDifferFromCounted () const { return moved_points_; }
 
   std::size_t numChunks () const { return chunk_begin_.empty () ? 0 : chunk_begin_.size () - 1; }
   std::pair<std::size_t, std::size_t> chunkRange (std::size_t k) const { return {chunk_begin_[k], chunk_begin_[k + 1]}; }
@@ -138,6 +143,12 @@ private:
   std::size_t dropped_invalid_ = 0, dropped_outside_ = 0;
   std::vector<std::size_t> chunk_begin_;  // numChunks () + 1 offsets into the sorted array
   std::vector<std::size_t> next_, end_;  // streaming scatter: next free slot and end per bucket
+  // Bucket of each counted point in input order, from the count to the scatter (bucket bits
+  // are at most 16), and how many points the streaming scatter has been given so far.
+  std::vector<std::uint16_t> bucket_of_;
+  std::size_t scattered_ = 0;
+  std::vector<std::size_t> bucket_start_;  // first slot of each bucket, for sortChunk's check
+  bool moved_points_ = false;
   std::vector<KeyIndex> keys_, keys_tmp_;
   PointVector points_tmp_;
 };

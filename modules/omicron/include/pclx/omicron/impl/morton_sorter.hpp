@@ -132,13 +132,17 @@ pclx::omicron::detail::MortonSorter<PointT>::countPerBlock (const PointT* points
   const std::size_t nb = std::size_t (1) << bucket_bits_;
   std::vector<std::size_t> hist (blocks * nb, 0);
   std::vector<std::size_t> bad (blocks, 0), outside (blocks, 0);
+  bucket_of_.assign (n, 0);
   pool.parallelFor (blocks, [&] (std::size_t b, int) {
     std::size_t* h = hist.data () + b * nb;
     for (std::size_t i = n * b / blocks; i < n * (b + 1) / blocks; ++i)
     {
       const int c = classify (points[i]);
       if (c == 0)
-        ++h[leafKey (points[i]) >> shift_];
+      {
+        bucket_of_[i] = static_cast<std::uint16_t> (leafKey (points[i]) >> shift_);
+        ++h[bucket_of_[i]];
+      }
       else
         ++(c == 1 ? bad[b] : outside[b]);
     }
@@ -211,6 +215,8 @@ pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& 
   std::size_t blocks = 0;
   std::vector<std::size_t> bucket_start;
   std::vector<std::size_t> offsets = startPass (cloud.data (), n, pool, blocks, bucket_start);
+  bucket_start_.clear ();  // nothing streamed: sortChunk () has nothing to check
+  moved_points_ = false;
   const std::size_t nb = bucket_start.size () - 1, sum = bucket_start.back ();
   // Fresh storage advised for huge pages before resize () first touches it.
   PointVector ().swap (sorted);
@@ -220,8 +226,9 @@ pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& 
     std::size_t* h = offsets.data () + b * nb;
     for (std::size_t i = n * b / blocks; i < n * (b + 1) / blocks; ++i)
       if (classify (cloud[i]) == 0)
-        sorted[h[leafKey (cloud[i]) >> shift_]++] = cloud[i];
+        sorted[h[bucket_of_[i]]++] = cloud[i];
   });
+  std::vector<std::uint16_t> ().swap (bucket_of_);
   makeChunks (bucket_start);
   return sum;
 }
@@ -237,22 +244,30 @@ pclx::omicron::detail::MortonSorter<PointT>::countBuckets (const PointT* points,
   const std::size_t sum = bucket_start.back ();
   next_.assign (bucket_start.begin (), bucket_start.end () - 1);
   end_.assign (bucket_start.begin () + 1, bucket_start.end ());
+  scattered_ = 0;
+  moved_points_ = false;
   makeChunks (bucket_start);
+  bucket_start_ = std::move (bucket_start);
   return sum;
 }
 
 template <typename PointT> void
 pclx::omicron::detail::MortonSorter<PointT>::scatter (const PointT* points, std::size_t n, PointVector& sorted)
 {
+  if (scattered_ + n > bucket_of_.size ())
+    throw std::runtime_error ("MortonSorter: more points streamed than counted");
+  const std::uint16_t* bucket = bucket_of_.data () + scattered_;
   for (std::size_t i = 0; i < n; ++i)
     if (classify (points[i]) == 0)
     {
-      const std::size_t k = leafKey (points[i]) >> shift_;
-      std::size_t& at = next_[k];
-      if (at >= end_[k] || at >= sorted.size ())
+      std::size_t& at = next_[bucket[i]];
+      if (at >= end_[bucket[i]] || at >= sorted.size ())
         throw std::runtime_error ("MortonSorter: the streamed points differ from the counted ones");
       sorted[at++] = points[i];
     }
+  scattered_ += n;
+  if (scattered_ == bucket_of_.size ())
+    std::vector<std::uint16_t> ().swap (bucket_of_);
 }
 
 template <typename PointT> void
@@ -308,6 +323,13 @@ pclx::omicron::detail::MortonSorter<PointT>::sortChunk (std::size_t k, PointVect
     keys_[i].key = leafKey (sorted[b + i]);
     keys_[i].index = static_cast<std::uint32_t> (i);
   }
+  // After a streaming scatter, every point must lie in one of the chunk's buckets.
+  if (!bucket_start_.empty ())
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      const std::size_t first = bucket_start_[keys_[i].key >> shift_];
+      moved_points_ = moved_points_ || first < b || first >= e;
+    }
   radixSort (n);
   if (codes.capacity () < n)
     pclx::omicron::detail::reserveHuge (codes, keys_.size ());
@@ -328,6 +350,8 @@ pclx::omicron::detail::MortonSorter<PointT>::release ()
   keys_tmp_ = {};
   next_ = {};
   end_ = {};
+  bucket_of_ = {};
+  bucket_start_ = {};
   points_tmp_ = PointVector ();
 }
 

@@ -475,6 +475,8 @@ pcl::ObliqueCutOctree<PointT>::runInMemory (std::chrono::steady_clock::time_poin
   });
   cut_->runMaster ();  // this thread is the fix master
   sorter_thread.join ();
+  if (sorter.pointsDifferFromCounted ())
+    return fail ("the file changed between its two reads (points moved between Morton buckets)");
 
   stats_.seconds_total = since ();
   stats_.seconds_to_first_front = front_.secondsToFirstLeaf () < 0 ? stats_.seconds_total
