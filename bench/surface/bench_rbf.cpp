@@ -41,6 +41,7 @@
 #include <pcl/common/common.h>
 #include <pcl/common/io.h>
 #include <pcl/features/normal_3d_omp.h>
+#include <pcl/io/ply_io.h>
 #include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/surface/marching_cubes_hoppe.h>
 #include <pcl/surface/marching_cubes_rbf.h>
@@ -57,6 +58,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -100,7 +102,7 @@ struct Options
 {
   bool quick = false, verbose = false;
   int threads = 2;
-  std::string csv, data_dir, sweeps = "main,mcrbf,robust,noise,noisy,scanest,size", shapes;
+  std::string csv, data_dir, sweeps = "main,mcrbf,robust,noise,noisy,scanest,size", shapes, mesh_dir;
   std::size_t main_points = 20000, sweep_points = 10000, noisy_points = 100000, eval_samples = 50000;
   std::vector<std::size_t> sizes{10000, 30000, 100000, 300000, 1000000};
   double mem_limit_gb = 8, time_limit = 240, slow_time_limit = 90, peer_time_limit = 150, eval_limit = 300;
@@ -478,6 +480,19 @@ o3dJob (int depth, int threads, double limit, const std::string& normals = "true
 // ---------------------------------------------------------------------------------------------
 // Child processes: a child sends rows back as pclx::bench::encodeChildRow lines.
 
+// Writes an output mesh as <shape>_<points>_<sweep>_<condition>_<method>_<params>.ply.
+void
+saveMesh (const std::string& dir, const Case& c, const std::string& method, const std::string& params,
+          const TriangleMesh& mesh)
+{
+  std::string name = c.truth->name + "_" + std::to_string (c.cloud->size ()) + "_" + c.sweep + "_" + c.cond + "_" +
+                     method + "_" + params;
+  const auto unsafe = [] (char ch) { return !std::isalnum (static_cast<unsigned char> (ch)) && ch != '.' && ch != '-'; };
+  std::replace_if (name.begin (), name.end (), unsafe, '_');
+  if (pcl::io::savePLYFileBinary (dir + "/" + name + ".ply", pclx::testing::toPolygonMesh (mesh)) != 0)
+    std::cerr << "[bench_rbf] could not write " << dir << "/" << name << ".ply\n";
+}
+
 // Runs the job in a child; returns the rows and the status ("ok", "oom", "timeout", "crash",
 // "error", "empty" per row via metrics).
 std::string
@@ -538,6 +553,8 @@ runChild (const Job& job, const Case& c, const Options& opt, std::vector<ChildRo
         }
         mt.insert (mt.end (), r.extra.begin (), r.extra.end ());
         out.push_back ({r.meshes[i].first, "", r.seconds[i], mt});
+        if (!opt.mesh_dir.empty () && !m.faces.empty ())
+          saveMesh (opt.mesh_dir, c, r.meshes[i].first, job.params, m);
       }
     }
     catch (const std::bad_alloc&)
@@ -697,6 +714,7 @@ main (int argc, char** argv)
   std::string sizes;
   app.add_flag ("--quick", opt.quick, "a few rows of every method on small clouds (well under a minute)");
   app.add_option ("--csv", opt.csv, "also write the CSV rows (and '#' notes) to this file");
+  app.add_option ("--mesh-dir", opt.mesh_dir, "write every output mesh to this folder (PLY, named by case and method)");
   app.add_option ("--threads", opt.threads, "threads for every method")->capture_default_str ();
   app.add_option ("--data-dir", opt.data_dir, "real data (bunny, fertility); default ../shared/data or $PCLX_DATA_DIR");
   app.add_option ("--sweeps", opt.sweeps, "comma-separated subset of main,mcrbf,robust,noise,noisy,scanest,size")
