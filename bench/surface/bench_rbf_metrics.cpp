@@ -165,9 +165,8 @@ boundaryPoints (const TriangleMesh& mesh, double step)
   return points;
 }
 
-std::size_t
-boundaryEdgesAwayFrom (const TriangleMesh& mesh, const std::vector<Eigen::Vector3f>& truth_boundary,
-                       double radius)
+OpenEdgesAtHoles
+openEdgesAtHoles (const TriangleMesh& mesh, const std::vector<Eigen::Vector3f>& truth_boundary, double radius)
 {
   pcl::PointCloud<pcl::PointXYZ>::Ptr near (new pcl::PointCloud<pcl::PointXYZ>);
   for (const auto& p : truth_boundary)
@@ -177,15 +176,32 @@ boundaryEdgesAwayFrom (const TriangleMesh& mesh, const std::vector<Eigen::Vector
     tree.setInputCloud (near);
   pcl::Indices idx (1);
   std::vector<float> d2 (1);
-  std::size_t away = 0;
+  OpenEdgesAtHoles r;
   for (const auto& [key, n] : edgeUses (mesh))
     if (n == 1)
     {
       const Eigen::Vector3f m = 0.5f * (mesh.vertices[key >> 32] + mesh.vertices[key & 0xFFFFFFFFu]);
-      away += near->empty () || tree.nearestKSearch (pcl::PointXYZ (m.x (), m.y (), m.z ()), 1, idx, d2) != 1 ||
-              double (d2[0]) > radius * radius;
+      const double d = near->empty () || tree.nearestKSearch (pcl::PointXYZ (m.x (), m.y (), m.z ()), 1, idx, d2) != 1
+                           ? HUGE_VAL
+                           : std::sqrt (double (d2[0]));
+      r.max_distance = std::max (r.max_distance, d);
+      r.away += d > radius;
     }
-  return away;
+  return r;
+}
+
+double
+medianEdgeLength (const TriangleMesh& mesh)
+{
+  std::vector<float> len;
+  len.reserve (3 * mesh.faces.size ());
+  for (const auto& f : mesh.faces)
+    for (int k = 0; k < 3; ++k)
+      len.push_back ((mesh.vertices[f[k]] - mesh.vertices[f[(k + 1) % 3]]).norm ());
+  if (len.empty ())
+    return 0;
+  std::nth_element (len.begin (), len.begin () + len.size () / 2, len.end ());
+  return len[len.size () / 2];
 }
 
 Error

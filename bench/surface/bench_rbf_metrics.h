@@ -28,10 +28,18 @@ Topology topology (const pclx::testing::TriangleMesh& mesh);
 
 // Points every `step` along the edges that only one triangle uses (their midpoints at least).
 std::vector<Eigen::Vector3f> boundaryPoints (const pclx::testing::TriangleMesh& mesh, double step);
-// Boundary edges of `mesh` whose midpoint lies farther than `radius` from every point of
-// `truth_boundary`: open edges that the truth's own holes do not explain.
-std::size_t boundaryEdgesAwayFrom (const pclx::testing::TriangleMesh& mesh,
+// Open edges of an output against the truth's own holes (points along its open edges): the
+// largest distance of an open edge's midpoint from them, and how many lie farther than
+// `radius`. With no truth boundary every open edge counts and the distance is infinite.
+struct OpenEdgesAtHoles
+{
+  std::size_t away = 0;
+  double max_distance = 0;
+};
+OpenEdgesAtHoles openEdgesAtHoles (const pclx::testing::TriangleMesh& mesh,
                                    const std::vector<Eigen::Vector3f>& truth_boundary, double radius);
+// The median edge length of a mesh (0 when it has no triangle).
+double medianEdgeLength (const pclx::testing::TriangleMesh& mesh);
 
 struct Error
 {
