@@ -595,12 +595,21 @@ CoupledSimplification::connect (bool dense_only)
     return d2 < t * t * scale2;
   };
   // Per thread: its faces (clustered or dense), orientation vote and dense-face count, each on
-  // its own cache line (the counters change with every face).
+  // its own cache line (the counters change with every face). A border row between two bands
+  // (defer_above >= 0) keeps its quadrics for the clusters above that pixel row in `deferred`.
   struct alignas (64) Part
   {
     std::vector<Eigen::Vector3i> tris;
     long vote = 0;
     std::size_t dense = 0;
+    int defer_above = -1;
+    std::vector<std::pair<std::int32_t, Quadric>> deferred;
+  };
+  auto addQuadric = [&] (Part& part, std::size_t pixel, const Quadric& k) {
+    if (static_cast<int> (pixel / W) < part.defer_above)
+      part.deferred.emplace_back (cid_[pixel], k);
+    else
+      cq_[cid_[pixel]] += k;
   };
   auto face = [&] (Part& part, std::size_t a, std::size_t b, std::size_t c, bool diag_ab, bool diag_bc,
                    bool diag_ca) {
@@ -619,12 +628,12 @@ CoupledSimplification::connect (bool dense_only)
     Quadric k = Quadric::Zero ();
     addPlane (k, nf.cast<double> (), d, 0.5 * len);
     if (ia == ib && ib == ic)
-      cq_[ia] += 3 * k;
+      addQuadric (part, a, 3 * k);
     else
     {
-      cq_[ia] += k;
-      cq_[ib] += k;
-      cq_[ic] += k;
+      addQuadric (part, a, k);
+      addQuadric (part, b, k);
+      addQuadric (part, c, k);
     }
     ++part.dense;
     if (dense_only || (ia != ib && ib != ic && ic != ia))
@@ -660,8 +669,10 @@ CoupledSimplification::connect (bool dense_only)
     }
   };
   // Row bands, one per thread, cut at cluster-block rows: a band's quads below its last row
-  // touch only its own clusters (or dense vertices), so the bands run in parallel; the quad
-  // rows across band borders run afterwards. The result does not depend on timing.
+  // touch only its own clusters (or dense vertices), so the bands run in parallel. The quad row
+  // across each border runs first for the clusters below it and last for those above, and the
+  // faces are joined in row order: every cluster sums its quadrics in the order one thread
+  // does, so the result depends neither on timing nor on the thread count.
 #ifdef _OPENMP
   const int threads = std::max (1, std::min (omp_get_max_threads (), H / (4 * std::max (1, block_rows_))));
 #else
@@ -671,24 +682,30 @@ CoupledSimplification::connect (bool dense_only)
   for (int t = 1; t < threads; ++t)
     cut[t] = (H * t / threads) / std::max (1, block_rows_) * std::max (1, block_rows_);
   cut[threads] = H - 1;  // quad rows are 0 … H − 2
-  std::vector<Part> parts (threads + 1);
+  std::vector<Part> bands (threads), borders (threads);
+  for (int t = 1; t < threads; ++t)
+    if (cut[t] >= 1)
+    {
+      borders[t].defer_above = cut[t];
+      quadRow (borders[t], cut[t] - 1);
+    }
 #pragma omp parallel for num_threads (threads) schedule (static, 1)
   for (int t = 0; t < threads; ++t)
     for (int v = cut[t]; v < (t + 1 < threads ? cut[t + 1] - 1 : cut[t + 1]); ++v)
-      quadRow (parts[t], v);
-  for (int t = 1; t < threads; ++t)
-    if (cut[t] >= 1)
-      quadRow (parts[threads], cut[t] - 1);
+      quadRow (bands[t], v);
   std::vector<Eigen::Vector3i>& tris = dense_only ? dense_tris_ : ctris_;
   tris.clear ();
   orientation_vote_ = 0;
   std::size_t dense = 0;
-  for (auto& p : parts)
-  {
-    tris.insert (tris.end (), p.tris.begin (), p.tris.end ());
-    orientation_vote_ += p.vote;
-    dense += p.dense;
-  }
+  for (int t = 0; t < threads; ++t)
+    for (Part* p : {&borders[t], &bands[t]})
+    {
+      for (const auto& [cluster, k] : p->deferred)
+        cq_[cluster] += k;
+      tris.insert (tris.end (), p->tris.begin (), p->tris.end ());
+      orientation_vote_ += p->vote;
+      dense += p->dense;
+    }
   stats_.dense_triangles = dense;
 }
 

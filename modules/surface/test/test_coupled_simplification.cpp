@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
 #include <cmath>
 #include <limits>
 #include <map>
@@ -250,6 +252,35 @@ TEST (CoupledSimplification, MonotoneInTheErrorBound)
     prev = m.triangles.size ();
     EXPECT_LE (s.getStats ().max_error, e);
   }
+}
+
+// The connected cloud is built in row bands, one per thread: one and two threads give the same
+// frame mesh, vertex for vertex (the cluster quadrics are summed in the same order).
+TEST (CoupledSimplification, SameFrameMeshForAnyThreadCount)
+{
+  pclx::testing::RayCaster caster (pclx::testing::makeTorus (0.5f, 0.2f));
+  const Eigen::Isometry3f cam = pclx::testing::lookAt (Eigen::Vector3f (1.2f, 0.6f, 1.0f), Eigen::Vector3f::Zero ());
+  pclx::testing::PinholeIntrinsics PK;
+  pclx::testing::KinectNoise noise;
+  const auto depth = toMetres (pclx::testing::renderDepth (caster, PK, cam, noise, 3));
+  const auto run = [&] (int threads) {
+    const int saved = omp_get_max_threads ();
+    omp_set_num_threads (threads);
+    Simplifier s;
+    s.setFrustumCellPixels (4);
+    FrameMesh m;
+    EXPECT_TRUE (s.compute (depth.data (), PK.width, PK.height, kK, pose (cam), m));
+    omp_set_num_threads (saved);
+    return m;
+  };
+  const FrameMesh one = run (1), two = run (2);
+  ASSERT_GT (one.triangles.size (), 1000u);
+  ASSERT_EQ (one.vertices.size (), two.vertices.size ());
+  ASSERT_EQ (one.triangles.size (), two.triangles.size ());
+  for (std::size_t i = 0; i < one.vertices.size (); ++i)
+    ASSERT_EQ (one.vertices[i], two.vertices[i]) << "vertex " << i;
+  for (std::size_t i = 0; i < one.triangles.size (); ++i)
+    ASSERT_EQ (one.triangles[i], two.triangles[i]) << "triangle " << i;
 }
 
 TEST (CoupledSimplification, CellSizeInMetresSetsThePixelBlock)
