@@ -246,33 +246,19 @@ trimmedHeightField (const std::vector<Eigen::Matrix<double, 6, 1>>& rows, const 
   return best;
 }
 
-// Robust height field over k rows: a least-squares fit, refitted without rows beyond 3
-// robust sigmas (1.4826 × the median absolute residual over all rows). Where a second
-// surface holds a large minority of the rows (the other sheet across a thin plate a few
-// spacings thick), the least-squares fit splits the difference, its median residual reads
-// the gap as noise and the limit keeps both sheets. So the refit starts from least
-// trimmed squares over h = (k + 7) / 2 rows instead where that fits its rows more than 3×
-// better in scale (a noisy single sheet stays far from that ratio). mad: the median
-// absolute residual of the final fit over the `used` rows it kept; false when the
-// least-squares fit fails.
-bool
-robustHeightField (const std::vector<Eigen::Matrix<double, 6, 1>>& rows, const std::vector<double>& heights, int k,
-                   Eigen::Matrix<double, 6, 1>& c, std::vector<double>& absres, double& mad, int& used)
+// Noise of k rows from a fit (c, absres): refitted without rows beyond 3 robust sigmas
+// (1.4826 × the median absolute residual over all rows), σ from the median absolute
+// residual of the rows the refit kept (corrected for 6 unknowns); without enough of them,
+// from the fit as given.
+double
+refittedNoise (const std::vector<Eigen::Matrix<double, 6, 1>>& rows, const std::vector<double>& heights, int k,
+               Eigen::Matrix<double, 6, 1> c, std::vector<double> absres)
 {
-  thread_local std::vector<double> scratch, start_res;
-  if (!fitHeightField (rows, heights, k, std::numeric_limits<double>::infinity (), c, absres))
-    return false;
-  const int h = (k + 7) / 2;
-  Eigen::Matrix<double, 6, 1> lts;
-  if (trimmedHeightField (rows, heights, k, h, c, absres, lts, start_res) < trimmedObjective (absres, k, h, scratch) / 9)
-  {
-    c = lts;
-    absres = start_res;
-  }
-  // The scale is read over the rows the refit kept; without enough of them, the start stands.
+  thread_local std::vector<double> scratch;
   const double limit = 3.0 * 1.4826 * orderStatistic (absres, k, k / 2, scratch);
-  start_res = absres;
-  used = k;
+  const std::vector<double> start_res = absres;
+  double mad = 0;
+  int used = k;
   if (fitHeightField (rows, heights, k, limit, c, absres))
   {
     scratch.clear ();
@@ -282,9 +268,36 @@ robustHeightField (const std::vector<Eigen::Matrix<double, 6, 1>>& rows, const s
     used = static_cast<int> (scratch.size ());
     std::nth_element (scratch.begin (), scratch.begin () + used / 2, scratch.end ());
     mad = scratch[used / 2];
-    return true;
   }
-  mad = orderStatistic (absres, k, k / 2, scratch);
+  else
+    mad = orderStatistic (absres, k, k / 2, scratch);
+  return 1.4826 * mad * std::sqrt (static_cast<double> (used) / (used - 6));
+}
+
+// Robust noise σ of a support's k rows: a least-squares height field refitted without
+// outliers (refittedNoise). Where a second surface holds a large minority of the rows (the
+// other sheet across a thin plate a few spacings thick), the least-squares fit splits the
+// difference, its median residual reads the gap as noise and the limit keeps both sheets.
+// So where that σ is not below `accept` (the support would be refused), the refit starts
+// from least trimmed squares over h = (k + 7) / 2 rows instead, if that fits its rows more
+// than 3× better in scale (a noisy single sheet stays far from that ratio). False when the
+// least-squares fit fails.
+bool
+supportNoise (const std::vector<Eigen::Matrix<double, 6, 1>>& rows, const std::vector<double>& heights, int k,
+              double accept, double& sigma)
+{
+  thread_local std::vector<double> scratch, absres, lts_res;
+  Eigen::Matrix<double, 6, 1> c;
+  if (!fitHeightField (rows, heights, k, std::numeric_limits<double>::infinity (), c, absres))
+    return false;
+  sigma = refittedNoise (rows, heights, k, c, absres);
+  if (sigma < accept)
+    return true;
+  const int h = (k + 7) / 2;
+  Eigen::Matrix<double, 6, 1> lts = c;
+  lts_res = absres;
+  if (trimmedHeightField (rows, heights, k, h, c, absres, lts, lts_res) < trimmedObjective (absres, k, h, scratch) / 9)
+    sigma = refittedNoise (rows, heights, k, lts, lts_res);
   return true;
 }
 
@@ -406,11 +419,11 @@ sampleNoise (const std::vector<Eigen::Vector3f>& sorted, double& residual2, doub
       return any;
     // Height field h = c0 x² + c1 xy + c2 y² + c3 x + c4 y + c5 over the PCA plane, in
     // coordinates scaled by the largest spread (normal equations: 6 × 6), fitted robustly
-    // (robustHeightField): a few points of another sheet, or up to half the support across
-    // a thin plate, must not read as noise. σ from the median absolute residual.
+    // (supportNoise): a few points of another sheet, or up to half the support across a
+    // thin plate, must not read as noise. σ from the median absolute residual.
     const double scale = std::sqrt (l (2));
     thread_local std::vector<Eigen::Matrix<double, 6, 1>> rows;
-    thread_local std::vector<double> heights, absres;
+    thread_local std::vector<double> heights;
     rows.resize (k);
     heights.resize (k);
     for (int i = 0; i < k; ++i)
@@ -420,12 +433,9 @@ sampleNoise (const std::vector<Eigen::Vector3f>& sorted, double& residual2, doub
       rows[i] << u * u, u * w, w * w, u, w, 1.0;
       heights[i] = d.dot (v.col (0));
     }
-    Eigen::Matrix<double, 6, 1> c;
-    double mad = 0;
-    int used = k;
-    if (!robustHeightField (rows, heights, k, c, absres, mad, used))
+    double sigma = 0;
+    if (!supportNoise (rows, heights, k, std::sqrt (l (1) / 9.0), sigma))
       return any;
-    const double sigma = 1.4826 * mad * std::sqrt (static_cast<double> (used) / (used - 6));
     residual2 = sigma * sigma;
     any = true;
     if (l (1) > 9.0 * residual2)
