@@ -29,13 +29,14 @@ namespace pcl {
   *
   * One wrong crossing flips everything downstream of it, which no local rule can see. The
   * signs are therefore checked against a global cue, visibility: seen from outside (26
-  * orthographic directions), a closed surface's visible points face the viewer. Every
-  * vertex's votes are weighed against the cost of overruling each tree crossing, and the
-  * best set of crossings to overrule is found exactly by dynamic programming over the tree
-  * (setVisibilityWeight ()). An open sheet's votes cancel. Where the votes leave a
-  * component's sign open, its extreme points in 21 directions of the upper hemisphere vote
-  * it: outward on closed shapes, "up" on open sheets (Hoppe et al. point the root's normal
-  * to +z, which one crease point at the top can get wrong).
+  * orthographic directions), a closed surface's visible points face the viewer; holes
+  * between the samples of the front surface are closed first, so that no point is seen
+  * through them. Every vertex's votes are weighed against the cost of overruling each tree
+  * crossing, and the best set of crossings to overrule is found exactly by dynamic
+  * programming over the tree (setVisibilityWeight ()). An open sheet's votes cancel. Where
+  * the votes leave a component's sign open, its extreme points in 21 directions of the
+  * upper hemisphere vote it: outward on closed shapes, "up" on open sheets (Hoppe et al.
+  * point the root's normal to +z, which one crease point at the top can get wrong).
   *
   * Usage:
   * \code
@@ -49,7 +50,9 @@ namespace pcl {
   * \note R. M. Musmanno, 2016, "Estimação de Normais em Nuvens de Pontos para Reconstrução
   * de Superfícies 3D com Funções de Base Radial", MSc dissertation, UFF; and H. Hoppe,
   * T. DeRose, T. Duchamp, J. McDonald, W. Stuetzle, 1992, "Surface Reconstruction from
-  * Unorganized Points", ACM SIGGRAPH.
+  * Unorganized Points", ACM SIGGRAPH; the closing of the z-buffer's holes follows
+  * J. P. Grossman, W. J. Dally, 1998, "Point Sample Rendering", Eurographics Workshop on
+  * Rendering.
   * \ingroup normals
   */
 template <typename PointT, typename NormalT>

@@ -488,6 +488,27 @@ propagateSigns (MstGraph& g, const SpanningForest& forest, const EdgeSideTest& s
 }
 
 
+// The front depth of every pixel of a side × side depth grid (smaller is nearer, +inf where
+// empty) with its holes closed: a front pixel that by chance holds none of the front's
+// samples would let the vertices behind it be seen (Grossman and Dally 1998). A pixel whose
+// opposite neighbours (row, column or diagonal) are both nearer by more than a pixel, deeper
+// than a groove with 45° walls (the slope the depth tolerance admits) can sink between them,
+// takes the farther of the two plus a pixel. A plane at any slope is unchanged; at a
+// silhouette one of the pair is empty or behind.
+inline void
+closeFrontHoles (const std::vector<float>& front, std::vector<float>& closed, std::size_t side, float pixel)
+{
+  closed = front;
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t> (side);
+  for (std::ptrdiff_t i = 1; i + 1 < n; ++i)
+    for (std::ptrdiff_t j = 1; j + 1 < n; ++j)
+    {
+      const std::ptrdiff_t c = i * n + j;
+      for (const std::ptrdiff_t step : {std::ptrdiff_t (1), n, n + 1, n - 1})
+        closed[c] = std::min (closed[c], std::max (front[c - step], front[c + step]) + pixel);
+    }
+}
+
 // Visibility votes, a global cue that local sign propagation lacks: seen from outside along
 // a direction d (orthographic), the first surface point of every line of sight has its
 // outward normal facing the viewer (n·d > 0), on any closed surface, convex or not. For each
@@ -520,12 +541,15 @@ accumulateVisibilityVotes (const MstGraph& g, double noise, Buffer<float>& vote,
   // A vertex is seen from d where its depth is within a pixel (a 45° slope) plus two noise
   // sigmas of its pixel's front-most; the pixel's vote n·d is shared among those. An open
   // sheet's points are then seen from both sides and their votes cancel point by point.
+  // The fronts' holes are closed first (closeFrontHoles ()), so that no vertex is seen
+  // through the gaps between the front surface's samples.
   const float tolerance = pixel + 2 * static_cast<float> (noise);
   std::vector<Buffer<float>> part (g.threads);
 #pragma omp parallel num_threads(g.threads)
   {
-    // Per cell: the nearest and farthest depth along d, and how many vertices each end sees.
-    std::vector<float> near (side * side), far (side * side);
+    // Per cell: the nearest and farthest depth along d (far negated, so that both ends
+    // take the minimum), the same with holes closed, and how many vertices each end sees.
+    std::vector<float> near (side * side), far (side * side), scratch (side * side);
     std::vector<std::uint32_t> near_count (side * side), far_count (side * side), cell_of (nv);
     std::vector<float> depth (nv);
     Buffer<float>& mine = part[omp_get_thread_num ()];
@@ -535,7 +559,7 @@ accumulateVisibilityVotes (const MstGraph& g, double noise, Buffer<float>& vote,
     {
       const Eigen::Vector3f d = dirs[di], a = d.unitOrthogonal (), b = d.cross (a);
       std::fill (near.begin (), near.end (), std::numeric_limits<float>::infinity ());
-      std::fill (far.begin (), far.end (), -std::numeric_limits<float>::infinity ());
+      std::fill (far.begin (), far.end (), std::numeric_limits<float>::infinity ());
       std::fill (near_count.begin (), near_count.end (), 0u);
       std::fill (far_count.begin (), far_count.end (), 0u);
       for (std::uint32_t v = 0; v < nv; ++v)
@@ -548,13 +572,17 @@ accumulateVisibilityVotes (const MstGraph& g, double noise, Buffer<float>& vote,
         cell_of[v] = c;
         depth[v] = -q.dot (d);  // from a viewer at +d
         near[c] = std::min (near[c], depth[v]);
-        far[c] = std::max (far[c], depth[v]);
+        far[c] = std::min (far[c], -depth[v]);
       }
+      closeFrontHoles (near, scratch, side, pixel);
+      near.swap (scratch);
+      closeFrontHoles (far, scratch, side, pixel);
+      far.swap (scratch);
       for (std::uint32_t v = 0; v < nv; ++v)
       {
         const std::uint32_t c = cell_of[v];
         near_count[c] += depth[v] <= near[c] + tolerance;
-        far_count[c] += depth[v] >= far[c] - tolerance;
+        far_count[c] += -depth[v] <= far[c] + tolerance;
       }
       for (std::uint32_t v = 0; v < nv; ++v)
       {
@@ -565,7 +593,7 @@ accumulateVisibilityVotes (const MstGraph& g, double noise, Buffer<float>& vote,
           mine[2 * v] += x / static_cast<float> (near_count[c]);
           mine[2 * v + 1] += std::abs (x) / static_cast<float> (near_count[c]);
         }
-        if (depth[v] >= far[c] - tolerance)  // seen from −d
+        if (-depth[v] <= far[c] + tolerance)  // seen from −d
         {
           mine[2 * v] -= x / static_cast<float> (far_count[c]);
           mine[2 * v + 1] += std::abs (x) / static_cast<float> (far_count[c]);
