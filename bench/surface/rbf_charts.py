@@ -336,7 +336,9 @@ def error_vs_triangles(rows, out):
 
 
 def size(rows, out):
-    rows = [r for r in rows if r.get("p_sweep") == "size" and r["method"] != "o3d_poisson_trim"]
+    # The default grid only: the coarser grids at 1M belong to the triangles-at-equal-Chamfer view.
+    rows = [r for r in rows if r.get("p_sweep") == "size" and r["method"] != "o3d_poisson_trim"
+            and r.get("p_grid", "auto") in ("auto", None)]
     if not rows:
         return None
     inputs = list(collections.OrderedDict.fromkeys(r["input"] for r in rows))
