@@ -596,17 +596,18 @@ CoupledSimplification::connect (bool dense_only)
   };
   // Per thread: its faces (clustered or dense), orientation vote and dense-face count, each on
   // its own cache line (the counters change with every face). A border row between two bands
-  // (defer_above >= 0) keeps its quadrics for the clusters above that pixel row in `deferred`.
+  // keeps its quadrics for the pixels before `defer_before` (the rows above the border) in
+  // `deferred`.
   struct alignas (64) Part
   {
     std::vector<Eigen::Vector3i> tris;
     long vote = 0;
     std::size_t dense = 0;
-    int defer_above = -1;
+    std::size_t defer_before = 0;
     std::vector<std::pair<std::int32_t, Quadric>> deferred;
   };
   auto addQuadric = [&] (Part& part, std::size_t pixel, const Quadric& k) {
-    if (static_cast<int> (pixel / W) < part.defer_above)
+    if (pixel < part.defer_before)
       part.deferred.emplace_back (cid_[pixel], k);
     else
       cq_[cid_[pixel]] += k;
@@ -686,7 +687,7 @@ CoupledSimplification::connect (bool dense_only)
   for (int t = 1; t < threads; ++t)
     if (cut[t] >= 1)
     {
-      borders[t].defer_above = cut[t];
+      borders[t].defer_before = static_cast<std::size_t> (cut[t]) * W;
       quadRow (borders[t], cut[t] - 1);
     }
 #pragma omp parallel for num_threads (threads) schedule (static, 1)
