@@ -118,10 +118,10 @@ private:
   void fixCube (const PointT* points, std::size_t n, std::size_t blocks, WorkerPool& pool);
   std::vector<std::size_t> countPerBlock (const PointT* points, std::size_t n, std::size_t blocks, WorkerPool& pool);
   void makeChunks (const std::vector<std::size_t>& bucket_start);
-  // The start of both passes: the count checked, chunks and drop counts reset, the cube fixed,
-  // the points counted per bucket in `blocks` contiguous blocks in input order. Returns each
-  // block's first slot per bucket (block-major); bucket_start gets the bucket starts and the
-  // total at the end.
+  // The start of both passes: the count checked, chunks, drop counts and the streaming
+  // scatter's state reset, the cube fixed, the points counted per bucket in `blocks`
+  // contiguous blocks in input order. Returns each block's first slot per bucket
+  // (block-major); bucket_start gets the bucket starts and the total at the end.
   std::vector<std::size_t> startPass (const PointT* points, std::size_t n, WorkerPool& pool, std::size_t& blocks,
                                       std::vector<std::size_t>& bucket_start);
   // 0: keep, 1: NaN/Inf, 2: outside the user cube.

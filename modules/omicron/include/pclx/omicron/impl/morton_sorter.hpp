@@ -185,6 +185,9 @@ pclx::omicron::detail::MortonSorter<PointT>::startPass (const PointT* points, st
     throw std::length_error ("MortonSorter: more than 2^32 - 1 points (32-bit point counts per node)");
   chunk_begin_.clear ();
   dropped_invalid_ = dropped_outside_ = 0;
+  bucket_start_.clear ();  // kept by countBuckets () only: what sortChunk () checks
+  scattered_ = 0;
+  moved_points_ = false;
   // Contiguous blocks in input order: per-block histograms make the scatter stable.
   blocks = std::max<std::size_t> (1, std::min<std::size_t> (4 * threads_, n / 4096 + 1));
   fixCube (points, n, blocks, pool);
@@ -215,8 +218,6 @@ pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& 
   std::size_t blocks = 0;
   std::vector<std::size_t> bucket_start;
   std::vector<std::size_t> offsets = startPass (cloud.data (), n, pool, blocks, bucket_start);
-  bucket_start_.clear ();  // nothing streamed: sortChunk () has nothing to check
-  moved_points_ = false;
   const std::size_t nb = bucket_start.size () - 1, sum = bucket_start.back ();
   // Fresh storage advised for huge pages before resize () first touches it.
   PointVector ().swap (sorted);
@@ -244,8 +245,6 @@ pclx::omicron::detail::MortonSorter<PointT>::countBuckets (const PointT* points,
   const std::size_t sum = bucket_start.back ();
   next_.assign (bucket_start.begin (), bucket_start.end () - 1);
   end_.assign (bucket_start.begin () + 1, bucket_start.end ());
-  scattered_ = 0;
-  moved_points_ = false;
   makeChunks (bucket_start);
   bucket_start_ = std::move (bucket_start);
   return sum;
@@ -318,18 +317,18 @@ pclx::omicron::detail::MortonSorter<PointT>::sortChunk (std::size_t k, PointVect
     keys_tmp_.resize (largest);
     points_tmp_.resize (largest);
   }
+  // After a streaming scatter, every point must lie in one of the chunk's buckets.
+  const bool check = !bucket_start_.empty ();
   for (std::size_t i = 0; i < n; ++i)
   {
     keys_[i].key = leafKey (sorted[b + i]);
     keys_[i].index = static_cast<std::uint32_t> (i);
-  }
-  // After a streaming scatter, every point must lie in one of the chunk's buckets.
-  if (!bucket_start_.empty ())
-    for (std::size_t i = 0; i < n; ++i)
+    if (check)
     {
       const std::size_t first = bucket_start_[keys_[i].key >> shift_];
       moved_points_ = moved_points_ || first < b || first >= e;
     }
+  }
   radixSort (n);
   if (codes.capacity () < n)
     pclx::omicron::detail::reserveHuge (codes, keys_.size ());
