@@ -536,8 +536,11 @@ runChild (const Job& job, const Case& c, const Options& opt, std::vector<ChildRo
                                                kFarFromTruth * d);
           // Open edges explained by the truth's holes: within 1 % of the diagonal plus three of
           // the output's edges of them (a surface stops about a band of cells short of a hole).
-          const auto holes = rbf_bench::openEdgesAtHoles (m, c.truth->boundary,
-                                                          kFarFromTruth * d + 3 * rbf_bench::medianEdgeLength (m));
+          // A closed mesh has none to place.
+          const auto holes = topo.boundary_edges == 0
+                                 ? rbf_bench::OpenEdgesAtHoles ()
+                                 : rbf_bench::openEdgesAtHoles (m, c.truth->boundary,
+                                                                kFarFromTruth * d + 3 * rbf_bench::medianEdgeLength (m));
           mt.insert (mt.end (), {{"chamfer", e.chamfer ()},
                                  {"hausdorff", e.hausdorff ()},
                                  {"chamfer_rel", e.chamfer () / d},
