@@ -5,8 +5,9 @@
 //   prepare ()    bounds → root cube; one counting pass on the top Morton bits and one stable
 //                 scatter of the finite points into buckets (MSD radix) of ONE output array;
 //                 NaN/Inf points (and points outside a user root cube) are dropped and counted.
-//   sortChunk (k) consecutive buckets form chunk k; it is sorted in place with a stable LSD
-//                 radix sort on its codes and handed on; chunk k never moves again.
+//   sortChunk (k) consecutive buckets form chunk k; each of its buckets is sorted in place
+//                 with a stable LSD radix sort on the code bits below the bucket bits (the
+//                 bucket stays in cache), and the chunk is handed on; it never moves again.
 //
 // Equal codes keep input order (both passes are stable), so what is built from the sorted
 // array does not depend on the thread or chunk count.
@@ -76,11 +77,13 @@ public:
   void sortChunk (std::size_t k, PointVector& sorted, std::vector<MortonCode>& codes);
   // Frees the chunk buffers (call after the last chunk).
   void release ();
-  // Bytes of the chunk sort buffers now allocated (keys and the point scratch).
+  // Bytes of the sort buffers now allocated (keys, digit counts and the point scratch, each
+  // sized for the largest bucket).
   std::size_t
   bufferBytes () const
   {
-    return (keys_.capacity () + keys_tmp_.capacity ()) * sizeof (KeyIndex) + points_tmp_.capacity () * sizeof (PointT);
+    return (keys_.capacity () + keys_tmp_.capacity ()) * sizeof (KeyIndex) + counts_.capacity () * sizeof (std::uint32_t) +
+           points_tmp_.capacity () * sizeof (PointT);
   }
 
   // prepare() + every chunk in order; on_chunk (begin, end, codes) is called as each is sorted.
@@ -110,7 +113,10 @@ private:
     std::uint64_t key;  // interleaved bits without the prefix
     std::uint32_t index;
   };
-  void radixSort (std::size_t n);
+  // Sorts bucket q (its m points at `points`) by leaf code, stably, and writes the codes.
+  void sortBucket (std::size_t q, PointT* points, std::size_t m, MortonCode* codes);
+  // Stable sort of keys_[0, m) on the key bits below the bucket bits.
+  void sortKeysBelowBucket (std::size_t m);
   void setCubeFromBounds (const Eigen::Array3f& lo, const Eigen::Array3f& hi);
   // The stages prepare () and countBuckets () share, so both make the same buckets and chunks:
   // the root cube (user cube, known bounds or a bounds pass) and the bucket bits; per-block
@@ -147,9 +153,11 @@ private:
   // are at most 16), and how many points the streaming scatter has been given so far.
   std::vector<std::uint16_t> bucket_of_;
   std::size_t scattered_ = 0;
-  std::vector<std::size_t> bucket_start_;  // first slot of each bucket, for sortChunk's check
+  std::vector<std::size_t> bucket_start_;  // first slot of each bucket, and the total at the end
+  bool streamed_ = false;  // the points came through scatter (): sortChunk checks their buckets
   bool moved_points_ = false;
   std::vector<KeyIndex> keys_, keys_tmp_;
+  std::vector<std::uint32_t> counts_;  // per-digit histograms of the bucket sort
   PointVector points_tmp_;
 };
 

@@ -185,7 +185,8 @@ pclx::omicron::detail::MortonSorter<PointT>::startPass (const PointT* points, st
     throw std::length_error ("MortonSorter: more than 2^32 - 1 points (32-bit point counts per node)");
   chunk_begin_.clear ();
   dropped_invalid_ = dropped_outside_ = 0;
-  bucket_start_.clear ();  // kept by countBuckets () only: what sortChunk () checks
+  bucket_start_.clear ();
+  streamed_ = false;
   scattered_ = 0;
   moved_points_ = false;
   // Contiguous blocks in input order: per-block histograms make the scatter stable.
@@ -231,6 +232,7 @@ pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& 
   });
   std::vector<std::uint16_t> ().swap (bucket_of_);
   makeChunks (bucket_start);
+  bucket_start_ = std::move (bucket_start);
   return sum;
 }
 
@@ -247,6 +249,7 @@ pclx::omicron::detail::MortonSorter<PointT>::countBuckets (const PointT* points,
   end_.assign (bucket_start.begin () + 1, bucket_start.end ());
   makeChunks (bucket_start);
   bucket_start_ = std::move (bucket_start);
+  streamed_ = true;
   return sum;
 }
 
@@ -270,76 +273,109 @@ pclx::omicron::detail::MortonSorter<PointT>::scatter (const PointT* points, std:
 }
 
 template <typename PointT> void
-pclx::omicron::detail::MortonSorter<PointT>::radixSort (std::size_t n)
+pclx::omicron::detail::MortonSorter<PointT>::sortKeysBelowBucket (std::size_t m)
 {
-  // Stable LSD radix sort on the keys (hand-written because Boost's spreadsort is not stable,
-  // and equal codes must keep input order for a deterministic parent sampling). Digits where
-  // every key agrees are skipped, so a depth-7 chunk takes at most two passes.
-  constexpr int kDigit = 11;
-  constexpr std::size_t kBins = std::size_t (1) << kDigit;
-  const int total_bits = 3 * max_depth_;
-  const int digits = (total_bits + kDigit - 1) / kDigit;
-  std::vector<std::size_t> count (static_cast<std::size_t> (digits) * kBins, 0);
-  for (std::size_t i = 0; i < n; ++i)
-    for (int d = 0; d < digits; ++d)
-      ++count[d * kBins + ((keys_[i].key >> (d * kDigit)) & (kBins - 1))];
-  for (int d = 0; d < digits; ++d)
+  // No bits below the bucket bits: every key of the bucket is the same.
+  if (shift_ == 0)
+    return;
+  // Small buckets: insertion sort (stable), cheaper than clearing the digit histograms.
+  constexpr std::size_t kInsertion = 32;
+  if (m <= kInsertion)
   {
-    std::size_t* c = count.data () + d * kBins;
-    if (std::any_of (c, c + kBins, [n] (std::size_t v) { return v == n; }))
-      continue;
-    std::size_t sum = 0;
-    for (std::size_t b = 0; b < kBins; ++b)
+    for (std::size_t i = 1; i < m; ++i)
     {
-      const std::size_t v = c[b];
-      c[b] = sum;
-      sum += v;
+      const KeyIndex x = keys_[i];
+      std::size_t j = i;
+      for (; j > 0 && keys_[j - 1].key > x.key; --j)
+        keys_[j] = keys_[j - 1];
+      keys_[j] = x;
     }
-    for (std::size_t i = 0; i < n; ++i)
-      keys_tmp_[c[(keys_[i].key >> (d * kDigit)) & (kBins - 1)]++] = keys_[i];
+    return;
+  }
+  // Stable LSD radix sort (hand-written because Boost's spreadsort is not stable, and equal
+  // codes must keep input order for a deterministic parent sampling). Only the shift_ bits
+  // below the bucket bits can differ, in digits of at most 11 bits; digits where every key
+  // agrees are skipped.
+  constexpr int kMaxDigit = 11;
+  const int passes = (shift_ + kMaxDigit - 1) / kMaxDigit;
+  const int digit = (shift_ + passes - 1) / passes;
+  const std::size_t bins = std::size_t (1) << digit;
+  counts_.assign (static_cast<std::size_t> (passes) * bins, 0);
+  for (std::size_t i = 0; i < m; ++i)
+    for (int d = 0; d < passes; ++d)
+      ++counts_[d * bins + ((keys_[i].key >> (d * digit)) & (bins - 1))];
+  for (int d = 0; d < passes; ++d)
+  {
+    std::uint32_t* c = counts_.data () + d * bins;
+    if (std::any_of (c, c + bins, [m] (std::uint32_t v) { return v == m; }))
+      continue;
+    std::uint32_t sum = 0;
+    for (std::size_t v = 0; v < bins; ++v)
+    {
+      const std::uint32_t here = c[v];
+      c[v] = sum;
+      sum += here;
+    }
+    for (std::size_t i = 0; i < m; ++i)
+      keys_tmp_[c[(keys_[i].key >> (d * digit)) & (bins - 1)]++] = keys_[i];
     keys_.swap (keys_tmp_);
   }
+}
+
+template <typename PointT> void
+pclx::omicron::detail::MortonSorter<PointT>::sortBucket (std::size_t q, PointT* points, std::size_t m,
+                                                         MortonCode* codes)
+{
+  bool moved = false;
+  for (std::size_t i = 0; i < m; ++i)
+  {
+    keys_[i].key = leafKey (points[i]);
+    keys_[i].index = static_cast<std::uint32_t> (i);
+    moved = moved || (keys_[i].key >> shift_) != q;
+  }
+  // After a streaming scatter, every point must lie in its own bucket.
+  moved_points_ = moved_points_ || (streamed_ && moved);
+  sortKeysBelowBucket (m);
+  const std::uint64_t prefix = std::uint64_t (1) << (3 * max_depth_);
+  for (std::size_t i = 0; i < m; ++i)
+  {
+    points_tmp_[i] = points[keys_[i].index];
+    codes[i] = MortonCode (prefix | keys_[i].key);
+  }
+  std::copy (points_tmp_.begin (), points_tmp_.begin () + m, points);
 }
 
 template <typename PointT> void
 pclx::omicron::detail::MortonSorter<PointT>::sortChunk (std::size_t k, PointVector& sorted, std::vector<MortonCode>& codes)
 {
   const std::size_t b = chunk_begin_[k], e = chunk_begin_[k + 1], n = e - b;
-  if (keys_.size () < n)
+  const std::size_t nb = bucket_start_.size () - 1;
+  std::size_t largest_bucket = 0;
+  for (std::size_t q = 0; q < nb; ++q)
+    largest_bucket = std::max (largest_bucket, bucket_start_[q + 1] - bucket_start_[q]);
+  if (keys_.size () < largest_bucket)
   {
-    std::size_t largest = 0;
-    for (std::size_t j = 0; j + 1 < chunk_begin_.size (); ++j)
-      largest = std::max (largest, chunk_begin_[j + 1] - chunk_begin_[j]);
-    pclx::omicron::detail::reserveHuge (keys_, largest);
-    pclx::omicron::detail::reserveHuge (keys_tmp_, largest);
-    pclx::omicron::detail::reserveHuge (points_tmp_, largest);
+    const std::size_t largest = largest_bucket;
     keys_.resize (largest);
     keys_tmp_.resize (largest);
     points_tmp_.resize (largest);
   }
-  // After a streaming scatter, every point must lie in one of the chunk's buckets.
-  const bool check = !bucket_start_.empty ();
-  for (std::size_t i = 0; i < n; ++i)
-  {
-    keys_[i].key = leafKey (sorted[b + i]);
-    keys_[i].index = static_cast<std::uint32_t> (i);
-    if (check)
-    {
-      const std::size_t first = bucket_start_[keys_[i].key >> shift_];
-      moved_points_ = moved_points_ || first < b || first >= e;
-    }
-  }
-  radixSort (n);
   if (codes.capacity () < n)
-    pclx::omicron::detail::reserveHuge (codes, keys_.size ());
-  codes.resize (n);
-  const std::uint64_t prefix = std::uint64_t (1) << (3 * max_depth_);
-  for (std::size_t i = 0; i < n; ++i)
   {
-    points_tmp_[i] = sorted[b + keys_[i].index];
-    codes[i] = MortonCode (prefix | keys_[i].key);
+    std::size_t largest = 0;
+    for (std::size_t j = 0; j + 1 < chunk_begin_.size (); ++j)
+      largest = std::max (largest, chunk_begin_[j + 1] - chunk_begin_[j]);
+    pclx::omicron::detail::reserveHuge (codes, largest);
   }
-  std::copy (points_tmp_.begin (), points_tmp_.begin () + n, sorted.begin () + b);
+  codes.resize (n);
+  // Chunk boundaries are bucket starts, so the chunk is its buckets in order.
+  for (std::size_t q = std::lower_bound (bucket_start_.begin (), bucket_start_.end (), b) - bucket_start_.begin ();
+       q < nb && bucket_start_[q] < e; ++q)
+  {
+    const std::size_t s = bucket_start_[q], t = bucket_start_[q + 1];
+    if (t > s)
+      sortBucket (q, sorted.data () + s, t - s, codes.data () + (s - b));
+  }
 }
 
 template <typename PointT> void
@@ -347,6 +383,7 @@ pclx::omicron::detail::MortonSorter<PointT>::release ()
 {
   keys_ = {};
   keys_tmp_ = {};
+  counts_ = {};
   next_ = {};
   end_ = {};
   bucket_of_ = {};
