@@ -65,7 +65,7 @@ pclx::omicron::detail::MortonSorter<PointT>::setKnownBounds (const Eigen::Array3
   known_bounds_ = true;
 }
 
-template <typename PointT> int
+template <typename PointT> inline int
 pclx::omicron::detail::MortonSorter<PointT>::classify (const PointT& p) const
 {
   if (!std::isfinite (p.x) || !std::isfinite (p.y) || !std::isfinite (p.z))
@@ -76,7 +76,7 @@ pclx::omicron::detail::MortonSorter<PointT>::classify (const PointT& p) const
   return 0;
 }
 
-template <typename PointT> std::uint64_t
+template <typename PointT> inline std::uint64_t
 pclx::omicron::detail::MortonSorter<PointT>::leafKey (const PointT& p) const
 {
   return (MortonCode::spread (MortonCode::toCell (p.x, origin_.x (), scale_, max_depth_)) << 2) |
@@ -98,7 +98,7 @@ pclx::omicron::detail::MortonSorter<PointT>::fixCube (const PointT* points, std:
     std::vector<Eigen::Array3f> lo (blocks, Eigen::Array3f::Constant (std::numeric_limits<float>::max ()));
     std::vector<Eigen::Array3f> hi (blocks, Eigen::Array3f::Constant (-std::numeric_limits<float>::max ()));
     pool.parallelFor (blocks, [&] (std::size_t b, int) {
-      for (std::size_t i = n * b / blocks; i < n * (b + 1) / blocks; ++i)
+      for (std::size_t i = n * b / blocks, end = n * (b + 1) / blocks; i < end; ++i)
         if (std::isfinite (points[i].x) && std::isfinite (points[i].y) && std::isfinite (points[i].z))
         {
           lo[b] = lo[b].min (points[i].getArray3fMap ());
@@ -135,7 +135,7 @@ pclx::omicron::detail::MortonSorter<PointT>::countPerBlock (const PointT* points
   bucket_of_.assign (n, 0);
   pool.parallelFor (blocks, [&] (std::size_t b, int) {
     std::size_t* h = hist.data () + b * nb;
-    for (std::size_t i = n * b / blocks; i < n * (b + 1) / blocks; ++i)
+    for (std::size_t i = n * b / blocks, end = n * (b + 1) / blocks; i < end; ++i)
     {
       const int c = classify (points[i]);
       if (c == 0)
@@ -226,7 +226,7 @@ pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& 
   sorted.resize (sum);
   pool.parallelFor (blocks, [&] (std::size_t b, int) {
     std::size_t* h = offsets.data () + b * nb;
-    for (std::size_t i = n * b / blocks; i < n * (b + 1) / blocks; ++i)
+    for (std::size_t i = n * b / blocks, end = n * (b + 1) / blocks; i < end; ++i)
       if (classify (cloud[i]) == 0)
         sorted[h[bucket_of_[i]]++] = cloud[i];
   });
