@@ -7,7 +7,8 @@
 //                 NaN/Inf points (and points outside a user root cube) are dropped and counted.
 //   sortChunk (k) consecutive buckets form chunk k; each of its buckets is sorted in place
 //                 with a stable LSD radix sort on the code bits below the bucket bits (the
-//                 bucket stays in cache), and the chunk is handed on; it never moves again.
+//                 bucket stays in cache), the buckets shared among the threads, and the chunk
+//                 is handed on; it never moves again.
 //
 // Equal codes keep input order (both passes are stable), so what is built from the sorted
 // array does not depend on the thread or chunk count.
@@ -18,6 +19,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -82,8 +84,11 @@ public:
   std::size_t
   bufferBytes () const
   {
-    return (keys_.capacity () + keys_tmp_.capacity ()) * sizeof (KeyIndex) + counts_.capacity () * sizeof (std::uint32_t) +
-           points_tmp_.capacity () * sizeof (PointT);
+    std::size_t bytes = 0;
+    for (const SortScratch& s : scratch_)
+      bytes += (s.keys.capacity () + s.keys_tmp.capacity ()) * sizeof (KeyIndex) +
+               s.counts.capacity () * sizeof (std::uint32_t) + s.points.capacity () * sizeof (PointT);
+    return bytes;
   }
 
   // prepare() + every chunk in order; on_chunk (begin, end, codes) is called as each is sorted.
@@ -113,10 +118,18 @@ private:
     std::uint64_t key;  // interleaved bits without the prefix
     std::uint32_t index;
   };
+  // One sort thread's buffers, each sized for the largest bucket.
+  struct SortScratch
+  {
+    std::vector<KeyIndex> keys, keys_tmp;
+    std::vector<std::uint32_t> counts;  // per-digit histograms
+    PointVector points;
+  };
   // Sorts bucket q (its m points at `points`) by leaf code, stably, and writes the codes.
-  void sortBucket (std::size_t q, PointT* points, std::size_t m, MortonCode* codes);
-  // Stable sort of keys_[0, m) on the key bits below the bucket bits.
-  void sortKeysBelowBucket (std::size_t m);
+  // Returns whether a point's code lies outside the bucket.
+  bool sortBucket (std::size_t q, PointT* points, std::size_t m, MortonCode* codes, SortScratch& s) const;
+  // Stable sort of s.keys[0, m) on the key bits below the bucket bits.
+  void sortKeysBelowBucket (std::size_t m, SortScratch& s) const;
   void setCubeFromBounds (const Eigen::Array3f& lo, const Eigen::Array3f& hi);
   // The stages prepare () and countBuckets () share, so both make the same buckets and chunks:
   // the root cube (user cube, known bounds or a bounds pass) and the bucket bits; per-block
@@ -156,9 +169,8 @@ private:
   std::vector<std::size_t> bucket_start_;  // first slot of each bucket, and the total at the end
   bool streamed_ = false;  // the points came through scatter (): sortChunk checks their buckets
   bool moved_points_ = false;
-  std::vector<KeyIndex> keys_, keys_tmp_;
-  std::vector<std::uint32_t> counts_;  // per-digit histograms of the bucket sort
-  PointVector points_tmp_;
+  std::vector<SortScratch> scratch_;  // one per sort thread
+  std::unique_ptr<WorkerPool> sort_pool_;
 };
 
 }  // namespace detail

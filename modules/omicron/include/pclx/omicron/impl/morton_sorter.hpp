@@ -273,7 +273,7 @@ pclx::omicron::detail::MortonSorter<PointT>::scatter (const PointT* points, std:
 }
 
 template <typename PointT> void
-pclx::omicron::detail::MortonSorter<PointT>::sortKeysBelowBucket (std::size_t m)
+pclx::omicron::detail::MortonSorter<PointT>::sortKeysBelowBucket (std::size_t m, SortScratch& s) const
 {
   // No bits below the bucket bits: every key of the bucket is the same.
   if (shift_ == 0)
@@ -284,11 +284,11 @@ pclx::omicron::detail::MortonSorter<PointT>::sortKeysBelowBucket (std::size_t m)
   {
     for (std::size_t i = 1; i < m; ++i)
     {
-      const KeyIndex x = keys_[i];
+      const KeyIndex x = s.keys[i];
       std::size_t j = i;
-      for (; j > 0 && keys_[j - 1].key > x.key; --j)
-        keys_[j] = keys_[j - 1];
-      keys_[j] = x;
+      for (; j > 0 && s.keys[j - 1].key > x.key; --j)
+        s.keys[j] = s.keys[j - 1];
+      s.keys[j] = x;
     }
     return;
   }
@@ -300,13 +300,13 @@ pclx::omicron::detail::MortonSorter<PointT>::sortKeysBelowBucket (std::size_t m)
   const int passes = (shift_ + kMaxDigit - 1) / kMaxDigit;
   const int digit = (shift_ + passes - 1) / passes;
   const std::size_t bins = std::size_t (1) << digit;
-  counts_.assign (static_cast<std::size_t> (passes) * bins, 0);
+  s.counts.assign (static_cast<std::size_t> (passes) * bins, 0);
   for (std::size_t i = 0; i < m; ++i)
     for (int d = 0; d < passes; ++d)
-      ++counts_[d * bins + ((keys_[i].key >> (d * digit)) & (bins - 1))];
+      ++s.counts[d * bins + ((s.keys[i].key >> (d * digit)) & (bins - 1))];
   for (int d = 0; d < passes; ++d)
   {
-    std::uint32_t* c = counts_.data () + d * bins;
+    std::uint32_t* c = s.counts.data () + d * bins;
     if (std::any_of (c, c + bins, [m] (std::uint32_t v) { return v == m; }))
       continue;
     std::uint32_t sum = 0;
@@ -317,32 +317,31 @@ pclx::omicron::detail::MortonSorter<PointT>::sortKeysBelowBucket (std::size_t m)
       sum += here;
     }
     for (std::size_t i = 0; i < m; ++i)
-      keys_tmp_[c[(keys_[i].key >> (d * digit)) & (bins - 1)]++] = keys_[i];
-    keys_.swap (keys_tmp_);
+      s.keys_tmp[c[(s.keys[i].key >> (d * digit)) & (bins - 1)]++] = s.keys[i];
+    s.keys.swap (s.keys_tmp);
   }
 }
 
-template <typename PointT> void
+template <typename PointT> bool
 pclx::omicron::detail::MortonSorter<PointT>::sortBucket (std::size_t q, PointT* points, std::size_t m,
-                                                         MortonCode* codes)
+                                                         MortonCode* codes, SortScratch& s) const
 {
   bool moved = false;
   for (std::size_t i = 0; i < m; ++i)
   {
-    keys_[i].key = leafKey (points[i]);
-    keys_[i].index = static_cast<std::uint32_t> (i);
-    moved = moved || (keys_[i].key >> shift_) != q;
+    s.keys[i].key = leafKey (points[i]);
+    s.keys[i].index = static_cast<std::uint32_t> (i);
+    moved = moved || (s.keys[i].key >> shift_) != q;
   }
-  // After a streaming scatter, every point must lie in its own bucket.
-  moved_points_ = moved_points_ || (streamed_ && moved);
-  sortKeysBelowBucket (m);
+  sortKeysBelowBucket (m, s);
   const std::uint64_t prefix = std::uint64_t (1) << (3 * max_depth_);
   for (std::size_t i = 0; i < m; ++i)
   {
-    points_tmp_[i] = points[keys_[i].index];
-    codes[i] = MortonCode (prefix | keys_[i].key);
+    s.points[i] = points[s.keys[i].index];
+    codes[i] = MortonCode (prefix | s.keys[i].key);
   }
-  std::copy (points_tmp_.begin (), points_tmp_.begin () + m, points);
+  std::copy (s.points.begin (), s.points.begin () + m, points);
+  return moved;
 }
 
 template <typename PointT> void
@@ -350,16 +349,19 @@ pclx::omicron::detail::MortonSorter<PointT>::sortChunk (std::size_t k, PointVect
 {
   const std::size_t b = chunk_begin_[k], e = chunk_begin_[k + 1], n = e - b;
   const std::size_t nb = bucket_start_.size () - 1;
+  if (!sort_pool_)
+    sort_pool_.reset (new WorkerPool (threads_));
   std::size_t largest_bucket = 0;
   for (std::size_t q = 0; q < nb; ++q)
     largest_bucket = std::max (largest_bucket, bucket_start_[q + 1] - bucket_start_[q]);
-  if (keys_.size () < largest_bucket)
-  {
-    const std::size_t largest = largest_bucket;
-    keys_.resize (largest);
-    keys_tmp_.resize (largest);
-    points_tmp_.resize (largest);
-  }
+  scratch_.resize (sort_pool_->size ());
+  for (SortScratch& s : scratch_)
+    if (s.keys.size () < largest_bucket)
+    {
+      s.keys.resize (largest_bucket);
+      s.keys_tmp.resize (largest_bucket);
+      s.points.resize (largest_bucket);
+    }
   if (codes.capacity () < n)
   {
     std::size_t largest = 0;
@@ -369,26 +371,31 @@ pclx::omicron::detail::MortonSorter<PointT>::sortChunk (std::size_t k, PointVect
   }
   codes.resize (n);
   // Chunk boundaries are bucket starts, so the chunk is its buckets in order.
-  for (std::size_t q = std::lower_bound (bucket_start_.begin (), bucket_start_.end (), b) - bucket_start_.begin ();
-       q < nb && bucket_start_[q] < e; ++q)
-  {
-    const std::size_t s = bucket_start_[q], t = bucket_start_[q + 1];
-    if (t > s)
-      sortBucket (q, sorted.data () + s, t - s, codes.data () + (s - b));
-  }
+  const std::size_t first =
+      std::lower_bound (bucket_start_.begin (), bucket_start_.end (), b) - bucket_start_.begin ();
+  std::size_t last = first;
+  while (last < nb && bucket_start_[last] < e)
+    ++last;
+  std::vector<char> moved (scratch_.size (), 0);
+  sort_pool_->parallelFor (last - first, [&] (std::size_t i, int worker) {
+    const std::size_t q = first + i, s = bucket_start_[q], t = bucket_start_[q + 1];
+    if (t > s && sortBucket (q, sorted.data () + s, t - s, codes.data () + (s - b), scratch_[worker]))
+      moved[worker] = 1;
+  });
+  // After a streaming scatter, every point must lie in its own bucket.
+  for (char m : moved)
+    moved_points_ = moved_points_ || (streamed_ && m != 0);
 }
 
 template <typename PointT> void
 pclx::omicron::detail::MortonSorter<PointT>::release ()
 {
-  keys_ = {};
-  keys_tmp_ = {};
-  counts_ = {};
+  scratch_ = {};
+  sort_pool_.reset ();
   next_ = {};
   end_ = {};
   bucket_of_ = {};
   bucket_start_ = {};
-  points_tmp_ = PointVector ();
 }
 
 #define PCL_INSTANTIATE_MortonSorter(T) template class PCL_EXPORTS pclx::omicron::detail::MortonSorter<T>;
