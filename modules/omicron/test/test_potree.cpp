@@ -277,6 +277,47 @@ TEST (PotreeWriter, BytesFollowPotreeConverterLayout)
   EXPECT_EQ (js.find ("rgb"), std::string::npos);
 }
 
+// write () encodes on the octree's threads in windows of nodes; the files must be those of
+// one thread and of the streamed appendSubtree (), byte for byte, over several windows.
+TEST (PotreeWriter, SameFilesForAnyThreadCountAndAsStreamed)
+{
+  const auto cloud = colouredCloud (Shape::UNIFORM, 1500000, 5);
+  std::vector<std::vector<std::uint8_t>> files[3];
+  for (int run = 0; run < 3; ++run)
+  {
+    pcl::ObliqueCutOctree<pcl::PointXYZRGB> o;
+    o.setInputCloud (cloud);
+    o.setThreads (run == 1 ? 2 : 1);
+    ASSERT_TRUE (o.build ());
+    TempDir dir;
+    pcl::PotreeWriter<pcl::PointXYZRGB> w;
+    if (run < 2)
+      ASSERT_TRUE (w.write (o, dir.path.string ()));
+    else
+    {
+      w.setParentPointRatio (o.getParentPointRatio ());
+      ASSERT_TRUE (w.open (dir.path.string (), o.getRootOrigin (), o.getRootEdge ()));
+      ASSERT_TRUE (w.appendSubtree (*o.getRoot ()));
+      ASSERT_TRUE (w.close (o.getStatistics ().kept_points));
+    }
+    for (const char* name : {"octree.bin", "hierarchy.bin", "metadata.json"})
+      files[run].push_back (slurp (dir.path / name));
+  }
+  ASSERT_GT (files[0][0].size (), 18u * 1000000u);
+  for (int run = 1; run < 3; ++run)
+    for (std::size_t f = 0; f < 3; ++f)
+      EXPECT_TRUE (files[run][f] == files[0][f]) << "run " << run << " file " << f;
+}
+
+// The writer's rounding is std::llround's (half away from zero), also at the halves.
+TEST (PotreeWriter, RoundingIsLlround)
+{
+  using pclx::omicron::detail::potree::roundHalfAway;
+  for (double x : {0.0, 0.5, -0.5, 1.5, -1.5, 2.5, -2.5, 0.49999999999999994, -0.49999999999999994,
+                   1073741823.5, -1073741823.5, 12345.499999, 7.000000001, -7.000000001, 1e15 + 0.5})
+    EXPECT_EQ (roundHalfAway (x), std::llround (x)) << x;
+}
+
 TEST (PotreeWriter, SpacingHalvedPerLevelIsTheNodesPointSpacing)
 {
   // A 200 × 200 lattice of step 0.01 on a plane. Loaders size points by metadata spacing

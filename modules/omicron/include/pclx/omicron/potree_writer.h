@@ -105,6 +105,8 @@ public:
   /** \brief Write a built (in-memory) octree to a folder.
     * \param[in] octree the octree, after a successful build ()
     * \param[in] directory the folder (created if needed)
+    * \note The points are encoded on the octree's getThreads () threads; the files are the
+    * same for any thread count.
     * \return false (PCL_ERROR, getLastError ()) when the octree is not built, was built with
     * a memory budget (it already wrote its folder), or a file cannot be written
     */
@@ -204,6 +206,18 @@ private:
   void appendSubtreeImpl (const Node& node);
   void appendSpilledImpl (const Node& node);
   void closeImpl (std::uint64_t points);
+  // One record of write (): a node alone, or a whole subtree as one leaf.
+  struct WriteTask
+  {
+    const Node* node;
+    bool subtree;
+    std::uint64_t points;  // what the record stores
+  };
+  // The records appendSubtree () makes for an in-memory subtree, in its order.
+  void collectWriteTasks (const Node& node, std::vector<WriteTask>& tasks) const;
+  // Encodes the tasks on `threads` threads, a window of them at a time, and records each
+  // window in order (the same octree.bin as appendSubtree ()).
+  void writeTasks (const std::vector<WriteTask>& tasks, int threads);
   template <typename F> bool guarded (const char* method, F&& f);
   bool fail (const char* method, const std::string& why);
 

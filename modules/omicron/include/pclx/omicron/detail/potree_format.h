@@ -61,6 +61,16 @@ struct Metadata
   std::uint32_t bytesPerPoint () const { return rgb ? 18 : 12; }
 };
 
+// std::llround (half away from zero) without its libm call on baseline x86-64: for |x| < 2^52,
+// x - trunc (x) is exact, so the result is llround's.
+inline std::int64_t
+roundHalfAway (double x)
+{
+  const auto t = static_cast<std::int64_t> (x);
+  const double f = x - static_cast<double> (t);
+  return t + (f >= 0.5 ? 1 : 0) - (f <= -0.5 ? 1 : 0);
+}
+
 std::string nodeName (MortonCode code);
 // Throws std::runtime_error on a malformed name.
 MortonCode codeFromName (const std::string& name);

@@ -1,4 +1,5 @@
 #pragma once
+#include <pclx/omicron/detail/worker_pool.h>
 #include <pclx/omicron/oblique_cut_octree.h>
 #include <pclx/omicron/potree_writer.h>
 
@@ -8,6 +9,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <limits>
 #include <stdexcept>
@@ -124,6 +126,8 @@ pcl::PotreeWriter<PointT>::encode (const PointT* points, std::uint32_t n, std::u
   out.points += n - taken;
   const double inv = 1.0 / meta_.scale.x ();
   std::uint8_t* dst = out.bytes.data () + first;
+  // Bounds in float, widened once: the same values as a double min / max per point.
+  Eigen::Array3f lo = Eigen::Array3f::Constant (std::numeric_limits<float>::max ()), hi = -lo;
   std::uint32_t t = 0;
   std::uint32_t next = taken > 0 ? pclx::omicron::detail::parentSampleIndex (0, taken, n) : n;
   for (std::uint32_t i = 0; i < n; ++i)
@@ -135,12 +139,13 @@ pcl::PotreeWriter<PointT>::encode (const PointT* points, std::uint32_t n, std::u
       continue;
     }
     const PointT& p = points[i];
-    const Eigen::Vector3d v = p.getVector3fMap ().template cast<double> ();
-    out.lo = out.lo.cwiseMin (v);
-    out.hi = out.hi.cwiseMax (v);
+    const Eigen::Array3f v = p.getArray3fMap ();
+    lo = lo.min (v);
+    hi = hi.max (v);
     std::int32_t q[3];
     for (int a = 0; a < 3; ++a)
-      q[a] = static_cast<std::int32_t> (std::llround ((v[a] - meta_.offset[a]) * inv));
+      q[a] = static_cast<std::int32_t> (
+          pclx::omicron::detail::potree::roundHalfAway ((static_cast<double> (v[a]) - meta_.offset[a]) * inv));
     std::memcpy (dst, q, 12);
     if constexpr (pcl::traits::has_color_v<PointT>)
       if (meta_.rgb)
@@ -150,6 +155,11 @@ pcl::PotreeWriter<PointT>::encode (const PointT* points, std::uint32_t n, std::u
         std::memcpy (dst + 12, c, 6);
       }
     dst += bpp;
+  }
+  if (n > taken)
+  {
+    out.lo = out.lo.cwiseMin (lo.cast<double> ().matrix ());
+    out.hi = out.hi.cwiseMax (hi.cast<double> ().matrix ());
   }
 }
 
@@ -390,6 +400,63 @@ pcl::PotreeWriter<PointT>::close (std::uint64_t points)
   return guarded ("close", [&] { closeImpl (points); });
 }
 
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::collectWriteTasks (const Node& node, std::vector<WriteTask>& tasks) const
+{
+  const std::uint64_t total = subtreePoints (node);
+  if (total == 0)
+    return;
+  if (leaf_limit_ > 0 && total <= leaf_limit_)
+  {
+    tasks.push_back ({&node, true, total});
+    return;
+  }
+  tasks.push_back ({&node, false, storedPoints (node)});
+  for (std::uint8_t c = 0; c < node.num_children; ++c)
+    collectWriteTasks (node.children[c], tasks);
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::writeTasks (const std::vector<WriteTask>& tasks, int threads)
+{
+  // A window's encoded bytes are held until they are recorded: about 1M points keeps them a
+  // small share of the points' own memory while each thread gets many nodes.
+  constexpr std::uint64_t kWindowPoints = std::uint64_t (1) << 20;
+  pclx::omicron::detail::WorkerPool pool (threads);
+  std::vector<Encoded> encoded;
+  for (std::size_t i = 0; i < tasks.size ();)
+  {
+    std::size_t j = i;
+    std::uint64_t points = 0;
+    while (j < tasks.size () && (j == i || points + tasks[j].points <= kWindowPoints))
+      points += tasks[j++].points;
+    encoded.assign (j - i, Encoded ());
+    std::exception_ptr error;
+    std::mutex error_mutex;
+    pool.parallelFor (j - i, [&] (std::size_t k, int) {
+      try
+      {
+        const WriteTask& task = tasks[i + k];
+        if (task.subtree)
+          encodeSubtree (*task.node, encoded[k]);
+        else
+          encode (task.node->points, task.node->num_points, task.node->num_points - storedPoints (*task.node),
+                  encoded[k]);
+      }
+      catch (...)
+      {
+        std::lock_guard<std::mutex> g (error_mutex);
+        error = std::current_exception ();
+      }
+    });
+    if (error)
+      std::rethrow_exception (error);
+    for (std::size_t k = i; k < j; ++k)
+      record (tasks[k].node->code, encoded[k - i]);
+    i = j;
+  }
+}
+
 template <typename PointT> bool
 pcl::PotreeWriter<PointT>::write (const ObliqueCutOctree<PointT>& octree, const std::string& directory)
 {
@@ -403,7 +470,9 @@ pcl::PotreeWriter<PointT>::write (const ObliqueCutOctree<PointT>& octree, const 
   if (!open (directory, octree.getRootOrigin (), octree.getRootEdge ()))
     return false;
   if (guarded ("write", [&] {
-        appendSubtreeImpl (*root);
+        std::vector<WriteTask> tasks;
+        collectWriteTasks (*root, tasks);
+        writeTasks (tasks, octree.getThreads ());
         closeImpl (octree.getStatistics ().kept_points);
       }))
     return true;
