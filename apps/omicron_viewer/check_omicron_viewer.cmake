@@ -11,7 +11,8 @@ run(${MAKE_CLOUD} --points 100000 --out ${WORK_DIR}/plain.ply)
 # Headless, with the simulated render thread.
 run(${VIEWER} ${WORK_DIR}/cloud.pcd --no-render --camera-orbit --depth 7 --threads 2)
 expect("--no-render" "cloud.pcd: 1500000 points \\(xyz rgb\\)")
-expect("--no-render" "read: file [0-9.]+ s, octree bounds and bucket passes [0-9.]+ s; first chunk sorted in [0-9.]+ s")
+expect("--no-render" "read by the octree \\(in memory\\)")
+expect("--no-render" "read \\(streamed by the octree\\): octree bounds and bucket passes [0-9.]+ s; first chunk sorted in [0-9.]+ s")
 expect("--no-render" "first renderable front: [0-9.]+ s after the build started")
 expect("--no-render" "hierarchy complete: [0-9.]+ s")
 expect("--no-render" "\n +7 +[1-9][0-9]* +[1-9][0-9]* +[1-9][0-9]*")
@@ -36,6 +37,7 @@ expect("PLY" "plain.ply: 100000 points \\(xyz\\)")
 expect("PLY" "parent ratio 0.30, leaf collapse off, worklist 8, sort chunks 4, 1 threads")
 file(WRITE ${WORK_DIR}/small.xyz "# x y z\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n0.5 0.5 0.5\n")
 run(${VIEWER} ${WORK_DIR}/small.xyz --no-render)
+expect("XYZ" "read: file [0-9.]+ s, octree bounds and bucket passes [0-9.]+ s; first chunk sorted in [0-9.]+ s")
 expect("XYZ" "all +[0-9]+ +[0-9]+ +\\(6 input points kept")
 
 # Off-screen: growth pictures, the final picture, Potree files.

@@ -2,7 +2,6 @@
 // omicron_viewer's run: the octree configured from the options, the build started, the front
 // rendered (or evaluated headless) every frame while the hierarchy grows, then the statistics
 // and the outputs.
-#include "completion.h"
 #include "viewer_input.h"
 #include "viewer_options.h"
 
@@ -145,7 +144,7 @@ private:
   void startBuild ();
   void growLoop ();
   void trackBuild (bool building);
-  void frameRootCube ();
+  void frameInputBounds ();
   bool renderFrame (bool building, Clock::time_point f0, double& eval_ms, bool& stopped);
   void updateLabel (bool building);
   void recordFrame (bool building, double f_ms, double e_ms);
@@ -181,7 +180,6 @@ private:
   FrameLog log_;
   std::string label_;
   Clock::time_point t0_;
-  std::unique_ptr<Completion<PointT>> completion_;
   std::unique_ptr<pclx::apps::Progress> progress_;
 };
 
@@ -283,7 +281,6 @@ GrowthRun<PointT>::startBuild ()
   t0_ = Clock::now ();
   if (!octree_.startBuild ())
     throw std::runtime_error ("the build did not start");
-  completion_ = std::make_unique<Completion<PointT>> (octree_, *in_.cloud);
   progress_ = std::make_unique<pclx::apps::Progress> ("building the hierarchy", 100);
 }
 
@@ -306,7 +303,7 @@ GrowthRun<PointT>::growLoop ()
       continue;
     }
     if (!framed_ && octree_.getFront ().secondsToFirstLeaf () >= 0)
-      frameRootCube ();
+      frameInputBounds ();
     const auto f0 = Clock::now ();
     double e_ms = 0;
     bool stopped = false;
@@ -336,7 +333,7 @@ void
 GrowthRun<PointT>::trackBuild (bool building)
 {
   if (building)
-    progress_->update (static_cast<std::size_t> (std::max (0.0, completion_->percent ())));
+    progress_->update (static_cast<std::size_t> (100.0 * octree_.getProgress ()));
   else if (log_.build_s < 0)
   {
     log_.build_s = octree_.getStatistics ().seconds_total;
@@ -344,14 +341,17 @@ GrowthRun<PointT>::trackBuild (bool building)
   }
 }
 
-// Budgeted build: the bounds are the root cube, known once the octree has read the file.
+// The octree read the file: its bounds of the input points (the root cube when a cube was
+// given), known once it has read the file.
 template <typename PointT>
 void
-GrowthRun<PointT>::frameRootCube ()
+GrowthRun<PointT>::frameInputBounds ()
 {
-  const Eigen::Vector3d o = octree_.getRootOrigin ();
-  lo_ = o.cast<float> ();
-  hi_ = lo_ + Eigen::Vector3f::Constant (static_cast<float> (octree_.getRootEdge ()));
+  if (!octree_.getInputBounds (lo_, hi_))
+  {
+    lo_ = octree_.getRootOrigin ().template cast<float> ();
+    hi_ = lo_ + Eigen::Vector3f::Constant (static_cast<float> (octree_.getRootEdge ()));
+  }
   colour_ = SplatColouring (mode_, up_f_, lo_, hi_);
   frameCamera ();
   framed_ = true;
@@ -390,15 +390,10 @@ template <typename PointT>
 void
 GrowthRun<PointT>::updateLabel (bool building)
 {
-  const double pct = building ? completion_->percent () : 100.0;
   char text[160];
-  if (building && budgeted ())
-    std::snprintf (text, sizeof text, "building out of core: front %zu nodes", items_.size ());
-  else if (building && pct < 0)
-    std::snprintf (text, sizeof text, "building: front %zu nodes", items_.size ());
-  else if (building)
-    std::snprintf (text, sizeof text, "building: %.0f %% of points in the hierarchy, front %zu nodes", pct,
-                   items_.size ());
+  if (building)
+    std::snprintf (text, sizeof text, "building%s: %.0f %% of points in the hierarchy, front %zu nodes",
+                   budgeted () ? " out of core" : "", 100.0 * octree_.getProgress (), items_.size ());
   else
     std::snprintf (text, sizeof text, "built: %zu points in %.2f s, front %zu nodes",
                    octree_.getStatistics ().kept_points, log_.build_s, items_.size ());

@@ -101,46 +101,32 @@ run (const Options& opt, Input<PointT> in)
   return growth.run ();
 }
 
-// Checks the input file and runs on it with the point type it calls for (colour or not),
-// loaded into memory or read by the octree itself (--memory-budget, or no frames).
+// Checks the input file and runs on it: XYZ text loaded here, PCD and PLY read by the octree.
 int
 runOnFile (const Options& o)
 {
   if (o.width < 16 || o.height < 16)
     throw std::invalid_argument ("--width and --height must be >= 16");
   const pclx::apps::FileCheck check = pclx::apps::checkCloudFile (o.input);
-  bool color = false;
-  if (check.format != pclx::apps::CloudFormat::XYZ)
-  {
-    pcl::PointStreamReader header (o.input);
-    if (!header.isOpen ())
-      throw std::runtime_error (header.getLastError ());
-    color = header.hasColor ();
-  }
-  // With a budget, or without frames on a PCD/PLY (nothing here needs the points: no framing,
-  // no completion share), the octree reads the file itself, so the points are held once.
-  const bool frames = !o.no_render || o.orbit;
-  if (o.budget_mb > 0 || (!frames && check.format != pclx::apps::CloudFormat::XYZ))
-  {
-    // The octree streams the file; nothing is loaded here.
-    pcl::PointStreamReader reader (o.input);
-    if (!reader.isOpen ())
-      throw std::runtime_error (reader.getLastError ());
-    const std::string how = o.budget_mb > 0
-                                ? "memory budget " + formatMb (static_cast<std::size_t> (o.budget_mb * 1048576.0))
-                                : "in memory";
-    const auto summary = o.input + ": " + std::to_string (reader.getDeclaredPoints ()) + " points (xyz" +
-                         (reader.hasColor () ? " rgb" : "") + "), read by the octree (" + how + ")";
-    Input<pcl::PointXYZRGB> rgb;
-    Input<pcl::PointXYZ> xyz;
-    rgb.file = xyz.file = o.input;
-    rgb.summary = xyz.summary = summary;
-    rgb.color = true;
-    return reader.hasColor () ? run (o, rgb) : run (o, xyz);
-  }
-  // Colour only when the file has it: PointXYZ halves the input and sorted-array memory.
-  return color ? run (o, readInput<pcl::PointXYZRGB> (o.input, check))
-               : run (o, readInput<pcl::PointXYZ> (o.input, check));
+  if (check.format == pclx::apps::CloudFormat::XYZ && o.budget_mb <= 0)
+    return run (o, readXyzInput (o.input));
+  // The octree reads the file itself (in memory, or out of core with a budget), so the points
+  // are held once; framing and progress come from the octree. Colour only when the file has
+  // it: PointXYZ halves the sorted-array memory.
+  pcl::PointStreamReader reader (o.input);
+  if (!reader.isOpen ())
+    throw std::runtime_error (reader.getLastError ());
+  const std::string how = o.budget_mb > 0
+                              ? "memory budget " + formatMb (static_cast<std::size_t> (o.budget_mb * 1048576.0))
+                              : "in memory";
+  const auto summary = o.input + ": " + std::to_string (reader.getDeclaredPoints ()) + " points (xyz" +
+                       (reader.hasColor () ? " rgb" : "") + "), read by the octree (" + how + ")";
+  Input<pcl::PointXYZRGB> rgb;
+  Input<pcl::PointXYZ> xyz;
+  rgb.file = xyz.file = o.input;
+  rgb.summary = xyz.summary = summary;
+  rgb.color = true;
+  return reader.hasColor () ? run (o, rgb) : run (o, xyz);
 }
 
 // pcl::IOException's what() starts with "<function> in <source file> @ <line> : ".

@@ -18,6 +18,7 @@
 #include <map>
 #include <numeric>
 #include <random>
+#include <thread>
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -574,4 +575,61 @@ TEST (ObliqueCutOctreeBudget, FileReadErrorsFailTheInMemoryBuild)
   configure (o, 5, true);
   EXPECT_FALSE (o.build ());
   EXPECT_NE (o.getLastError ().find ("bad.xyz"), std::string::npos) << o.getLastError ();
+}
+
+// getInputBounds () is the finite points' bounds on every input path (none with a root cube),
+// and getProgress () climbs from 0 to 1 while a background build runs.
+TEST (ObliqueCutOctreeBudget, InputBoundsAndProgressOnEveryPath)
+{
+  TempDir tmp;
+  const auto cloud = mixedCloud (300000, 11);
+  (*cloud)[9].y = std::numeric_limits<float>::infinity ();
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant (std::numeric_limits<float>::max ()), hi = -lo;
+  for (const auto& p : *cloud)
+    if (std::isfinite (p.x) && std::isfinite (p.y) && std::isfinite (p.z))
+    {
+      lo = lo.cwiseMin (p.getVector3fMap ());
+      hi = hi.cwiseMax (p.getVector3fMap ());
+    }
+  const std::string pcd = (tmp.path / "in.pcd").string ();
+  ASSERT_EQ (pcl::io::savePCDFileBinary (pcd, *cloud), 0);
+  for (int path = 0; path < 4; ++path)
+  {
+    SCOPED_TRACE ("path " + std::to_string (path));
+    Octree o;
+    Eigen::Vector3f l, h;
+    EXPECT_FALSE (o.getInputBounds (l, h));
+    EXPECT_EQ (o.getProgress (), 0.0);
+    if (path == 0 || path == 3)
+      o.setInputCloud (cloud);
+    else
+      o.setInputFile (pcd);
+    configure (o, 6, true);
+    o.setSortChunks (32);
+    if (path == 2)
+      o.setMemoryBudget (cloud->size () * sizeof (pcl::PointXYZ));
+    if (path == 3)
+      o.setRootCube (lo.cast<double> (), 2.0 * (hi - lo).maxCoeff ());
+    ASSERT_TRUE (o.startBuild ());
+    double last = 0;
+    while (!o.isFinished ())
+    {
+      const double p = o.getProgress ();
+      EXPECT_GE (p, last);
+      EXPECT_LE (p, 1.0);
+      last = p;
+      std::this_thread::yield ();
+    }
+    ASSERT_TRUE (o.wait ()) << o.getLastError ();
+    EXPECT_EQ (o.getProgress (), 1.0);
+    EXPECT_EQ (o.getSpillLevel () >= 0, path == 2);
+    if (path == 3)
+    {
+      EXPECT_FALSE (o.getInputBounds (l, h));
+      continue;
+    }
+    ASSERT_TRUE (o.getInputBounds (l, h));
+    EXPECT_EQ (l, lo);
+    EXPECT_EQ (h, hi);
+  }
 }

@@ -287,6 +287,21 @@ public:
   /** \brief Edge of the root cube of the current build.
     * \return edge of the root cube of the current build */
   double getRootEdge () const { std::lock_guard<std::mutex> g (cube_mutex_); return root_edge_; }
+  /** \brief Axis-aligned bounds of the finite input points of the current build (safe to
+    * call from the front thread during the build).
+    * \param[out] lo the minimum corner
+    * \param[out] hi the maximum corner
+    * \return false until the build has read them, and with setRootCube () (the bounds are not
+    * measured then: the root cube is getRootOrigin () and getRootEdge ())
+    */
+  bool getInputBounds (Eigen::Vector3f& lo, Eigen::Vector3f& hi) const;
+  /** \brief How far the current build is: the share of the kept points whose leaves the
+    * hierarchy has received (da Silva 2018, Algorithm 1's concatenation); safe to call from
+    * the front thread during the build.
+    * \return in [0, 1]: 0 until the input has been counted, 1 once every kept point is in
+    * a leaf of the hierarchy (a successful build ends there)
+    */
+  double getProgress () const;
   /** \brief Splat radius per level (index = level) of the current build.
     * \return splat radius per level (index = level) of the current build */
   std::vector<float> getSplatRadii () const { return radii_; }
@@ -351,6 +366,12 @@ private:
   double edge_ = 1.0;
   float leaf_radius_ = 0.f;
   mutable std::mutex cube_mutex_;
+  // The input's bounds once read (under cube_mutex_), and the build's progress (getProgress ()).
+  Eigen::Vector3f input_lo_ = Eigen::Vector3f::Zero (), input_hi_ = Eigen::Vector3f::Zero ();
+  bool input_bounds_ = false;
+  std::atomic<std::size_t> progress_points_{0}, progress_total_{0};
+  // Records the input's bounds (not with a user root cube) and the points to expect.
+  void setInputSummary (const Eigen::Array3f& lo, const Eigen::Array3f& hi, std::size_t kept);
   Eigen::Vector3d root_origin_ = Eigen::Vector3d::Zero ();
   double root_edge_ = 1.0;
   std::vector<float> multipliers_{4.2f, 2.4f, 2.2f, 2.2f, 2.0f};

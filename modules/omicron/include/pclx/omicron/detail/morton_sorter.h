@@ -106,6 +106,14 @@ public:
     return n;
   }
 
+  // The finite points' bounds the last pass made its cube from; false with a root cube.
+  bool
+  getBounds (Eigen::Array3f& lo, Eigen::Array3f& hi) const
+  {
+    lo = bounds_lo_;
+    hi = bounds_hi_;
+    return !user_cube_;
+  }
   const Eigen::Vector3d& getOrigin () const { return origin_; }
   double getEdge () const { return edge_; }
   std::size_t getDroppedInvalid () const { return dropped_invalid_; }
@@ -154,6 +162,7 @@ private:
   bool user_cube_ = false;
   bool known_bounds_ = false;
   Eigen::Array3f known_lo_ = Eigen::Array3f::Zero (), known_hi_ = Eigen::Array3f::Zero ();
+  Eigen::Array3f bounds_lo_ = Eigen::Array3f::Zero (), bounds_hi_ = Eigen::Array3f::Zero ();
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero ();
   double edge_ = 1.0;
   double scale_ = 1.0;  // leaf cells per unit length

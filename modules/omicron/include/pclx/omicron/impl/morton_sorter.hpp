@@ -49,6 +49,8 @@ pclx::omicron::detail::MortonSorter<PointT>::setRootCube (const Eigen::Vector3d&
 template <typename PointT> void
 pclx::omicron::detail::MortonSorter<PointT>::setCubeFromBounds (const Eigen::Array3f& l, const Eigen::Array3f& h)
 {
+  bounds_lo_ = l;
+  bounds_hi_ = h;
   origin_ = l.cast<double> ().matrix ();
   const double extent = (h.cast<double> () - l.cast<double> ()).maxCoeff ();
   // All points identical (or none): any positive edge puts them in cell 0.

@@ -189,7 +189,10 @@ pcl::ObliqueCutOctree<PointT>::startBuild ()
     std::lock_guard<std::mutex> g (cube_mutex_);
     last_error_.clear ();
     used_output_dir_.clear ();
+    input_bounds_ = false;
   }
+  progress_points_ = 0;
+  progress_total_ = 0;
   // The front is emptied here, so evaluate() right after startBuild () sees no stale nodes.
   front_.reset (params_.max_depth, Eigen::Vector3d::Zero (), 1.0, {});
   thread_ = std::thread ([this] {
@@ -206,6 +209,34 @@ pcl::ObliqueCutOctree<PointT>::wait ()
   if (thread_.joinable ())
     thread_.join ();
   return result_;
+}
+
+template <typename PointT> void
+pcl::ObliqueCutOctree<PointT>::setInputSummary (const Eigen::Array3f& lo, const Eigen::Array3f& hi, std::size_t kept)
+{
+  {
+    std::lock_guard<std::mutex> g (cube_mutex_);
+    input_lo_ = lo.matrix ();
+    input_hi_ = hi.matrix ();
+    input_bounds_ = !user_cube_ && (lo <= hi).all ();
+  }
+  progress_total_ = kept;
+}
+
+template <typename PointT> bool
+pcl::ObliqueCutOctree<PointT>::getInputBounds (Eigen::Vector3f& lo, Eigen::Vector3f& hi) const
+{
+  std::lock_guard<std::mutex> g (cube_mutex_);
+  lo = input_lo_;
+  hi = input_hi_;
+  return input_bounds_;
+}
+
+template <typename PointT> double
+pcl::ObliqueCutOctree<PointT>::getProgress () const
+{
+  const std::size_t total = progress_total_;
+  return total == 0 ? 0.0 : std::min (1.0, static_cast<double> (progress_points_) / static_cast<double> (total));
 }
 
 template <typename PointT> template <typename F> bool
@@ -325,6 +356,7 @@ pcl::ObliqueCutOctree<PointT>::concatenateLeaves (const std::vector<MortonCode>&
     ++leaves;
     if (w.size () >= params_.worklist_size)
     {
+      progress_points_ += (first + j) - w.front ().points;
       cut_->concatenate (std::move (w));
       w = Worklist ();
       w.reserve (params_.worklist_size);
@@ -332,7 +364,10 @@ pcl::ObliqueCutOctree<PointT>::concatenateLeaves (const std::vector<MortonCode>&
     i = j;
   }
   if (!w.empty ())
+  {
+    progress_points_ += (first + codes.size ()) - w.front ().points;
     cut_->concatenate (std::move (w));
+  }
   return leaves;
 }
 
@@ -434,6 +469,11 @@ pcl::ObliqueCutOctree<PointT>::runInMemory (std::chrono::steady_clock::time_poin
   }
   stats_.seconds_read = since ();
   stats_.kept_points = kept;
+  {
+    Eigen::Array3f lo, hi;
+    sorter.getBounds (lo, hi);
+    setInputSummary (lo, hi, kept);
+  }
   stats_.dropped_outside = sorter.getDroppedOutside ();
   stats_.chunks = sorter.numChunks ();
   stats_.sorted_bytes = sorted_.capacity () * sizeof (PointT);

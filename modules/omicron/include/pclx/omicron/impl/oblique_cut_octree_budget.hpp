@@ -406,6 +406,7 @@ pcl::ObliqueCutOctree<PointT>::readBounds (Budgeted& b)
     edge = extent > 0 && std::isfinite (extent) ? extent : 1.0;
     if (!(l <= h).all ())
       origin.setZero ();
+    setInputSummary (l, h, 0);
   }
   {
     std::lock_guard<std::mutex> g (cube_mutex_);
@@ -478,6 +479,7 @@ pcl::ObliqueCutOctree<PointT>::countAndPlan (Budgeted& b)
     b.plan = pclx::omicron::detail::planChunks (counts, pp);
   }
   b.kept = kept;
+  progress_total_ = kept;
   b.ledger.set (Ledger::kCountGrid, 0);
   stats_.count_level = G;
   if (b.plan.spill_level < 0)
