@@ -353,10 +353,17 @@ pclx::omicron::detail::MortonSorter<PointT>::sortChunk (std::size_t k, PointVect
   const std::size_t nb = bucket_start_.size () - 1;
   if (!sort_pool_)
     sort_pool_.reset (new WorkerPool (threads_));
-  std::size_t largest_bucket = 0;
+  std::size_t largest_bucket = 0, largest_chunk = 0;
   for (std::size_t q = 0; q < nb; ++q)
     largest_bucket = std::max (largest_bucket, bucket_start_[q + 1] - bucket_start_[q]);
-  scratch_.resize (sort_pool_->size ());
+  for (std::size_t j = 0; j + 1 < chunk_begin_.size (); ++j)
+    largest_chunk = std::max (largest_chunk, chunk_begin_[j + 1] - chunk_begin_[j]);
+  // One scratch per thread, but never more scratch than one largest chunk's worth (the bound
+  // a memory budget plans with): buckets of more than half a chunk (heavy duplicates) are
+  // sorted on one thread.
+  const std::size_t scratches = std::max<std::size_t> (
+      1, std::min<std::size_t> (sort_pool_->size (), largest_bucket > 0 ? largest_chunk / largest_bucket : 1));
+  scratch_.resize (scratches);
   for (SortScratch& s : scratch_)
     if (s.keys.size () < largest_bucket)
     {
@@ -365,12 +372,7 @@ pclx::omicron::detail::MortonSorter<PointT>::sortChunk (std::size_t k, PointVect
       s.points.resize (largest_bucket);
     }
   if (codes.capacity () < n)
-  {
-    std::size_t largest = 0;
-    for (std::size_t j = 0; j + 1 < chunk_begin_.size (); ++j)
-      largest = std::max (largest, chunk_begin_[j + 1] - chunk_begin_[j]);
-    pclx::omicron::detail::reserveHuge (codes, largest);
-  }
+    pclx::omicron::detail::reserveHuge (codes, largest_chunk);
   codes.resize (n);
   // Chunk boundaries are bucket starts, so the chunk is its buckets in order.
   const std::size_t first =
@@ -379,11 +381,16 @@ pclx::omicron::detail::MortonSorter<PointT>::sortChunk (std::size_t k, PointVect
   while (last < nb && bucket_start_[last] < e)
     ++last;
   std::vector<char> moved (scratch_.size (), 0);
-  sort_pool_->parallelFor (last - first, [&] (std::size_t i, int worker) {
+  const auto sortOne = [&] (std::size_t i, int worker) {
     const std::size_t q = first + i, s = bucket_start_[q], t = bucket_start_[q + 1];
     if (t > s && sortBucket (q, sorted.data () + s, t - s, codes.data () + (s - b), scratch_[worker]))
       moved[worker] = 1;
-  });
+  };
+  if (scratch_.size () == static_cast<std::size_t> (sort_pool_->size ()))
+    sort_pool_->parallelFor (last - first, sortOne);
+  else
+    for (std::size_t i = first; i < last; ++i)
+      sortOne (i - first, 0);
   // After a streaming scatter, every point must lie in its own bucket.
   for (char m : moved)
     moved_points_ = moved_points_ || (streamed_ && m != 0);
