@@ -559,7 +559,8 @@ TEST (ObliqueCutOctreeBudget, FileWithARootCubeEqualsTheCloudBuild)
   EXPECT_EQ (comparePotree (dc, df), "");
 }
 
-// A file that fails while it is read (truncated text) is a clear error of the build.
+// A file that fails while it is read (truncated text) is a clear error of the build, in memory
+// and out of core.
 TEST (ObliqueCutOctreeBudget, FileReadErrorsFailTheInMemoryBuild)
 {
   TempDir tmp;
@@ -570,11 +571,16 @@ TEST (ObliqueCutOctreeBudget, FileReadErrorsFailTheInMemoryBuild)
       f << i * 0.001 << " " << i * 0.002 << " 0.5\n";
     f << "1.0 oops 2.0\n";
   }
-  Octree o;
-  o.setInputFile (xyz);
-  configure (o, 5, true);
-  EXPECT_FALSE (o.build ());
-  EXPECT_NE (o.getLastError ().find ("bad.xyz"), std::string::npos) << o.getLastError ();
+  for (std::size_t budget : {std::size_t (0), std::size_t (4) << 20})
+  {
+    Octree o;
+    o.setInputFile (xyz);
+    configure (o, 5, true);
+    if (budget > 0)
+      o.setMemoryBudget (budget);
+    EXPECT_FALSE (o.build ());
+    EXPECT_NE (o.getLastError ().find ("bad.xyz"), std::string::npos) << o.getLastError ();
+  }
 }
 
 // getInputBounds () is the finite points' bounds on every input path (none with a root cube),

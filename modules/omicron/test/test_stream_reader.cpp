@@ -1,5 +1,6 @@
 // PointStreamReader: every format PCL writes (and hand-made PLY / XYZ) read back in chunks
 // equals the cloud; NaN/Inf dropped and counted; empty, truncated and garbage files are refused.
+#include <pclx/omicron/detail/block_reader.h>
 #include <pclx/omicron/point_stream_reader.h>
 
 #include <pcl/exceptions.h>
@@ -14,6 +15,7 @@
 #include <fstream>
 #include <limits>
 #include <random>
+#include <stdexcept>
 #include <unistd.h>
 
 namespace fs = std::filesystem;
@@ -264,4 +266,72 @@ TEST (PointStreamReader, EmptyTruncatedAndGarbageFilesAreClearErrors)
   EXPECT_FALSE (t.open (p ("tb.pcd")));
   EXPECT_FALSE (t.read (100, xyz));
   EXPECT_TRUE (xyz.empty ());
+}
+
+// readBlocksAhead: every block in file order; on_block stopping the read, throwing, and a
+// reader error all end it with the reader thread joined (no hang).
+TEST (PointStreamReader, BlocksReadAheadInOrderAndStopCleanly)
+{
+  TempDir dir;
+  const Cloud cloud = randomCloud (10000, 0);
+  const std::string path = (dir.path / "b.pcd").string ();
+  ASSERT_EQ (pcl::io::savePCDFileBinary (path, cloud), 0);
+  // A text file whose line 3001 is not a number: the reader fails in the fourth block.
+  const std::string bad = (dir.path / "bad.xyz").string ();
+  {
+    std::ofstream f (bad);
+    for (int i = 0; i < 3000; ++i)
+      f << i * 0.001 << " " << i * 0.002 << " 0.5\n";
+    f << "1.0 oops 2.0\n";
+  }
+  Cloud blocks[2];
+  {
+    pcl::PointStreamReader r (path);
+    Cloud all;
+    int after = 0;
+    EXPECT_TRUE (pclx::omicron::detail::readBlocksAhead (
+        r, 1000, blocks,
+        [&] (const Cloud& b) {
+          all.insert (all.end (), b.begin (), b.end ());
+          return true;
+        },
+        [&] { ++after; }));
+    ASSERT_EQ (all.size (), cloud.size ());
+    for (std::size_t i = 0; i < all.size (); ++i)
+      ASSERT_TRUE (all[i].x == cloud[i].x && all[i].y == cloud[i].y && all[i].z == cloud[i].z && all[i].rgba == cloud[i].rgba) << i;
+    EXPECT_GE (after, 10);
+  }
+  {
+    pcl::PointStreamReader r (path);
+    int seen = 0;
+    EXPECT_FALSE (pclx::omicron::detail::readBlocksAhead (r, 1000, blocks, [&] (const Cloud&) { return ++seen < 3; }, [] {}));
+    EXPECT_EQ (seen, 3);
+  }
+  {
+    pcl::PointStreamReader r (path);
+    int seen = 0;
+    EXPECT_THROW (pclx::omicron::detail::readBlocksAhead (r, 1000, blocks,
+                                                          [&] (const Cloud&) {
+                                                            if (++seen == 2)
+                                                              throw std::runtime_error ("stop");
+                                                            return true;
+                                                          },
+                                                          [] {}),
+                  std::runtime_error);
+    EXPECT_EQ (seen, 2);
+  }
+  {
+    pcl::PointStreamReader r (bad);
+    ASSERT_TRUE (r.isOpen ()) << r.getLastError ();
+    std::size_t points = 0;
+    EXPECT_FALSE (pclx::omicron::detail::readBlocksAhead (
+        r, 1000, blocks,
+        [&] (const Cloud& b) {
+          points += b.size ();
+          return true;
+        },
+        [] {}));
+    EXPECT_NE (r.getLastError ().find ("bad.xyz"), std::string::npos) << r.getLastError ();
+    EXPECT_EQ (points, 3000u);
+  }
 }

@@ -7,10 +7,10 @@
 
 #include <pcl/console/print.h>
 
+#include <pclx/omicron/detail/block_reader.h>
 #include <pclx/omicron/detail/huge_pages.h>
 
 #include <chrono>
-#include <condition_variable>
 #include <exception>
 #include <filesystem>
 #include <limits>
@@ -242,74 +242,17 @@ pcl::ObliqueCutOctree<PointT>::getProgress () const
 template <typename PointT> template <typename F> bool
 pcl::ObliqueCutOctree<PointT>::readFileBlocks (PointStreamReader& reader, F&& on_block)
 {
-  // Two blocks in flight: the reader thread fills one while on_block consumes the other.
   // 2^18 points: the reader's buffers and the two blocks stay a small share of the memory
   // beside the points held once, while a block still amortises the hand-over.
   constexpr std::size_t kBlock = std::size_t (1) << 18;
   PointCloud blocks[2];
-  bool full[2] = {false, false}, done = false;
-  std::exception_ptr error;
-  std::mutex m;
-  std::condition_variable cv;
-  bool stop = false;
-  std::thread producer ([&] {
-    try
-    {
-      for (int k = 0;; k ^= 1)
-      {
-        {
-          std::unique_lock<std::mutex> lock (m);
-          cv.wait (lock, [&] { return !full[k] || stop; });
-          if (stop)
-            break;
-        }
-        const bool more = reader.read (kBlock, blocks[k]);
-        std::lock_guard<std::mutex> lock (m);
-        if (!more)
-          break;
-        full[k] = true;
-        cv.notify_all ();
-      }
-    }
-    catch (...)
-    {
-      std::lock_guard<std::mutex> lock (m);
-      error = std::current_exception ();
-    }
-    std::lock_guard<std::mutex> lock (m);
-    done = true;
-    cv.notify_all ();
-  });
-  try
-  {
-    for (int k = 0;; k ^= 1)
-    {
-      {
-        std::unique_lock<std::mutex> lock (m);
-        cv.wait (lock, [&] { return full[k] || done; });
-        if (!full[k])
-          break;
-      }
-      on_block (blocks[k]);
-      std::lock_guard<std::mutex> lock (m);
-      full[k] = false;
-      cv.notify_all ();
-    }
-  }
-  catch (...)
-  {
-    {
-      std::lock_guard<std::mutex> lock (m);
-      stop = true;
-      cv.notify_all ();
-    }
-    producer.join ();
-    throw;
-  }
-  producer.join ();
-  if (error)
-    std::rethrow_exception (error);
-  return reader.getLastError ().empty ();
+  return pclx::omicron::detail::readBlocksAhead (
+      reader, kBlock, blocks,
+      [&] (const PointCloud& block) {
+        on_block (block);
+        return true;
+      },
+      [] {});
 }
 
 // The first sorted chunk fixes the automatic leaf splat radius (leaf cell edge over the

@@ -13,6 +13,7 @@
 //   fixChunks          per chunk: load, sort, concatenate, close its last cell, fix (spills)
 //   writeRetainedTree  the tree kept in memory, then hierarchy.bin and metadata.json
 //   collectBudgetedStatistics  per-level counts of the spilled and the retained nodes
+#include <pclx/omicron/detail/block_reader.h>
 #include <pclx/omicron/detail/budget_plan.h>
 #include <pclx/omicron/impl/potree_writer.hpp>
 #include <pclx/omicron/oblique_cut_octree.h>
@@ -152,7 +153,7 @@ struct pcl::ObliqueCutOctree<PointT>::Budgeted
   pclx::omicron::detail::ChunkFile chunk_file;
   std::unique_ptr<PointStreamReader> reader;  // the input file, or null for the cloud
   const PointCloud* cloud = nullptr;
-  PointCloud block;
+  PointCloud blocks[2];  // the read blocks in flight
   // readBounds
   bool user_cube = false;
   Eigen::Vector3d origin = Eigen::Vector3d::Zero (), hi_corner = Eigen::Vector3d::Zero ();
@@ -201,8 +202,9 @@ struct pcl::ObliqueCutOctree<PointT>::Budgeted
            (MortonCode::spread (MortonCode::toCell (p.y, origin.y (), scale, lmax)) << 1) |
            MortonCode::spread (MortonCode::toCell (p.z, origin.z (), scale, lmax));
   }
-  // Blocks of the input in order: the file through the stream reader, or views of the cloud.
-  // False when fn returns false or the reader fails (its getLastError () says why).
+  // Blocks of the input in order: the file through the stream reader (the next block parsed on
+  // a reader thread while fn works on this one), or views of the cloud. False when fn returns
+  // false or the reader fails (its getLastError () says why).
   bool
   forEachBlock (const BlockFunction& fn)
   {
@@ -210,13 +212,12 @@ struct pcl::ObliqueCutOctree<PointT>::Budgeted
     {
       if (!reader->rewind ())
         return false;
-      while (reader->read (R, block))
-      {
-        ledger.set (Ledger::kReader, reader->bufferBytes () + block.points.capacity () * pb);
-        if (!fn (block.data (), block.size ()))
-          return false;
-      }
-      return reader->getLastError ().empty ();
+      return pclx::omicron::detail::readBlocksAhead (
+          *reader, R, blocks, [&] (const PointCloud& block) { return fn (block.data (), block.size ()); },
+          [&] {
+            ledger.set (Ledger::kReader,
+                        reader->bufferBytes () + (blocks[0].points.capacity () + blocks[1].points.capacity ()) * pb);
+          });
     }
     for (std::size_t b = 0; b < cloud->size (); b += R)
       if (!fn (cloud->data () + b, std::min (R, cloud->size () - b)))
@@ -319,7 +320,8 @@ pcl::ObliqueCutOctree<PointT>::planSizes (Budgeted& b)
   const std::size_t pb = b.pb;
   // Fixed overhead, checked before anything is allocated: a partly filled arena block per
   // worker (retained and scratch, nodes and points), a read block of at least 4096 points
-  // (stream reader record + its PointXYZRGB copy + the block + the scatter copy + chunk id),
+  // (stream reader record + its PointXYZRGB copy + two blocks in flight + the scatter copy +
+  // chunk id),
   // the coarsest count grid and small tables.
   b.slack = static_cast<std::size_t> (b.threads) * 2 * (1024 * sizeof (Node) + 8192 * pb);
   // MortonSorter::prepare's per-block bucket histograms (its bucket count as it chooses it).
@@ -331,7 +333,7 @@ pcl::ObliqueCutOctree<PointT>::planSizes (Budgeted& b)
   // + one hierarchy.bin chunk buffer at close: at most 1 + 8 + … + 8^4 records of 22 B.
   b.hierarchy_chunk = 4681 * pclx::omicron::detail::potree::kRecordBytes;
   b.tables = 64 * 1024 + b.sort_hist + b.hierarchy_chunk;
-  const std::size_t read_point = 64 + sizeof (pcl::PointXYZRGB) + 2 * pb + 8;
+  const std::size_t read_point = 64 + sizeof (pcl::PointXYZRGB) + 3 * pb + 8;
   const std::size_t minimum = b.slack + b.tables + Budgeted::kMinBlock * read_point + pclx::omicron::detail::planGridBytes (1);
   if (b.budget < minimum)
     return failBudgeted (b, "the memory budget of " + std::to_string (b.budget) +
@@ -559,7 +561,8 @@ pcl::ObliqueCutOctree<PointT>::scatterChunks (Budgeted& b)
         return failBudgeted (b, "the input changed between passes (fewer points in a chunk than counted)");
   }
   b.reader.reset ();
-  b.block = PointCloud ();
+  b.blocks[0] = PointCloud ();
+  b.blocks[1] = PointCloud ();
   b.ledger.set (Ledger::kReader, 0);
   b.ledger.set (Ledger::kScatter, 0);
   stats_.seconds_chunks = stats_.seconds_read = b.since ();
