@@ -6,6 +6,8 @@
 #include <pcl/console/print.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -100,12 +102,16 @@ pclx::omicron::detail::MortonSorter<PointT>::fixCube (const PointT* points, std:
     std::vector<Eigen::Array3f> lo (blocks, Eigen::Array3f::Constant (std::numeric_limits<float>::max ()));
     std::vector<Eigen::Array3f> hi (blocks, Eigen::Array3f::Constant (-std::numeric_limits<float>::max ()));
     pool.parallelFor (blocks, [&] (std::size_t b, int) {
+      // Local accumulators: the vectors' elements would be stored back on every point.
+      Eigen::Array3f l = lo[b], h = hi[b];
       for (std::size_t i = n * b / blocks, end = n * (b + 1) / blocks; i < end; ++i)
         if (std::isfinite (points[i].x) && std::isfinite (points[i].y) && std::isfinite (points[i].z))
         {
-          lo[b] = lo[b].min (points[i].getArray3fMap ());
-          hi[b] = hi[b].max (points[i].getArray3fMap ());
+          l = l.min (points[i].getArray3fMap ());
+          h = h.max (points[i].getArray3fMap ());
         }
+      lo[b] = l;
+      hi[b] = h;
     });
     Eigen::Array3f l = lo[0], h = hi[0];
     for (std::size_t b = 1; b < blocks; ++b)
@@ -220,18 +226,23 @@ pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& 
   pclx::omicron::detail::WorkerPool pool (threads_);
   std::size_t blocks = 0;
   std::vector<std::size_t> bucket_start;
+  auto T0 = std::chrono::steady_clock::now ();
   std::vector<std::size_t> offsets = startPass (cloud.data (), n, pool, blocks, bucket_start);
+  auto T1 = std::chrono::steady_clock::now ();
   const std::size_t nb = bucket_start.size () - 1, sum = bucket_start.back ();
   // Fresh storage advised for huge pages before resize () first touches it.
   PointVector ().swap (sorted);
   pclx::omicron::detail::reserveHuge (sorted, sum);
   sorted.resize (sum);
+  auto T2 = std::chrono::steady_clock::now ();
   pool.parallelFor (blocks, [&] (std::size_t b, int) {
     std::size_t* h = offsets.data () + b * nb;
     for (std::size_t i = n * b / blocks, end = n * (b + 1) / blocks; i < end; ++i)
       if (classify (cloud[i]) == 0)
         sorted[h[bucket_of_[i]]++] = cloud[i];
   });
+  auto T3 = std::chrono::steady_clock::now ();
+  fprintf (stderr, "startPass %.3f alloc %.3f scatter %.3f\n", std::chrono::duration<double> (T1 - T0).count (), std::chrono::duration<double> (T2 - T1).count (), std::chrono::duration<double> (T3 - T2).count ());
   std::vector<std::uint16_t> ().swap (bucket_of_);
   makeChunks (bucket_start);
   bucket_start_ = std::move (bucket_start);
