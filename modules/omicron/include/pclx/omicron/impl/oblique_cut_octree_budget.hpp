@@ -512,9 +512,28 @@ pcl::ObliqueCutOctree<PointT>::scatterChunks (Budgeted& b)
     std::vector<std::uint32_t> ids (R);
     std::vector<std::size_t> count (nchunks + 1);
     typename PointCloud::VectorType scatter (R);
-    b.ledger.set (Ledger::kScatter, R * (sizeof (std::uint32_t) + pb) + 2 * (nchunks + 1) * sizeof (std::uint64_t));
+    // The chunk of each spill-level cell as a table when the cells are few (up to level 4:
+    // 8 KiB of the small tables the plan reserves), else a binary search per point.
+    constexpr std::size_t kMaxTableCells = std::size_t (1) << 12;
+    const std::size_t cells = std::size_t (1) << (3 * b.S);
+    std::vector<std::uint16_t> chunk_of;
+    if (cells <= kMaxTableCells && nchunks <= std::numeric_limits<std::uint16_t>::max ())
+    {
+      chunk_of.resize (cells);
+      for (std::size_t k = 0; k < nchunks; ++k)
+        std::fill (chunk_of.begin () + plan.cell_begin[k], chunk_of.begin () + plan.cell_begin[k + 1],
+                   static_cast<std::uint16_t> (k));
+    }
+    b.ledger.set (Ledger::kScatter, R * (sizeof (std::uint32_t) + pb) + 2 * (nchunks + 1) * sizeof (std::uint64_t) +
+                                        chunk_of.capacity () * sizeof (std::uint16_t));
     const int shift = 3 * (b.lmax - b.S);
     constexpr std::uint32_t kDrop = std::numeric_limits<std::uint32_t>::max ();
+    const auto chunkOf = [&] (std::uint64_t cell) {
+      if (!chunk_of.empty ())
+        return static_cast<std::uint32_t> (chunk_of[cell]);
+      return static_cast<std::uint32_t> (
+          std::upper_bound (plan.cell_begin.begin (), plan.cell_begin.end (), cell) - plan.cell_begin.begin () - 1);
+    };
     std::string error;
     const bool read = b.forEachBlock ([&] (const PointT* p, std::size_t n) {
       std::fill (count.begin (), count.end (), 0);
@@ -525,9 +544,7 @@ pcl::ObliqueCutOctree<PointT>::scatterChunks (Budgeted& b)
           ids[i] = kDrop;
           continue;
         }
-        const std::uint64_t cell = b.key (p[i]) >> shift;
-        ids[i] = static_cast<std::uint32_t> (
-            std::upper_bound (plan.cell_begin.begin (), plan.cell_begin.end (), cell) - plan.cell_begin.begin () - 1);
+        ids[i] = chunkOf (b.key (p[i]) >> shift);
         ++count[ids[i] + 1];
       }
       for (std::size_t k = 0; k < nchunks; ++k)
