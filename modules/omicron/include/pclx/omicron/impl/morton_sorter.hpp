@@ -6,8 +6,6 @@
 #include <pcl/console/print.h>
 
 #include <algorithm>
-#include <chrono>
-#include <cstdio>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -226,23 +224,18 @@ pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& 
   pclx::omicron::detail::WorkerPool pool (threads_);
   std::size_t blocks = 0;
   std::vector<std::size_t> bucket_start;
-  auto T0 = std::chrono::steady_clock::now ();
   std::vector<std::size_t> offsets = startPass (cloud.data (), n, pool, blocks, bucket_start);
-  auto T1 = std::chrono::steady_clock::now ();
   const std::size_t nb = bucket_start.size () - 1, sum = bucket_start.back ();
   // Fresh storage advised for huge pages before resize () first touches it.
   PointVector ().swap (sorted);
   pclx::omicron::detail::reserveHuge (sorted, sum);
   sorted.resize (sum);
-  auto T2 = std::chrono::steady_clock::now ();
   pool.parallelFor (blocks, [&] (std::size_t b, int) {
     std::size_t* h = offsets.data () + b * nb;
     for (std::size_t i = n * b / blocks, end = n * (b + 1) / blocks; i < end; ++i)
       if (classify (cloud[i]) == 0)
         sorted[h[bucket_of_[i]]++] = cloud[i];
   });
-  auto T3 = std::chrono::steady_clock::now ();
-  fprintf (stderr, "startPass %.3f alloc %.3f scatter %.3f\n", std::chrono::duration<double> (T1 - T0).count (), std::chrono::duration<double> (T2 - T1).count (), std::chrono::duration<double> (T3 - T2).count ());
   std::vector<std::uint16_t> ().swap (bucket_of_);
   makeChunks (bucket_start);
   bucket_start_ = std::move (bucket_start);
