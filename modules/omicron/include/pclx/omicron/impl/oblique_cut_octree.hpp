@@ -327,11 +327,15 @@ pcl::ObliqueCutOctree<PointT>::readFileSorted (pclx::omicron::detail::MortonSort
   typename PointCloud::VectorType ().swap (sorted_);
   pclx::omicron::detail::reserveHuge (sorted_, static_cast<std::size_t> (reader.getDeclaredPoints ()));
   const bool read = readFileBlocks (reader, [&] (const PointCloud& block) {
+    // Local accumulators, so the bounds stay in registers over the block.
+    Eigen::Array3f l = lo, h = hi;
     for (const PointT& p : block)
     {
-      lo = lo.min (p.getArray3fMap ());
-      hi = hi.max (p.getArray3fMap ());
+      l = l.min (p.getArray3fMap ());
+      h = h.max (p.getArray3fMap ());
     }
+    lo = l;
+    hi = h;
     sorted_.insert (sorted_.end (), block.begin (), block.end ());
   });
   if (!read)
