@@ -64,7 +64,7 @@ def main(new_csv, old_csv, out_png):
     ax.set_xlabel("points (scene PCD, warm page cache)")
     ax.set_ylabel("seconds")
     ax.set_title("OMiCroN from the file against PCL's load and out-of-core octree\n"
-                 "(2 cores, two runs, peers in the same runs; line = mean)", fontsize=10)
+                 "(2 cores, four runs, peers in the same runs; line = mean)", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
