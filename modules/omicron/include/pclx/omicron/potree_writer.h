@@ -193,6 +193,8 @@ private:
   std::uint64_t subtreePoints (const Node& node) const;
   // Appends points [0, n) except the `taken` picks of pclx::omicron::detail::parentSampleIndex.
   void encode (const PointT* points, std::uint32_t n, std::uint32_t taken, Encoded& out) const;
+  // Appends the points `node` stores (all but those its parent took).
+  void encodeNode (const Node& node, Encoded& out) const;
   // Appends the stored points of the subtree in depth-first order.
   void encodeSubtree (const Node& node, Encoded& out);
   void record (MortonCode code, const Encoded& data);
@@ -206,15 +208,19 @@ private:
   void appendSubtreeImpl (const Node& node);
   void appendSpilledImpl (const Node& node);
   void closeImpl (std::uint64_t points);
-  // One record of write (): a node alone, or a whole subtree as one leaf.
+  // One record of a subtree's write: a node alone, or a whole subtree as one leaf.
   struct WriteTask
   {
     const Node* node;
     bool subtree;
     std::uint64_t points;  // what the record stores
   };
-  // The records appendSubtree () makes for an in-memory subtree, in its order.
-  void collectWriteTasks (const Node& node, std::vector<WriteTask>& tasks) const;
+  // Calls f (const WriteTask&) for each record of the subtree of `node`, in octree.bin's
+  // order: a subtree storing at most the leaf limit is one record, else the node and then
+  // each child's subtree the same way; subtrees storing nothing are left out.
+  template <typename F> void forEachRecord (const Node& node, F&& f);
+  // Appends the task's points to `out`.
+  void encodeTask (const WriteTask& task, Encoded& out);
   // Encodes the tasks on `threads` threads, a window of them at a time, and records each
   // window in order (the same octree.bin as appendSubtree ()).
   void writeTasks (const std::vector<WriteTask>& tasks, int threads);

@@ -192,10 +192,16 @@ pcl::PotreeWriter<PointT>::storedPoints (const Node& node) const
 }
 
 template <typename PointT> void
+pcl::PotreeWriter<PointT>::encodeNode (const Node& node, Encoded& out) const
+{
+  encode (node.points, node.num_points, node.num_points - storedPoints (node), out);
+}
+
+template <typename PointT> void
 pcl::PotreeWriter<PointT>::appendNodeImpl (const Node& node)
 {
   Encoded e;
-  encode (node.points, node.num_points, node.num_points - storedPoints (node), e);
+  encodeNode (node, e);
   record (node.code, e);
 }
 
@@ -221,7 +227,7 @@ pcl::PotreeWriter<PointT>::encodeSubtree (const Node& node, Encoded& out)
 {
   if (!(node.flags & pclx::omicron::detail::kSpilled))
   {
-    encode (node.points, node.num_points, node.num_points - storedPoints (node), out);
+    encodeNode (node, out);
     for (std::uint8_t c = 0; c < node.num_children; ++c)
       encodeSubtree (node.children[c], out);
     return;
@@ -245,22 +251,40 @@ pcl::PotreeWriter<PointT>::encodeSubtree (const Node& node, Encoded& out)
   out.hi = out.hi.cwiseMax (sp.hi);
 }
 
-template <typename PointT> void
-pcl::PotreeWriter<PointT>::appendSubtreeImpl (const Node& node)
+template <typename PointT> template <typename F> void
+pcl::PotreeWriter<PointT>::forEachRecord (const Node& node, F&& f)
 {
   const std::uint64_t total = subtreePoints (node);
   if (total == 0)
     return;
   if (leaf_limit_ > 0 && total <= leaf_limit_)
   {
-    Encoded e;
-    encodeSubtree (node, e);
-    record (node.code, e);
+    f (WriteTask{&node, true, total});
     return;
   }
-  appendNodeImpl (node);
+  f (WriteTask{&node, false, storedPoints (node)});
   for (std::uint8_t c = 0; c < node.num_children; ++c)
-    appendSubtreeImpl (node.children[c]);
+    forEachRecord (node.children[c], f);
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::encodeTask (const WriteTask& task, Encoded& out)
+{
+  if (task.subtree)
+    encodeSubtree (*task.node, out);
+  else
+    encodeNode (*task.node, out);
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::appendSubtreeImpl (const Node& node)
+{
+  // One record encoded at a time (what a budgeted build accounts for).
+  forEachRecord (node, [this] (const WriteTask& task) {
+    Encoded e;
+    encodeTask (task, e);
+    record (task.node->code, e);
+  });
 }
 
 template <typename PointT> void
@@ -401,22 +425,6 @@ pcl::PotreeWriter<PointT>::close (std::uint64_t points)
 }
 
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::collectWriteTasks (const Node& node, std::vector<WriteTask>& tasks) const
-{
-  const std::uint64_t total = subtreePoints (node);
-  if (total == 0)
-    return;
-  if (leaf_limit_ > 0 && total <= leaf_limit_)
-  {
-    tasks.push_back ({&node, true, total});
-    return;
-  }
-  tasks.push_back ({&node, false, storedPoints (node)});
-  for (std::uint8_t c = 0; c < node.num_children; ++c)
-    collectWriteTasks (node.children[c], tasks);
-}
-
-template <typename PointT> void
 pcl::PotreeWriter<PointT>::writeTasks (const std::vector<WriteTask>& tasks, int threads)
 {
   // A window's encoded bytes are held until they are recorded: about 1M points keeps them a
@@ -436,12 +444,7 @@ pcl::PotreeWriter<PointT>::writeTasks (const std::vector<WriteTask>& tasks, int 
     pool.parallelFor (j - i, [&] (std::size_t k, int) {
       try
       {
-        const WriteTask& task = tasks[i + k];
-        if (task.subtree)
-          encodeSubtree (*task.node, encoded[k]);
-        else
-          encode (task.node->points, task.node->num_points, task.node->num_points - storedPoints (*task.node),
-                  encoded[k]);
+        encodeTask (tasks[i + k], encoded[k]);
       }
       catch (...)
       {
@@ -471,7 +474,7 @@ pcl::PotreeWriter<PointT>::write (const ObliqueCutOctree<PointT>& octree, const 
     return false;
   if (guarded ("write", [&] {
         std::vector<WriteTask> tasks;
-        collectWriteTasks (*root, tasks);
+        forEachRecord (*root, [&tasks] (const WriteTask& task) { tasks.push_back (task); });
         writeTasks (tasks, octree.getThreads ());
         closeImpl (octree.getStatistics ().kept_points);
       }))
