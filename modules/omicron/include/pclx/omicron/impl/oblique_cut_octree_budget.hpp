@@ -321,8 +321,7 @@ pcl::ObliqueCutOctree<PointT>::planSizes (Budgeted& b)
   // Fixed overhead, checked before anything is allocated: a partly filled arena block per
   // worker (retained and scratch, nodes and points), a read block of at least 4096 points
   // (stream reader record + its PointXYZRGB copy + two blocks in flight + the scatter copy +
-  // chunk id),
-  // the coarsest count grid and small tables.
+  // chunk id), the coarsest count grid and small tables.
   b.slack = static_cast<std::size_t> (b.threads) * 2 * (1024 * sizeof (Node) + 8192 * pb);
   // MortonSorter::prepare's per-block bucket histograms (its bucket count as it chooses it).
   int bucket_bits = 12;
