@@ -9,7 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <queue>
+#include <functional>
 #include <sstream>
 #ifdef _OPENMP
 #include <omp.h>
@@ -684,6 +684,9 @@ CoupledSimplification::connect (bool dense_only)
     cut[t] = (H * t / threads) / std::max (1, block_rows_) * std::max (1, block_rows_);
   cut[threads] = H - 1;  // quad rows are 0 … H − 2
   std::vector<Part> bands (threads), borders (threads);
+  std::vector<Eigen::Vector3i>& tris = dense_only ? dense_tris_ : ctris_;
+  tris.clear ();
+  bands[0].tris.swap (tris);  // the first band fills the output's buffer, which keeps its memory
   for (int t = 1; t < threads; ++t)
     if (cut[t] >= 1)
     {
@@ -694,8 +697,7 @@ CoupledSimplification::connect (bool dense_only)
   for (int t = 0; t < threads; ++t)
     for (int v = cut[t]; v < (t + 1 < threads ? cut[t + 1] - 1 : cut[t + 1]); ++v)
       quadRow (bands[t], v);
-  std::vector<Eigen::Vector3i>& tris = dense_only ? dense_tris_ : ctris_;
-  tris.clear ();
+  tris.swap (bands[0].tris);  // borders[0] is empty: the first band's faces come first
   orientation_vote_ = 0;
   std::size_t dense = 0;
   for (int t = 0; t < threads; ++t)
@@ -703,38 +705,20 @@ CoupledSimplification::connect (bool dense_only)
     {
       for (const auto& [cluster, k] : p->deferred)
         cq_[cluster] += k;
-      tris.insert (tris.end (), p->tris.begin (), p->tris.end ());
+      if (p != &bands[0])
+        tris.insert (tris.end (), p->tris.begin (), p->tris.end ());
       orientation_vote_ += p->vote;
       dense += p->dense;
     }
   stats_.dense_triangles = dense;
 }
 
-// Working state of the Garland–Heckbert edge collapse on the clustered mesh.
-struct CoupledSimplification::CollapseState
+bool
+CoupledSimplification::CollapseState::facesCamera (const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                                   const Eigen::Vector3d& c) const
 {
-  // A candidate collapse of edge (a, b); stale once a or b changed (stamps differ).
-  struct Entry
-  {
-    double key;
-    std::int32_t a, b;
-    std::uint32_t sa, sb;
-    bool operator> (const Entry& o) const { return key > o.key; }
-  };
-
-  double facing = 1;  // +1 / −1: the orientation of the faces that look at the camera
-  std::vector<char> face_alive, vert_alive, locked;
-  std::vector<std::uint32_t> stamp;
-  std::vector<std::pair<std::int32_t, std::int32_t>> unique_edges;
-  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
-  std::vector<std::int32_t> na, nb;  // neighbour buffers of the link test, reused
-
-  bool
-  facesCamera (const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) const
-  {
-    return facing * (b - a).cross (c - a).dot (-a) > 0;
-  }
-};
+  return facing * (b - a).cross (c - a).dot (-a) > 0;
+}
 
 void
 CoupledSimplification::placeRepresentatives ()
@@ -904,7 +888,8 @@ CoupledSimplification::pushCollapse (CollapseState& s, std::int32_t a, std::int3
   placeCollapse (a, b, err);
   const double bnd = collapseBound (a, b);
   const double key = std::isinf (bnd) ? err : err / bnd;
-  s.heap.push ({key, a, b, s.stamp[a], s.stamp[b]});
+  s.heap.push_back ({key, a, b, s.stamp[a], s.stamp[b]});
+  std::push_heap (s.heap.begin (), s.heap.end (), std::greater<CollapseState::Entry> ());
 }
 
 bool
@@ -1031,8 +1016,9 @@ CoupledSimplification::collapseEdges (CollapseState& s, bool count_stop, bool er
   {
     if (count_stop && faces <= target)
       break;
-    const CollapseState::Entry e = s.heap.top ();
-    s.heap.pop ();
+    std::pop_heap (s.heap.begin (), s.heap.end (), std::greater<CollapseState::Entry> ());
+    const CollapseState::Entry e = s.heap.back ();
+    s.heap.pop_back ();
     const std::int32_t a = e.a, b = e.b;
     if (!s.vert_alive[a] || !s.vert_alive[b] || e.sa != s.stamp[a] || e.sb != s.stamp[b])
       continue;
@@ -1061,8 +1047,10 @@ CoupledSimplification::collapse ()
 {
   // First phase: cluster representatives; then the clustered faces.
   placeRepresentatives ();
-  CollapseState s;
+  CollapseState& s = collapse_state_;
   s.facing = orientation_vote_ < 0 ? -1.0 : 1.0;
+  s.unique_edges.clear ();
+  s.heap.clear ();
   dropBackfacingAndDuplicateFaces (s);
   stats_.clustered_triangles = ctris_.size ();
 
@@ -1094,7 +1082,11 @@ CoupledSimplification::emit (const Eigen::Matrix4d& pose, bool dense_only, pcl::
   inv.topLeftCorner<3, 3> () = pose.topLeftCorner<3, 3> ().transpose ();
   inv.topRightCorner<3, 1> () = -inv.topLeftCorner<3, 3> () * pose.topRightCorner<3, 1> ();
   const bool flip = orientation_vote_ < 0;  // e.g. an organized grid stored bottom-up
-  pcl::FrameMesh m;
+  // Written in place: out's buffers (the caller's previous frame, usually) keep their memory.
+  pcl::FrameMesh& m = out;
+  m.vertices.clear ();
+  m.triangles.clear ();
+  m.quadrics.clear ();
   m.viewpoint = t;
   const std::vector<Eigen::Vector3i>& tris = dense_only ? dense_tris_ : ctris_;
   std::vector<std::int32_t> remap (cq_.size (), -1);
@@ -1134,7 +1126,6 @@ CoupledSimplification::emit (const Eigen::Matrix4d& pose, bool dense_only, pcl::
   }
   stats_.vertices = m.vertices.size ();
   stats_.triangles = m.triangles.size ();
-  out = std::move (m);
 }
 
 }  // namespace pcl

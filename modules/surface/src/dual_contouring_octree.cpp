@@ -8,15 +8,23 @@
 
 #include <Eigen/Eigenvalues>
 
+#include <boost/sort/spreadsort/integer_sort.hpp>
+
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
+#include <cstdlib>
 #include <mutex>
+#include <new>
 #include <unordered_set>
 
 #ifdef _OPENMP
 #include <omp.h>
+#endif
+#if __has_include(<sys/mman.h>)
+#include <sys/mman.h>
 #endif
 
 namespace pcl {
@@ -43,6 +51,15 @@ fix (double x)
 {
   x *= kFix;
   return static_cast<std::int64_t> (x + (x >= 0 ? 0.5 : -0.5));
+}
+
+// std::lround's rounding (half away from zero) without its library call; |x| < 2^31.
+inline std::int32_t
+roundToInt (double x)
+{
+  const auto t = static_cast<std::int64_t> (x);  // toward zero
+  const double r = x - static_cast<double> (t);  // exact
+  return static_cast<std::int32_t> (t + (r >= 0.5) - (r <= -0.5));
 }
 
 // The signed-distance sums saturate (a vertex seen in very many frames keeps its sign).
@@ -318,6 +335,19 @@ faceSegmentsJoined (unsigned inside, int f)
 
 }  // namespace
 
+// One frame's valid triangles and their lattice crossings. Kept between frames, so that its
+// buffers keep their capacity and pages instead of being allocated for every frame.
+struct DualContouringOctree::FrameTriangles
+{
+  std::vector<Eigen::Vector3d> q;  // vertices in lattice units
+  std::vector<char> finite;        // per vertex
+  std::vector<std::uint32_t> used;
+  std::vector<Eigen::Vector3d> normals;
+  std::vector<double> weights;
+  std::vector<Crossing> crossings;                 // sorted by edge, then fraction, then triangle
+  std::vector<std::vector<Crossing>> thread_parts;  // each thread's crossings before the join
+};
+
 struct DualContouringOctree::Impl
 {
   struct Root
@@ -361,9 +391,66 @@ struct DualContouringOctree::Impl
     }
   };
 
+  // Memory for the roots, in blocks that ask the kernel for transparent huge pages: a root's
+  // dense arrays span 20 pages of 4 KiB, each faulted in on first touch, and where the map
+  // grows those faults are a large part of a frame's merge. A huge page takes one fault for
+  // about 25 roots. Roots are only freed all together, with the map.
+  class RootArena
+  {
+  public:
+    void*
+    allocate ()
+    {
+      if (left_ < kSlot)
+      {
+        auto* block = static_cast<std::byte*> (std::aligned_alloc (kHugePage, kBlock));
+        if (!block)
+          throw std::bad_alloc ();
+#ifdef MADV_HUGEPAGE
+        madvise (block, kBlock, MADV_HUGEPAGE);  // advice only: without it, normal pages
+#endif
+        blocks_.emplace_back (block);
+        next_ = block;
+        left_ = kBlock;
+      }
+      void* p = next_;
+      next_ += kSlot;
+      left_ -= kSlot;
+      return p;
+    }
+
+  private:
+    static constexpr std::size_t kHugePage = std::size_t (2) << 20;
+    static constexpr std::size_t kBlock = 4 * kHugePage;
+    static constexpr std::size_t kSlot = (sizeof (Root) + 63) / 64 * 64;
+    struct Free
+    {
+      void
+      operator() (std::byte* p) const
+      {
+        std::free (p);
+      }
+    };
+    std::vector<std::unique_ptr<std::byte, Free>> blocks_;
+    std::byte* next_ = nullptr;
+    std::size_t left_ = 0;
+  };
+  // Destroys a root in place; its memory belongs to the arena.
+  struct DestroyRoot
+  {
+    void
+    operator() (Root* r) const
+    {
+      r->~Root ();
+    }
+  };
+  using RootPtr = std::unique_ptr<Root, DestroyRoot>;
+
+  RootArena arena;  // declared before `roots`, so it outlives them
   std::unordered_map<std::uint64_t, std::uint32_t> root_of;
-  std::vector<std::unique_ptr<Root>> roots;
+  std::vector<RootPtr> roots;
   std::size_t leaves = 0, voted = 0, edges = 0;
+  FrameTriangles frame;  // scratch of addFrameMesh
 
   Root*
   find (int bx, int by, int bz) const
@@ -382,7 +469,7 @@ struct DualContouringOctree::Impl
   numberRootsFrom (std::size_t first)
   {
     std::sort (roots.begin () + static_cast<std::ptrdiff_t> (first), roots.end (),
-               [] (const std::unique_ptr<Root>& a, const std::unique_ptr<Root>& b) { return a->key < b->key; });
+               [] (const RootPtr& a, const RootPtr& b) { return a->key < b->key; });
     for (std::size_t i = first; i < roots.size (); ++i)
     {
       roots[i]->id = static_cast<std::uint32_t> (i);
@@ -396,7 +483,7 @@ struct DualContouringOctree::Impl
     auto it = root_of.find (k);
     if (it != root_of.end ())
       return roots[it->second].get ();
-    auto r = std::make_unique<Root> ();
+    RootPtr r (new (arena.allocate ()) Root ());
     r->origin = Eigen::Vector3i (bx, by, bz) * kRootSide;
     r->key = k;
     r->id = static_cast<std::uint32_t> (roots.size ());
@@ -690,14 +777,6 @@ DualContouringOctree::gridVertexState (const Eigen::Vector3i& v) const
 
 // The triangles of a frame that can be fused, with their unit normals (lattice frame) and
 // confidence weights.
-struct DualContouringOctree::FrameTriangles
-{
-  std::vector<Eigen::Vector3d> q;  // vertices in lattice units
-  std::vector<std::uint32_t> used;
-  std::vector<Eigen::Vector3d> normals;
-  std::vector<double> weights;
-};
-
 namespace {
 
 using FrameTriangles = DualContouringOctree::FrameTriangles;
@@ -717,87 +796,120 @@ crossingWeight (const Eigen::Vector3d& centroid_m, const Eigen::Vector3d& normal
   return cosine * std::min (1.0, 1.0 / (range * range));
 }
 
-// Crossings of every triangle with the lattice lines along the three axes, sorted by edge; a
-// top-left rule makes a line through a shared triangle edge hit once.
-std::vector<Crossing>
-intersectLattice (const pcl::FrameMesh& mesh, const FrameTriangles& ft)
+// Appends the crossings of triangle t with the lattice lines along the three axes; a top-left
+// rule makes a line through a shared triangle edge hit once.
+void
+rasteriseTriangle (const Eigen::Vector3i& f, std::uint32_t t, const FrameTriangles& ft, std::vector<Crossing>& out)
 {
-  std::vector<Crossing> crossings;
-#pragma omp parallel
+  for (int a = 0; a < 3; ++a)
   {
-    std::vector<Crossing> local;
-#pragma omp for schedule(dynamic, 256) nowait
-    for (std::ptrdiff_t ti = 0; ti < static_cast<std::ptrdiff_t> (ft.used.size ()); ++ti)
+    const int u = (a + 1) % 3, w = (a + 2) % 3;
+    Eigen::Vector2d P[3];
+    double D[3];
+    for (int k = 0; k < 3; ++k)
     {
-      const std::uint32_t t = ft.used[ti];
-      const Eigen::Vector3i& f = mesh.triangles[t];
-      for (int a = 0; a < 3; ++a)
-      {
-        const int u = (a + 1) % 3, w = (a + 2) % 3;
-        Eigen::Vector2d P[3];
-        double D[3];
-        for (int k = 0; k < 3; ++k)
-        {
-          P[k] = Eigen::Vector2d (ft.q[f[k]][u], ft.q[f[k]][w]);
-          D[k] = ft.q[f[k]][a];
-        }
-        double area = (P[1] - P[0]).x () * (P[2] - P[0]).y () - (P[1] - P[0]).y () * (P[2] - P[0]).x ();
-        if (area == 0)
-          continue;  // parallel to the axis
-        if (area < 0)
-        {
-          std::swap (P[1], P[2]);
-          std::swap (D[1], D[2]);
-          area = -area;
-        }
-        const int u0 = static_cast<int> (std::ceil (std::min ({P[0].x (), P[1].x (), P[2].x ()})));
-        const int u1 = static_cast<int> (std::floor (std::max ({P[0].x (), P[1].x (), P[2].x ()})));
-        const int w0 = static_cast<int> (std::ceil (std::min ({P[0].y (), P[1].y (), P[2].y ()})));
-        const int w1 = static_cast<int> (std::floor (std::max ({P[0].y (), P[1].y (), P[2].y ()})));
-        for (int iw = w0; iw <= w1; ++iw)
-          for (int iu = u0; iu <= u1; ++iu)
-          {
-            const Eigen::Vector2d X (iu, iw);
-            double e[3];
-            bool in = true;
-            for (int k = 0; k < 3 && in; ++k)
-            {
-              const Eigen::Vector2d& A = P[(k + 1) % 3];
-              const Eigen::Vector2d& B = P[(k + 2) % 3];
-              const Eigen::Vector2d d = B - A;
-              e[k] = d.x () * (X.y () - A.y ()) - d.y () * (X.x () - A.x ());  // weight of vertex k
-              if (e[k] < 0)
-                in = false;
-              else if (e[k] == 0)
-                in = (d.y () < 0) || (d.y () == 0 && d.x () > 0);  // top-left edges own the line
-            }
-            if (!in)
-              continue;
-            // Clamped to the triangle's extent: a sliver's barycentrics can cancel badly.
-            const double z = std::min (std::max ((e[0] * D[0] + e[1] * D[1] + e[2] * D[2]) / area,
-                                                 std::min ({D[0], D[1], D[2]})),
-                                       std::max ({D[0], D[1], D[2]}));
-            const double zf = std::floor (z);
-            Eigen::Vector3i s;
-            s[a] = static_cast<int> (zf);
-            s[u] = iu;
-            s[w] = iw;
-            local.push_back ({edgeKey (a, s.x (), s.y (), s.z ()),
-                              static_cast<float> (std::min (z - zf, 0.99999994)), t});
-          }
-      }
+      P[k] = Eigen::Vector2d (ft.q[f[k]][u], ft.q[f[k]][w]);
+      D[k] = ft.q[f[k]][a];
     }
-#pragma omp critical
-    crossings.insert (crossings.end (), local.begin (), local.end ());
+    double area = (P[1] - P[0]).x () * (P[2] - P[0]).y () - (P[1] - P[0]).y () * (P[2] - P[0]).x ();
+    if (area == 0)
+      continue;  // parallel to the axis
+    if (area < 0)
+    {
+      std::swap (P[1], P[2]);
+      std::swap (D[1], D[2]);
+      area = -area;
+    }
+    const int u0 = static_cast<int> (std::ceil (std::min ({P[0].x (), P[1].x (), P[2].x ()})));
+    const int u1 = static_cast<int> (std::floor (std::max ({P[0].x (), P[1].x (), P[2].x ()})));
+    const int w0 = static_cast<int> (std::ceil (std::min ({P[0].y (), P[1].y (), P[2].y ()})));
+    const int w1 = static_cast<int> (std::floor (std::max ({P[0].y (), P[1].y (), P[2].y ()})));
+    for (int iw = w0; iw <= w1; ++iw)
+      for (int iu = u0; iu <= u1; ++iu)
+      {
+        const Eigen::Vector2d X (iu, iw);
+        double e[3];
+        bool in = true;
+        for (int k = 0; k < 3 && in; ++k)
+        {
+          const Eigen::Vector2d& A = P[(k + 1) % 3];
+          const Eigen::Vector2d& B = P[(k + 2) % 3];
+          const Eigen::Vector2d d = B - A;
+          e[k] = d.x () * (X.y () - A.y ()) - d.y () * (X.x () - A.x ());  // weight of vertex k
+          if (e[k] < 0)
+            in = false;
+          else if (e[k] == 0)
+            in = (d.y () < 0) || (d.y () == 0 && d.x () > 0);  // top-left edges own the line
+        }
+        if (!in)
+          continue;
+        // Clamped to the triangle's extent: a sliver's barycentrics can cancel badly.
+        const double z = std::min (std::max ((e[0] * D[0] + e[1] * D[1] + e[2] * D[2]) / area,
+                                             std::min ({D[0], D[1], D[2]})),
+                                   std::max ({D[0], D[1], D[2]}));
+        const double zf = std::floor (z);
+        Eigen::Vector3i s;
+        s[a] = static_cast<int> (zf);
+        s[u] = iu;
+        s[w] = iw;
+        out.push_back ({edgeKey (a, s.x (), s.y (), s.z ()), static_cast<float> (std::min (z - zf, 0.99999994)), t});
+      }
   }
-  std::sort (crossings.begin (), crossings.end (), [] (const Crossing& x, const Crossing& y) {
-    if (x.key != y.key)
-      return x.key < y.key;
-    if (x.frac != y.frac)
-      return x.frac < y.frac;
-    return x.tri < y.tri;
-  });
-  return crossings;
+}
+
+// Sorts crossings by edge, then by position along it, then by triangle: a total order, so the
+// merge sees the same sequence whatever order the threads produced them in. A radix sort on
+// the edge key; ties (an edge crossed more than once) are rare and short.
+void
+sortCrossings (std::vector<Crossing>& c)
+{
+  boost::sort::spreadsort::integer_sort (
+      c.begin (), c.end (), [] (const Crossing& x, unsigned shift) { return x.key >> shift; },
+      [] (const Crossing& x, const Crossing& y) { return x.key < y.key; });
+  for (auto first = c.begin (); first != c.end ();)
+  {
+    auto last = first + 1;
+    while (last != c.end () && last->key == first->key)
+      ++last;
+    if (last - first > 1)
+      std::sort (first, last, [] (const Crossing& x, const Crossing& y) {
+        return x.frac != y.frac ? x.frac < y.frac : x.tri < y.tri;
+      });
+    first = last;
+  }
+}
+
+// The crossings of every used triangle into ft.crossings, sorted (sortCrossings).
+void
+intersectLattice (const pcl::FrameMesh& mesh, FrameTriangles& ft)
+{
+#ifdef _OPENMP
+  const int threads = omp_get_max_threads ();
+#else
+  const int threads = 1;
+#endif
+  ft.thread_parts.resize (static_cast<std::size_t> (threads));
+#pragma omp parallel num_threads (threads)
+  {
+#ifdef _OPENMP
+    std::vector<Crossing>& local = ft.thread_parts[static_cast<std::size_t> (omp_get_thread_num ())];
+#else
+    std::vector<Crossing>& local = ft.thread_parts[0];
+#endif
+    local.clear ();
+#pragma omp for schedule(dynamic, 256)
+    for (std::ptrdiff_t ti = 0; ti < static_cast<std::ptrdiff_t> (ft.used.size ()); ++ti)
+      rasteriseTriangle (mesh.triangles[ft.used[ti]], ft.used[ti], ft, local);
+  }
+  if (threads == 1)
+    ft.crossings.swap (ft.thread_parts[0]);  // both buffers keep their capacity
+  else
+  {
+    ft.crossings.clear ();
+    for (const std::vector<Crossing>& part : ft.thread_parts)
+      ft.crossings.insert (ft.crossings.end (), part.begin (), part.end ());
+  }
+  sortCrossings (ft.crossings);
 }
 
 Eigen::Vector3i
@@ -962,7 +1074,7 @@ private:
       ++counts_.voted;
     if (c < 255)
       ++c;
-    const std::int32_t d = static_cast<std::int32_t> (std::lround (weight * std::min (dist, 1.0) * 4096));
+    const std::int32_t d = roundToInt (weight * std::min (dist, 1.0) * 4096);
     addSaturated (r->sdf[i], weighted_ext ? d : -d);
     touchCellsAround (v);
   }
@@ -986,7 +1098,7 @@ private:
       v[axis] += k;
       Root* r = rootOf (v.x (), v.y (), v.z ());
       const double d = std::max (-double (kBand), std::min (double (kBand), (k - frac) * n_axis));
-      addSaturated (r->sdf[localIndex (v.x (), v.y (), v.z ())], static_cast<std::int32_t> (std::lround (weight * d * 4096)));
+      addSaturated (r->sdf[localIndex (v.x (), v.y (), v.z ())], roundToInt (weight * d * 4096));
       touchCellsAround (v);
     }
   }
@@ -1107,7 +1219,8 @@ DualContouringOctree::checkFrameTriangles (const pcl::FrameMesh& mesh, FrameTria
   Stats& st = stats_;
   const std::size_t nv = mesh.vertices.size ();
   ft.q.resize (nv);
-  std::vector<char> finite (nv);
+  std::vector<char>& finite = ft.finite;
+  finite.resize (nv);
   for (std::size_t i = 0; i < nv; ++i)
   {
     finite[i] = mesh.vertices[i].allFinite ();
@@ -1204,15 +1317,15 @@ DualContouringOctree::addFrameMesh (const pcl::FrameMesh& mesh)
   st.intersections = st.multi_intersection_edges = st.touched_roots = 0;
   if (mesh.triangles.empty () || mesh.vertices.empty ())
     return fail ("empty mesh (no triangles)");
-  FrameTriangles ft;
+  FrameTriangles& ft = impl_->frame;
   if (!checkFrameTriangles (mesh, ft))
     return false;
-  const std::vector<Crossing> crossings = intersectLattice (mesh, ft);
-  st.intersections = crossings.size ();
+  intersectLattice (mesh, ft);
+  st.intersections = ft.crossings.size ();
   st.t_intersect_ms = msSince (t0);
 
   const auto t1 = Clock::now ();
-  mergeCrossings (*impl_, st, ft, crossings);
+  mergeCrossings (*impl_, st, ft, ft.crossings);
   st.t_merge_ms = msSince (t1);
   ++st.frames;
   const Impl& m = *impl_;

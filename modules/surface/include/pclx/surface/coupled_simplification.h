@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace pcl {
@@ -259,7 +260,28 @@ private:
   void halveResolution ();
   void cluster ();
   // §3.3 second phase, in stages: collapse () runs them in order.
-  struct CollapseState;  // defined in the .cpp
+  // Working state of the Garland–Heckbert edge collapse on the clustered mesh; a member, so
+  // that its buffers keep their memory from frame to frame.
+  struct CollapseState
+  {
+    // A candidate collapse of edge (a, b); stale once a or b changed (stamps differ).
+    struct Entry
+    {
+      double key;
+      std::int32_t a, b;
+      std::uint32_t sa, sb;
+      bool operator> (const Entry& o) const { return key > o.key; }
+    };
+
+    double facing = 1;  // +1 / −1: the orientation of the faces that look at the camera
+    std::vector<char> face_alive, vert_alive, locked;
+    std::vector<std::uint32_t> stamp;
+    std::vector<std::pair<std::int32_t, std::int32_t>> unique_edges;
+    std::vector<Entry> heap;           // a min-heap on key (std::push_heap / std::pop_heap)
+    std::vector<std::int32_t> na, nb;  // neighbour buffers of the link test
+
+    bool facesCamera (const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) const;
+  };
   void collapse ();
   void placeRepresentatives ();
   void dropBackfacingAndDuplicateFaces (const CollapseState& s);
@@ -305,6 +327,7 @@ private:
   std::vector<char> face_keep_;
   std::vector<std::pair<std::uint64_t, std::int32_t>> tri_keys_;
   std::vector<Eigen::Vector3i> ctris_;
+  CollapseState collapse_state_;
   long orientation_vote_ = 0;
   int block_rows_ = 1;  // rows of a cluster block (band cuts for the parallel connect)
 };
