@@ -31,8 +31,6 @@
 
 #include <CLI/CLI.hpp>
 
-#include <malloc.h>
-
 #include <algorithm>
 #include <cstdlib>
 #include <unistd.h>
@@ -61,15 +59,6 @@ double
 rssMiB ()
 {
   return static_cast<double> (pclx::bench::procStatusKb ("VmRSS")) / 1024.0;
-}
-
-// Bytes the allocator hands out now (heap and mmap'ed blocks), in MiB. Unlike the resident set
-// it does not depend on what earlier runs in this process freed and left for reuse.
-double
-heapInUseMiB ()
-{
-  const struct mallinfo2 mi = mallinfo2 ();
-  return static_cast<double> (mi.uordblks + mi.hblkhd) / 1048576.0;
 }
 
 // A posed frame: 16-bit depth (pinhole) or an organized camera-frame cloud (range scans).
@@ -667,7 +656,6 @@ struct Bench
   void
   open3d (const Sequence& s, double voxel, const Truth* truth, bool frame_rows)
   {
-    const double heap0 = heapInUseMiB ();
     std::vector<double> ms;
     std::vector<Eigen::Vector3f> v;
     std::vector<Eigen::Vector3i> f;
@@ -677,7 +665,7 @@ struct Bench
       idc_open3d::Tsdf tsdf (voxel, 4 * voxel, s.depth_trunc);
       for (const auto& fr : s.frames)
         ms.push_back (1e3 * tsdf.integrate (fr.mm.data (), fr.width, fr.height, s.K.fx, s.K.fy, s.K.cx, s.K.cy, fr.pose));
-      mem = std::max (0.0, heapInUseMiB () - heap0);  // the volume after the last frame
+      mem = tsdf.voxelBytes () / 1048576.0;  // the volume after the last frame, as IDC counts its map
       extract = 1e3 * tsdf.extract (v, f);
       units = tsdf.volumeUnits ();
     }

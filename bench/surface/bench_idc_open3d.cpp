@@ -5,6 +5,7 @@
 #include <open3d/geometry/RGBDImage.h>
 #include <open3d/geometry/TriangleMesh.h>
 #include <open3d/pipelines/integration/ScalableTSDFVolume.h>
+#include <open3d/pipelines/integration/UniformTSDFVolume.h>
 #include <open3d/utility/Logging.h>
 
 #include <chrono>
@@ -66,6 +67,16 @@ std::size_t
 Tsdf::volumeUnits () const
 {
   return impl_->volume.volume_units_.size ();
+}
+
+std::size_t
+Tsdf::voxelBytes () const
+{
+  std::size_t bytes = 0;
+  for (const auto& unit : impl_->volume.volume_units_)
+    if (unit.second.volume_)
+      bytes += unit.second.volume_->voxels_.capacity () * sizeof (open3d::geometry::TSDFVoxel);
+  return bytes;
 }
 
 }  // namespace idc_open3d

@@ -21,6 +21,8 @@ public:
   // Marching cubes over the volume; returns seconds.
   double extract (std::vector<Eigen::Vector3f>& vertices, std::vector<Eigen::Vector3i>& faces);
   std::size_t volumeUnits () const;
+  // Bytes of the voxel blocks (their allocated capacity), counted without asking the allocator.
+  std::size_t voxelBytes () const;
 
 private:
   struct Impl;
