@@ -259,29 +259,45 @@ private:
   void reduceResolution ();
   void halveResolution ();
   void cluster ();
-  // §3.3 second phase, in stages: collapse () runs them in order.
-  // Working state of the Garland–Heckbert edge collapse on the clustered mesh; a member, so
-  // that its buffers keep their memory from frame to frame.
+  /** \brief Working state of the Garland–Heckbert edge collapse on the clustered mesh; a member,
+    * so that its buffers keep their memory from frame to frame.
+    */
   struct CollapseState
   {
-    // A candidate collapse of edge (a, b); stale once a or b changed (stamps differ).
+    /** \brief A candidate collapse of edge (a, b); stale once a or b changed (stamps differ). */
     struct Entry
     {
-      double key;
-      std::int32_t a, b;
-      std::uint32_t sa, sb;
+      double key;        ///< collapse cost relative to its bound
+      std::int32_t a;    ///< first clustered vertex of the edge
+      std::int32_t b;    ///< second clustered vertex of the edge
+      std::uint32_t sa;  ///< stamp of a when the entry was made
+      std::uint32_t sb;  ///< stamp of b when the entry was made
+      /** \brief Order of the min-heap on key.
+        * \param[in] o the other entry
+        * \return whether this entry costs more than o
+        */
       bool operator> (const Entry& o) const { return key > o.key; }
     };
 
-    double facing = 1;  // +1 / −1: the orientation of the faces that look at the camera
-    std::vector<char> face_alive, vert_alive, locked;
-    std::vector<std::uint32_t> stamp;
-    std::vector<std::pair<std::int32_t, std::int32_t>> unique_edges;
-    std::vector<Entry> heap;           // a min-heap on key (std::push_heap / std::pop_heap)
-    std::vector<std::int32_t> na, nb;  // neighbour buffers of the link test
+    double facing = 1;  ///< +1 / −1: the orientation of the faces that look at the camera
+    std::vector<char> face_alive;  ///< per clustered face
+    std::vector<char> vert_alive;  ///< per clustered vertex
+    std::vector<char> locked;      ///< per clustered vertex: next to a non-manifold edge
+    std::vector<std::uint32_t> stamp;  ///< per clustered vertex, bumped when it moves
+    std::vector<std::pair<std::int32_t, std::int32_t>> unique_edges;  ///< (a, b), a < b
+    std::vector<Entry> heap;  ///< a min-heap on key (std::push_heap / std::pop_heap)
+    std::vector<std::int32_t> na;  ///< neighbour buffer of the link test (and of the edge scan)
+    std::vector<std::int32_t> nb;  ///< second neighbour buffer of the link test
 
+    /** \brief Whether a triangle in camera coordinates faces the camera.
+      * \param[in] a first corner
+      * \param[in] b second corner
+      * \param[in] c third corner
+      * \return true when it faces the camera (given the frame's orientation, facing)
+      */
     bool facesCamera (const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) const;
   };
+  // §3.3 second phase, in stages: collapse () runs them in order.
   void collapse ();
   void placeRepresentatives ();
   void dropBackfacingAndDuplicateFaces (const CollapseState& s);
