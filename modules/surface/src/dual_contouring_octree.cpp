@@ -1166,14 +1166,15 @@ columnOf (std::uint64_t edge_key)
   return edge_key >> 30;
 }
 
-// Merges one frame's sorted crossings in nine phases of root columns (bx mod 3, by mod 3). The
-// edges of column (bx, by) write only to roots of columns bx − 1 … bx + 1, by − 1 … by + 1, so
-// the columns of one phase run in parallel, and each record receives its writes in the same
-// order for any number of threads. Columns, not slabs: a wall across x or y spreads over many.
+// Merges the frame's sorted crossings (ft.crossings) in nine phases of root columns (bx mod 3,
+// by mod 3). The edges of column (bx, by) write only to roots of columns bx − 1 … bx + 1,
+// by − 1 … by + 1, so the columns of one phase run in parallel, and each record receives its
+// writes in the same order for any number of threads. Columns, not slabs: a wall across x or y
+// spreads over many.
 void
-mergeCrossings (DualContouringOctree::Impl& m, DualContouringOctree::Stats& st, const FrameTriangles& ft,
-                const std::vector<Crossing>& crossings)
+mergeCrossings (DualContouringOctree::Impl& m, DualContouringOctree::Stats& st, const FrameTriangles& ft)
 {
+  const std::vector<Crossing>& crossings = ft.crossings;
   std::array<std::vector<std::pair<std::size_t, std::size_t>>, 9> phases;
   for (std::size_t g = 0; g < crossings.size ();)
   {
@@ -1325,7 +1326,7 @@ DualContouringOctree::addFrameMesh (const pcl::FrameMesh& mesh)
   st.t_intersect_ms = msSince (t0);
 
   const auto t1 = Clock::now ();
-  mergeCrossings (*impl_, st, ft, ft.crossings);
+  mergeCrossings (*impl_, st, ft);
   st.t_merge_ms = msSince (t1);
   ++st.frames;
   const Impl& m = *impl_;
