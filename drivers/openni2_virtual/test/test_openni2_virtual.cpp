@@ -786,13 +786,17 @@ TEST (VirtualCamera, OniRecordingPlaysBackInPcl)
     ASSERT_EQ (recorder.attach (colour, true), openni::STATUS_OK);
     ASSERT_EQ (recorder.start (), openni::STATUS_OK);
     std::this_thread::sleep_for (1s);
-    recorder.stop ();
-    recorder.destroy ();
-    depth.stop ();
-    colour.stop ();
-    depth.destroy ();
-    colour.destroy ();
-    dev.close ();
+    // Streams stop before the recorder goes: OpenNI's ~Recorder locks its stream table and then
+    // each stream's recorder list, the opposite order to a frame being recorded (README).
+    withDeadline ("stopping the recording", 10s, [&] {
+      recorder.stop ();
+      depth.stop ();
+      colour.stop ();
+      recorder.destroy ();
+      depth.destroy ();
+      colour.destroy ();
+      dev.close ();
+    });
   }
   ASSERT_GT (fs::file_size (oni), 100000u);
 
