@@ -723,10 +723,12 @@ CoupledSimplification::CollapseState::facesCamera (const Eigen::Vector3d& a, con
 void
 CoupledSimplification::placeRepresentatives ()
 {
-  // The cluster quadric's minimiser, kept near the cluster.
-  const std::size_t nc = ccount_.size ();
+  // The cluster quadric's minimiser, kept near the cluster; clusters are independent.
+  const std::ptrdiff_t nc = static_cast<std::ptrdiff_t> (ccount_.size ());
   cpos_.resize (nc);
-  for (std::size_t c = 0; c < nc; ++c)
+  std::size_t fallbacks = 0;
+#pragma omp parallel for schedule (static) reduction (+ : fallbacks) if (nc > 4096)
+  for (std::ptrdiff_t c = 0; c < nc; ++c)
   {
     const Eigen::Vector3d mean = csum_[c] / ccount_[c];
     if (ccount_[c] == 1 || !(weightOf (cq_[c]) > 0))
@@ -740,15 +742,16 @@ CoupledSimplification::placeRepresentatives ()
     if (!x.allFinite ())
     {
       x = mean;
-      ++stats_.cluster_fallbacks;
+      ++fallbacks;
     }
     else if ((x.array () < lo.array ()).any () || (x.array () > hi.array ()).any ())
     {
       x = x.cwiseMax (lo).cwiseMin (hi);
-      ++stats_.cluster_fallbacks;
+      ++fallbacks;
     }
     cpos_[c] = x;
   }
+  stats_.cluster_fallbacks += fallbacks;
 }
 
 void
@@ -879,17 +882,48 @@ CoupledSimplification::collapseBound (std::int32_t a, std::int32_t b) const
   return 0.05 * (cscale_[a] + cscale_[b]);  // 0.1 × the mean cell size
 }
 
+double
+CoupledSimplification::collapseKey (std::int32_t a, std::int32_t b) const
+{
+  double err;
+  placeCollapse (a, b, err);
+  const double bnd = collapseBound (a, b);
+  return std::isinf (bnd) ? err : err / bnd;
+}
+
 void
 CoupledSimplification::pushCollapse (CollapseState& s, std::int32_t a, std::int32_t b) const
 {
   if (s.locked[a] || s.locked[b])
     return;
-  double err;
-  placeCollapse (a, b, err);
-  const double bnd = collapseBound (a, b);
-  const double key = std::isinf (bnd) ? err : err / bnd;
+  const double key = collapseKey (a, b);
+  if (key > s.key_limit)
+    return;
   s.heap.push_back ({key, a, b, s.stamp[a], s.stamp[b]});
   std::push_heap (s.heap.begin (), s.heap.end (), std::greater<CollapseState::Entry> ());
+}
+
+// The candidates of every edge of the clustered mesh: their keys are independent, so they are
+// computed in parallel, and the heap is built once (its order is total, see Entry).
+void
+CoupledSimplification::pushAllEdges (CollapseState& s) const
+{
+  const auto& edges = s.unique_edges;
+  s.heap.resize (edges.size ());
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t> (edges.size ());
+#pragma omp parallel for schedule (static) if (n > 4096)
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+  {
+    const std::int32_t a = edges[i].first, b = edges[i].second;
+    const bool open = !s.locked[a] && !s.locked[b];
+    s.heap[i] = {open ? collapseKey (a, b) : std::numeric_limits<double>::infinity (), a, b, s.stamp[a], s.stamp[b]};
+  }
+  s.heap.erase (std::remove_if (s.heap.begin (), s.heap.end (),
+                                [&s] (const CollapseState::Entry& e) {
+                                  return s.locked[e.a] || s.locked[e.b] || e.key > s.key_limit;
+                                }),
+                s.heap.end ());
+  std::make_heap (s.heap.begin (), s.heap.end (), std::greater<CollapseState::Entry> ());
 }
 
 bool
@@ -1008,8 +1042,9 @@ CoupledSimplification::collapseEdges (CollapseState& s, bool count_stop, bool er
 {
   std::size_t faces = ctris_.size ();
   const std::size_t target = static_cast<std::size_t> (std::ceil (target_ratio_ * faces));
-  for (const auto& e : s.unique_edges)
-    pushCollapse (s, e.first, e.second);
+  // With the error bound on, the first candidate over it ends the collapses.
+  s.key_limit = error_stop ? 1.0 : std::numeric_limits<double>::infinity ();
+  pushAllEdges (s);
 
   const double cos_turn = std::cos (max_turn_deg_ * M_PI / 180.0);
   while (!s.heap.empty ())

@@ -254,8 +254,10 @@ TEST (CoupledSimplification, MonotoneInTheErrorBound)
   }
 }
 
-// The connected cloud is built in row bands, one per thread: one and two threads give the same
-// frame mesh, vertex for vertex (the cluster quadrics are summed in the same order).
+// The connected cloud is built in row bands, one per thread, and the representatives and the
+// first collapse candidates are computed in parallel: one and two threads give the same frame
+// mesh, vertex for vertex (the cluster quadrics are summed in the same order, and the collapse
+// queue's order is total).
 TEST (CoupledSimplification, SameFrameMeshForAnyThreadCount)
 {
   pclx::testing::RayCaster caster (pclx::testing::makeTorus (0.5f, 0.2f));
@@ -274,7 +276,7 @@ TEST (CoupledSimplification, SameFrameMeshForAnyThreadCount)
     return m;
   };
   const FrameMesh one = run (1), two = run (2);
-  ASSERT_GT (one.triangles.size (), 1000u);
+  ASSERT_GT (one.vertices.size (), 4096u) << "too few clusters for the parallel stages to run";
   ASSERT_EQ (one.vertices.size (), two.vertices.size ());
   ASSERT_EQ (one.triangles.size (), two.triangles.size ());
   for (std::size_t i = 0; i < one.vertices.size (); ++i)

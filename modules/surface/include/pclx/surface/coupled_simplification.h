@@ -4,7 +4,9 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <limits>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -272,11 +274,16 @@ private:
       std::int32_t b;    ///< second clustered vertex of the edge
       std::uint32_t sa;  ///< stamp of a when the entry was made
       std::uint32_t sb;  ///< stamp of b when the entry was made
-      /** \brief Order of the min-heap on key.
+      /** \brief Order of the min-heap: on key, ties broken by the vertices and stamps, so the
+        * pop order does not depend on how the heap was filled.
         * \param[in] o the other entry
-        * \return whether this entry costs more than o
+        * \return whether this entry comes after o
         */
-      bool operator> (const Entry& o) const { return key > o.key; }
+      bool
+      operator> (const Entry& o) const
+      {
+        return std::tie (key, a, b, sa, sb) > std::tie (o.key, o.a, o.b, o.sa, o.sb);
+      }
     };
 
     double facing = 1;  ///< +1 / −1: the orientation of the faces that look at the camera
@@ -286,6 +293,9 @@ private:
     std::vector<std::uint32_t> stamp;  ///< per clustered vertex, bumped when it moves
     std::vector<std::pair<std::int32_t, std::int32_t>> unique_edges;  ///< (a, b), a < b
     std::vector<Entry> heap;  ///< a min-heap on key (std::push_heap / std::pop_heap)
+    /** \brief Entries whose key exceeds this are never collapsed (the error bound stops the
+      * collapses first), so they are not pushed. */
+    double key_limit = std::numeric_limits<double>::infinity ();
     std::vector<std::int32_t> na;  ///< neighbour buffer of the link test (and of the edge scan)
     std::vector<std::int32_t> nb;  ///< second neighbour buffer of the link test
 
@@ -305,7 +315,9 @@ private:
   void addBoundaryConstraint (std::int32_t a, std::int32_t b);
   Eigen::Vector3d placeCollapse (std::int32_t a, std::int32_t b, double& err) const;
   double collapseBound (std::int32_t a, std::int32_t b) const;
+  double collapseKey (std::int32_t a, std::int32_t b) const;
   void pushCollapse (CollapseState& s, std::int32_t a, std::int32_t b) const;
+  void pushAllEdges (CollapseState& s) const;
   bool linkConditionHolds (CollapseState& s, std::int32_t a, std::int32_t b) const;
   bool foldsOver (const CollapseState& s, std::int32_t a, std::int32_t b, const Eigen::Vector3d& x,
                   double cos_turn) const;
