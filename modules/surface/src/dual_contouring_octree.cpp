@@ -335,8 +335,9 @@ faceSegmentsJoined (unsigned inside, int f)
 
 }  // namespace
 
-// One frame's valid triangles and their lattice crossings. Kept between frames, so that its
-// buffers keep their capacity and pages instead of being allocated for every frame.
+// One frame's triangles that can be fused, with their unit normals (lattice frame), confidence
+// weights and lattice crossings. Kept between frames, so that its buffers keep their capacity
+// and pages instead of being allocated for every frame.
 struct DualContouringOctree::FrameTriangles
 {
   std::vector<Eigen::Vector3d> q;  // vertices in lattice units
@@ -775,8 +776,6 @@ DualContouringOctree::gridVertexState (const Eigen::Vector3i& v) const
   return s;
 }
 
-// The triangles of a frame that can be fused, with their unit normals (lattice frame) and
-// confidence weights.
 namespace {
 
 using FrameTriangles = DualContouringOctree::FrameTriangles;
