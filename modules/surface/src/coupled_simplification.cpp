@@ -120,6 +120,8 @@ constexpr double kMinAveragedNoise = 0.5;
 const double kSecondDifferencePerSigma = std::sqrt (12.0 / M_PI);
 // Most input pixels per side that block averaging merges (two levels of the pyramid).
 constexpr int kMaxAveragingScale = 4;
+// Fewest clusters or edges for which the collapse stage's independent loops run in parallel.
+constexpr std::ptrdiff_t kMinParallelItems = 4096;
 
 inline std::uint64_t triKey (int a, int b, int c)
 {
@@ -727,7 +729,7 @@ CoupledSimplification::placeRepresentatives ()
   const std::ptrdiff_t nc = static_cast<std::ptrdiff_t> (ccount_.size ());
   cpos_.resize (nc);
   std::size_t fallbacks = 0;
-#pragma omp parallel for schedule (static) reduction (+ : fallbacks) if (nc > 4096)
+#pragma omp parallel for schedule (static) reduction (+ : fallbacks) if (nc > kMinParallelItems)
   for (std::ptrdiff_t c = 0; c < nc; ++c)
   {
     const Eigen::Vector3d mean = csum_[c] / ccount_[c];
@@ -911,7 +913,7 @@ CoupledSimplification::pushAllEdges (CollapseState& s) const
   const auto& edges = s.unique_edges;
   s.heap.resize (edges.size ());
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t> (edges.size ());
-#pragma omp parallel for schedule (static) if (n > 4096)
+#pragma omp parallel for schedule (static) if (n > kMinParallelItems)
   for (std::ptrdiff_t i = 0; i < n; ++i)
   {
     const std::int32_t a = edges[i].first, b = edges[i].second;

@@ -276,7 +276,7 @@ TEST (CoupledSimplification, SameFrameMeshForAnyThreadCount)
     return m;
   };
   const FrameMesh one = run (1), two = run (2);
-  ASSERT_GT (one.vertices.size (), 4096u) << "too few clusters for the parallel stages to run";
+  ASSERT_GT (one.vertices.size (), 4096u) << "too few clusters for the parallel stages to run (kMinParallelItems)";
   ASSERT_EQ (one.vertices.size (), two.vertices.size ());
   ASSERT_EQ (one.triangles.size (), two.triangles.size ());
   for (std::size_t i = 0; i < one.vertices.size (); ++i)
