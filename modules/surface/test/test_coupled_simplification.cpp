@@ -277,12 +277,16 @@ TEST (CoupledSimplification, SameFrameMeshForAnyThreadCount)
   };
   const FrameMesh one = run (1), two = run (2);
   ASSERT_GT (one.vertices.size (), 4096u) << "too few clusters for the parallel stages to run (kMinParallelItems)";
+  ASSERT_GT (PK.width * PK.height / 4, 1 << 16)
+      << "too few pixels, once block-averaged, for the parallel per-pixel scans (kMinParallelSamples)";
   ASSERT_EQ (one.vertices.size (), two.vertices.size ());
   ASSERT_EQ (one.triangles.size (), two.triangles.size ());
   for (std::size_t i = 0; i < one.vertices.size (); ++i)
     ASSERT_EQ (one.vertices[i], two.vertices[i]) << "vertex " << i;
   for (std::size_t i = 0; i < one.triangles.size (); ++i)
     ASSERT_EQ (one.triangles[i], two.triangles[i]) << "triangle " << i;
+  for (std::size_t i = 0; i < one.quadrics.size (); ++i)
+    ASSERT_EQ (one.quadrics[i], two.quadrics[i]) << "quadric " << i;
 }
 
 TEST (CoupledSimplification, CellSizeInMetresSetsThePixelBlock)
