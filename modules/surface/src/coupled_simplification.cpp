@@ -96,8 +96,7 @@ Quadric transformQuadric (const Quadric& q, const Eigen::Matrix4d& inv)
 }
 
 // Sum and count of the samples below a limit, in four interleaved partial sums: one running sum
-// would make every addition wait for the one before. The order is fixed, so the result does not
-// depend on the thread count.
+// would make every addition wait for the one before.
 std::pair<double, std::size_t>
 sumBelow (const std::vector<float>& x, double limit)
 {
@@ -134,10 +133,6 @@ constexpr double kMinAveragedNoise = 0.5;
 const double kSecondDifferencePerSigma = std::sqrt (12.0 / M_PI);
 // Most input pixels per side that block averaging merges (two levels of the pyramid).
 constexpr int kMaxAveragingScale = 4;
-// Marks an empty slot in the spacing and noise scans (every sample is ≥ 0).
-constexpr float kNoSample = -1.f;
-// Fewest pixels (or sample slots) for which the per-pixel scans run in parallel.
-constexpr std::size_t kMinParallelSamples = std::size_t (1) << 16;
 // Fewest clusters or edges for which the collapse stage's independent loops run in parallel.
 constexpr std::ptrdiff_t kMinParallelItems = 4096;
 
@@ -443,7 +438,6 @@ CoupledSimplification::halveResolution ()
   const float nan = std::numeric_limits<float>::quiet_NaN ();
   half_pts_.resize (static_cast<std::size_t> (w2) * h2);
   half_range_.resize (half_pts_.size ());
-#pragma omp parallel for schedule (static) if (half_pts_.size () > kMinParallelSamples)
   for (int v2 = 0; v2 < h2; ++v2)
     for (int u2 = 0; u2 < w2; ++u2)
     {
@@ -484,9 +478,8 @@ CoupledSimplification::halveResolution ()
     fx_ *= 0.5;
 }
 
-// §3.3 first phase, the cells: B × B pixel blocks × geometric depth bins. Bands of block rows
-// are clustered in parallel, each numbering its clusters from 0; the bands are then numbered on
-// in order, which gives every cluster the number one serial scan would.
+// §3.3 first phase, the cells: B × B pixel blocks × geometric depth bins. A block's pixels
+// fall in few bins, so a small linear list per block replaces a hash map.
 void
 CoupledSimplification::cluster ()
 {
@@ -494,59 +487,16 @@ CoupledSimplification::cluster ()
   const int B = cellPixels ();
   stats_.cell_pixels = B * scale_;
   block_rows_ = B;
-  const float bin = static_cast<float> (bin_ratio_ > 0 ? bin_ratio_ : B / fx_eff);
+  const double r = bin_ratio_ > 0 ? bin_ratio_ : B / fx_eff;
   cid_.assign (pts_.size (), -1);
-  const int block_rows = (h_ + B - 1) / B;
-#ifdef _OPENMP
-  const int threads =
-      pts_.size () > kMinParallelSamples ? std::max (1, std::min (omp_get_max_threads (), block_rows)) : 1;
-#else
-  const int threads = 1;
-#endif
-  cluster_bands_.resize (threads);
-  swapClusters (cluster_bands_[0]);  // the first band fills the cluster arrays' buffers
-  std::vector<int> first_row (threads + 1);
-  for (int t = 0; t <= threads; ++t)
-    first_row[t] = std::min (h_, block_rows * t / threads * B);
-#pragma omp parallel for num_threads (threads) schedule (static, 1)
-  for (int t = 0; t < threads; ++t)
-    clusterBlockRows (cluster_bands_[t], first_row[t], first_row[t + 1], B, bin, fx_eff);
-  swapClusters (cluster_bands_[0]);
-  std::vector<std::int32_t> offset (threads, 0);
-  for (int t = 1; t < threads; ++t)
-  {
-    const ClusterBand& band = cluster_bands_[t];
-    offset[t] = static_cast<std::int32_t> (ccount_.size ());
-    csum_.insert (csum_.end (), band.sum.begin (), band.sum.end ());
-    cmin_.insert (cmin_.end (), band.lo.begin (), band.lo.end ());
-    cmax_.insert (cmax_.end (), band.hi.begin (), band.hi.end ());
-    ccount_.insert (ccount_.end (), band.count.begin (), band.count.end ());
-    cscale_.insert (cscale_.end (), band.scale.begin (), band.scale.end ());
-  }
-#pragma omp parallel for num_threads (threads) schedule (static, 1)
-  for (int t = 1; t < threads; ++t)
-  {
-    const std::size_t end = static_cast<std::size_t> (first_row[t + 1]) * w_;
-    for (std::size_t i = static_cast<std::size_t> (first_row[t]) * w_; i < end; ++i)
-      if (cid_[i] >= 0)
-        cid_[i] += offset[t];
-  }
-  cq_.assign (ccount_.size (), Quadric::Zero ());
-  stats_.clusters = ccount_.size ();
-}
-
-// The clusters of the blocks in rows [row_begin, row_end). Per block: its pixels sorted by range,
-// split where consecutive ranges jump by more than a bin (bin · range) or the cell grows deeper
-// than two bins. Fixed bin boundaries would cut a continuous (noisy) surface into slivers; gaps
-// are where the surfaces along the rays part. A block's pixels fall in few bins, so a small list
-// per block replaces a hash map.
-void
-CoupledSimplification::clusterBlockRows (ClusterBand& band, int row_begin, int row_end, int B, float bin,
-                                         double fx_eff)
-{
-  band.sum.clear (); band.lo.clear (); band.hi.clear (); band.count.clear (); band.scale.clear ();
-  auto& block = band.block;
-  for (int by = row_begin; by < row_end; by += B)
+  cq_.clear (); csum_.clear (); cmin_.clear (); cmax_.clear (); ccount_.clear (); cscale_.clear ();
+  // Per block: its pixels sorted by range, split where consecutive ranges jump by more than a
+  // bin (r · range) or the cell grows deeper than two bins. Fixed bin boundaries would cut a
+  // continuous (noisy) surface into slivers; gaps are where the surfaces along the rays part.
+  std::vector<std::pair<float, std::int32_t>> block;
+  block.reserve (static_cast<std::size_t> (B) * B);
+  const float rf = static_cast<float> (r);
+  for (int by = 0; by < h_; by += B)
     for (int bx = 0; bx < w_; bx += B)
     {
       block.clear ();
@@ -563,42 +513,34 @@ CoupledSimplification::clusterBlockRows (ClusterBand& band, int row_begin, int r
       float lo = block[0].first, hi = lo;
       for (const auto& e : block)
         lo = std::min (lo, e.first), hi = std::max (hi, e.first);
-      if (hi - lo > bin * lo)
+      if (hi - lo > rf * lo)
         std::sort (block.begin (), block.end ());
       std::int32_t c = -1;
       float start = 0, prev = 0;
       for (const auto& e : block)
       {
         const float rr = e.first;
-        const Eigen::Vector3f& p = pts_[e.second];
-        if (c < 0 || rr - prev > bin * rr || rr - start > 2 * bin * rr)
+        if (c < 0 || rr - prev > rf * rr || rr - start > 2 * rf * rr)
         {
-          c = static_cast<std::int32_t> (band.count.size ());
+          c = static_cast<std::int32_t> (ccount_.size ());
           start = rr;
-          band.sum.emplace_back (Eigen::Vector3d::Zero ());
-          band.lo.push_back (p);
-          band.hi.push_back (p);
-          band.count.push_back (0);
-          band.scale.push_back (static_cast<float> (B * rr / fx_eff));
+          const Eigen::Vector3f& p = pts_[e.second];
+          csum_.emplace_back (Eigen::Vector3d::Zero ());
+          cmin_.push_back (p); cmax_.push_back (p);
+          ccount_.push_back (0);
+          cscale_.push_back (static_cast<float> (B * rr / fx_eff));
         }
         prev = rr;
-        band.sum[c] += p.cast<double> ();
-        band.lo[c] = band.lo[c].cwiseMin (p);
-        band.hi[c] = band.hi[c].cwiseMax (p);
-        ++band.count[c];
+        const Eigen::Vector3f& p = pts_[e.second];
+        csum_[c] += p.cast<double> ();
+        cmin_[c] = cmin_[c].cwiseMin (p);
+        cmax_[c] = cmax_[c].cwiseMax (p);
+        ++ccount_[c];
         cid_[e.second] = c;
       }
     }
-}
-
-void
-CoupledSimplification::swapClusters (ClusterBand& band)
-{
-  csum_.swap (band.sum);
-  cmin_.swap (band.lo);
-  cmax_.swap (band.hi);
-  ccount_.swap (band.count);
-  cscale_.swap (band.scale);
+  cq_.assign (ccount_.size (), Quadric::Zero ());
+  stats_.clusters = ccount_.size ();
 }
 
 // Trimmed mean of |p − q| / range over horizontal and vertical neighbours (§4.2's mean
@@ -607,42 +549,25 @@ void
 CoupledSimplification::measureSpacing ()
 {
   const int W = w_, H = h_;
-  // Every other row is plenty for a mean. Each sampled pixel has a slot for its right and one for
-  // its lower neighbour, filled in parallel and compacted in scan order: the samples, and so the
-  // mean, do not depend on the thread count.
-  const int rows = (H + 1) / 2;
+  // Every other row is plenty for a mean.
   std::vector<float>& r = ratios_;
-  r.resize (static_cast<std::size_t> (rows) * 2 * W);
-  const auto ratio = [this] (std::size_t a, std::size_t b) {
-    const float ra = range_[a], rb = range_[b];
-    return ra > 0 && rb > 0 ? (pts_[a] - pts_[b]).norm () / std::min (ra, rb) : kNoSample;
-  };
-#pragma omp parallel for schedule (static) if (r.size () > kMinParallelSamples)
-  for (int k = 0; k < rows; ++k)
-  {
-    const int v = 2 * k;
-    const std::size_t row = static_cast<std::size_t> (v) * W;
-    float* out = r.data () + static_cast<std::size_t> (k) * 2 * W;
-    for (int u = 0; u + 1 < W; ++u)
-      out[2 * u] = ratio (row + u, row + u + 1);
-    if (W > 0)
-      out[2 * (W - 1)] = kNoSample;
-    if (v + 1 < H)
-      for (int u = 0; u < W; ++u)
-        out[2 * u + 1] = ratio (row + u, row + u + W);
-    else
-      for (int u = 0; u < W; ++u)
-        out[2 * u + 1] = kNoSample;
-  }
-  r.erase (std::remove (r.begin (), r.end (), kNoSample), r.end ());
+  r.clear ();
+  for (int v = 0; v < H; v += 2)
+    for (int u = 0; u < W; ++u)
+    {
+      const std::size_t i = static_cast<std::size_t> (v) * W + u;
+      if (!(range_[i] > 0))
+        continue;
+      if (u + 1 < W && range_[i + 1] > 0)
+        r.push_back ((pts_[i] - pts_[i + 1]).norm () / std::min (range_[i], range_[i + 1]));
+      if (v + 1 < H && range_[i + W] > 0)
+        r.push_back ((pts_[i] - pts_[i + W]).norm () / std::min (range_[i], range_[i + W]));
+    }
   stats_.edge_ratio_mean = trimmedMean (r);
-  // The median range, over every seventh pixel.
-  r.resize ((range_.size () + 6) / 7);
-  const std::ptrdiff_t picks = static_cast<std::ptrdiff_t> (r.size ());
-#pragma omp parallel for schedule (static) if (range_.size () > kMinParallelSamples)
-  for (std::ptrdiff_t k = 0; k < picks; ++k)
-    r[k] = range_[7 * k] > 0 ? range_[7 * k] : kNoSample;
-  r.erase (std::remove (r.begin (), r.end (), kNoSample), r.end ());
+  r.clear ();
+  for (std::size_t i = 0; i < range_.size (); i += 7)
+    if (range_[i] > 0)
+      r.push_back (range_[i]);
   if (r.empty ())
     for (float x : range_)
       if (x > 0) r.push_back (x);
@@ -656,28 +581,15 @@ void
 CoupledSimplification::measureNoise ()
 {
   const int W = w_, H = h_;
-  // Every other row, one slot per pixel, compacted in scan order as in measureSpacing ().
-  const int rows = (H + 1) / 2;
   std::vector<float>& r = ratios_;
-  r.resize (static_cast<std::size_t> (rows) * W);
-#pragma omp parallel for schedule (static) if (r.size () > kMinParallelSamples)
-  for (int k = 0; k < rows; ++k)
-  {
-    const std::size_t row = static_cast<std::size_t> (2 * k) * W;
-    float* out = r.data () + static_cast<std::size_t> (k) * W;
-    if (W > 0)
-      out[0] = kNoSample;
+  r.clear ();
+  for (int v = 0; v < H; v += 2)
     for (int u = 1; u + 1 < W; ++u)
     {
-      const std::size_t i = row + u;
-      out[u] = range_[i - 1] > 0 && range_[i] > 0 && range_[i + 1] > 0
-                   ? std::abs (range_[i - 1] - 2 * range_[i] + range_[i + 1]) / range_[i]
-                   : kNoSample;
+      const std::size_t i = static_cast<std::size_t> (v) * W + u;
+      if (range_[i - 1] > 0 && range_[i] > 0 && range_[i + 1] > 0)
+        r.push_back (std::abs (range_[i - 1] - 2 * range_[i] + range_[i + 1]) / range_[i]);
     }
-    if (W > 1)
-      out[W - 1] = kNoSample;
-  }
-  r.erase (std::remove (r.begin (), r.end (), kNoSample), r.end ());
   stats_.range_noise = trimmedMean (r) * pixelsPerRadian ();
 }
 
@@ -907,60 +819,31 @@ CoupledSimplification::buildCollapseConnectivity (CollapseState& s)
   s.stamp.assign (nc, 0);
   cb_.assign (nc, Quadric::Zero ());
 
-  findEdges (s);
-}
-
-// The edges (a, b), a < b, in (a, b) order with their face counts, from each vertex's faces.
-// Ranges of vertices are scanned in parallel and joined in order; the boundary and non-manifold
-// edges are applied afterwards in that order, so the boundary quadrics sum as in a serial scan.
-void
-CoupledSimplification::findEdges (CollapseState& s)
-{
-  const std::ptrdiff_t nc = static_cast<std::ptrdiff_t> (ccount_.size ());
-#ifdef _OPENMP
-  const int threads = nc > kMinParallelItems ? std::max (1, omp_get_max_threads ()) : 1;
-#else
-  const int threads = 1;
-#endif
-  s.scans.resize (threads);
-  s.scans[0].edges.swap (s.unique_edges);  // the first range fills the result's buffer
-#pragma omp parallel for num_threads (threads) schedule (static, 1)
-  for (int t = 0; t < threads; ++t)
+  // The edges (a, b), a < b, in (a, b) order with their face counts, from each vertex's faces.
+  auto& ends = s.na;
+  for (std::size_t v = 0; v < nc; ++v)
   {
-    CollapseState::EdgeScan& scan = s.scans[t];
-    auto& ends = scan.ends;
-    scan.edges.clear ();
-    scan.special.clear ();
-    for (std::ptrdiff_t v = nc * t / threads; v < nc * (t + 1) / threads; ++v)
+    const std::int32_t a = static_cast<std::int32_t> (v);
+    ends.clear ();
+    for (std::int32_t f : vf[a])
+      for (int k = 0; k < 3; ++k)
+        if (ctris_[f][k] > a)
+          ends.push_back (ctris_[f][k]);
+    std::sort (ends.begin (), ends.end ());
+    for (std::size_t k = 0; k < ends.size ();)
     {
-      const std::int32_t a = static_cast<std::int32_t> (v);
-      ends.clear ();
-      for (std::int32_t f : vf_[a])
-        for (int k = 0; k < 3; ++k)
-          if (ctris_[f][k] > a)
-            ends.push_back (ctris_[f][k]);
-      std::sort (ends.begin (), ends.end ());
-      for (std::size_t k = 0; k < ends.size ();)
-      {
-        std::size_t j = k;
-        while (j < ends.size () && ends[j] == ends[k]) ++j;
-        const auto count = static_cast<std::int32_t> (j - k);
-        if (count != 2)
-          scan.special.push_back ({a, ends[k], count});
-        scan.edges.emplace_back (a, ends[k]);
-        k = j;
-      }
-    }
-  }
-  s.unique_edges.swap (s.scans[0].edges);
-  for (int t = 1; t < threads; ++t)
-    s.unique_edges.insert (s.unique_edges.end (), s.scans[t].edges.begin (), s.scans[t].edges.end ());
-  for (const CollapseState::EdgeScan& scan : s.scans)
-    for (const auto& [a, b, count] : scan.special)
+      std::size_t j = k;
+      while (j < ends.size () && ends[j] == ends[k]) ++j;
+      const std::int32_t b = ends[k];
+      const std::size_t count = j - k;
       if (count > 2)
         s.locked[a] = s.locked[b] = 1;  // non-manifold: leave as it is
-      else
+      else if (count == 1)
         addBoundaryConstraint (a, b);
+      s.unique_edges.emplace_back (a, b);
+      k = j;
+    }
+  }
 }
 
 void

@@ -3,7 +3,6 @@
 
 #include <Eigen/Core>
 
-#include <array>
 #include <cstdint>
 #include <limits>
 #include <string>
@@ -261,17 +260,6 @@ private:
   int cellPixels () const;
   void reduceResolution ();
   void halveResolution ();
-  // One band of block rows in cluster (): its clusters, numbered from 0, as the cluster arrays.
-  struct ClusterBand
-  {
-    std::vector<Eigen::Vector3d> sum;
-    std::vector<Eigen::Vector3f> lo, hi;
-    std::vector<std::int32_t> count;
-    std::vector<float> scale;
-    std::vector<std::pair<float, std::int32_t>> block;  // one block's pixels by range
-  };
-  void clusterBlockRows (ClusterBand& band, int row_begin, int row_end, int B, float bin, double fx_eff);
-  void swapClusters (ClusterBand& band);
   void cluster ();
   /** \brief Working state of the Garland–Heckbert edge collapse on the clustered mesh; a member,
     * so that its buffers keep their memory from frame to frame.
@@ -308,19 +296,8 @@ private:
     /** \brief Entries whose key exceeds this are never collapsed (the error bound stops the
       * collapses first), so they are not pushed. */
     double key_limit = std::numeric_limits<double>::infinity ();
-    std::vector<std::int32_t> na;  ///< neighbour buffer of the link test
+    std::vector<std::int32_t> na;  ///< neighbour buffer of the link test (and of the edge scan)
     std::vector<std::int32_t> nb;  ///< second neighbour buffer of the link test
-
-    /** \brief One thread's share of the edge scan: a range of vertices. */
-    struct EdgeScan
-    {
-      std::vector<std::pair<std::int32_t, std::int32_t>> edges;  ///< (a, b), a < b, in order
-      /** \brief The edges with one face (boundary) or more than two (non-manifold), in order,
-        * each with its face count. */
-      std::vector<std::array<std::int32_t, 3>> special;
-      std::vector<std::int32_t> ends;  ///< neighbour buffer
-    };
-    std::vector<EdgeScan> scans;  ///< per thread of the edge scan
 
     /** \brief Whether a triangle in camera coordinates faces the camera.
       * \param[in] a first corner
@@ -335,7 +312,6 @@ private:
   void placeRepresentatives ();
   void dropBackfacingAndDuplicateFaces (const CollapseState& s);
   void buildCollapseConnectivity (CollapseState& s);
-  void findEdges (CollapseState& s);
   void addBoundaryConstraint (std::int32_t a, std::int32_t b);
   Eigen::Vector3d placeCollapse (std::int32_t a, std::int32_t b, double& err) const;
   double collapseBound (std::int32_t a, std::int32_t b) const;
@@ -374,7 +350,6 @@ private:
   std::vector<Eigen::Vector3f> cmin_, cmax_;
   std::vector<std::int32_t> ccount_;
   std::vector<float> cscale_;         // frustum cell size at the cluster (m)
-  std::vector<ClusterBand> cluster_bands_;
   std::vector<float> ratios_;
   std::vector<std::vector<std::int32_t>> vf_;  // clustered vertex → faces
   std::vector<char> face_keep_;
