@@ -156,7 +156,7 @@ main (int argc, char** argv)
       cs.setFrustumCellPixels (cell);
     else
       cs.setFrustumCellSize (cell_size);
-    std::vector<double> back, conn, clus, coll, outp, total, dense_total, ofm, cpu, ofm_cpu;
+    std::vector<double> back, spac, conn, clus, coll, outp, total, dense_total, ofm, cpu, ofm_cpu;
     double tris_in = 0, tris_out = 0, clustered = 0, block = 0;
     for (const auto& f : frames)
     {
@@ -166,8 +166,9 @@ main (int argc, char** argv)
         continue;
       cpu.push_back (threadCpuMs () - c0);
       const auto& s = cs.getStats ();
-      back.push_back (s.t_backproject); conn.push_back (s.t_connect); clus.push_back (s.t_cluster);
-      coll.push_back (s.t_collapse); outp.push_back (s.t_output); total.push_back (s.t_total);
+      back.push_back (s.t_backproject); spac.push_back (s.t_spacing); conn.push_back (s.t_connect);
+      clus.push_back (s.t_cluster); coll.push_back (s.t_collapse); outp.push_back (s.t_output);
+      total.push_back (s.t_total);
       block += s.cell_pixels;
       tris_in += s.dense_triangles; clustered += s.clustered_triangles; tris_out += s.triangles;
       // §3.2 alone (dense connected cloud with quadrics) and PCL's OrganizedFastMesh.
@@ -209,6 +210,7 @@ main (int argc, char** argv)
     row ("idc_frontend_total_cpu", cpu, {});
     row ("pcl_organized_fast_mesh_cpu", ofm_cpu, {});
     row ("idc_frontend_backproject", back, {});
+    row ("idc_frontend_spacing_noise", spac, {});
     row ("idc_frontend_cluster", clus, {});
     row ("idc_frontend_connect_quadrics", conn, {});
     row ("idc_frontend_collapse", coll, {});

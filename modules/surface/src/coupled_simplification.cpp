@@ -549,9 +549,11 @@ void
 CoupledSimplification::measureSpacing ()
 {
   const int W = w_, H = h_;
-  // Every other row is plenty for a mean.
+  // Every other row is plenty for a mean. The samples are written by index into a buffer sized
+  // for all of them (push_back was a call per sample).
   std::vector<float>& r = ratios_;
-  r.clear ();
+  r.resize (static_cast<std::size_t> (W) * (H + 1));
+  std::size_t n = 0;
   for (int v = 0; v < H; v += 2)
     for (int u = 0; u < W; ++u)
     {
@@ -559,15 +561,18 @@ CoupledSimplification::measureSpacing ()
       if (!(range_[i] > 0))
         continue;
       if (u + 1 < W && range_[i + 1] > 0)
-        r.push_back ((pts_[i] - pts_[i + 1]).norm () / std::min (range_[i], range_[i + 1]));
+        r[n++] = (pts_[i] - pts_[i + 1]).norm () / std::min (range_[i], range_[i + 1]);
       if (v + 1 < H && range_[i + W] > 0)
-        r.push_back ((pts_[i] - pts_[i + W]).norm () / std::min (range_[i], range_[i + W]));
+        r[n++] = (pts_[i] - pts_[i + W]).norm () / std::min (range_[i], range_[i + W]);
     }
+  r.resize (n);
   stats_.edge_ratio_mean = trimmedMean (r);
-  r.clear ();
+  n = 0;
+  r.resize (range_.size () / 7 + 1);
   for (std::size_t i = 0; i < range_.size (); i += 7)
     if (range_[i] > 0)
-      r.push_back (range_[i]);
+      r[n++] = range_[i];
+  r.resize (n);
   if (r.empty ())
     for (float x : range_)
       if (x > 0) r.push_back (x);
@@ -581,15 +586,18 @@ void
 CoupledSimplification::measureNoise ()
 {
   const int W = w_, H = h_;
+  // Written by index, as in measureSpacing ().
   std::vector<float>& r = ratios_;
-  r.clear ();
+  r.resize (static_cast<std::size_t> (W) * (H + 1) / 2);
+  std::size_t n = 0;
   for (int v = 0; v < H; v += 2)
     for (int u = 1; u + 1 < W; ++u)
     {
       const std::size_t i = static_cast<std::size_t> (v) * W + u;
       if (range_[i - 1] > 0 && range_[i] > 0 && range_[i + 1] > 0)
-        r.push_back (std::abs (range_[i - 1] - 2 * range_[i] + range_[i + 1]) / range_[i]);
+        r[n++] = std::abs (range_[i - 1] - 2 * range_[i] + range_[i + 1]) / range_[i];
     }
+  r.resize (n);
   stats_.range_noise = trimmedMean (r) * pixelsPerRadian ();
 }
 
