@@ -549,8 +549,8 @@ void
 CoupledSimplification::measureSpacing ()
 {
   const int W = w_, H = h_;
-  // Every other row is plenty for a mean. The samples are written by index into a buffer sized
-  // for all of them (push_back was a call per sample).
+  // Every other row is plenty for a mean. The samples go by index into a buffer sized for all of
+  // them: push_back would cost a function call per sample.
   std::vector<float>& r = ratios_;
   r.resize (static_cast<std::size_t> (W) * (H + 1));
   std::size_t n = 0;
