@@ -95,33 +95,33 @@ Quadric transformQuadric (const Quadric& q, const Eigen::Matrix4d& inv)
   return out;
 }
 
-// Sum and count of the samples below a limit, in four interleaved partial sums: one running sum
-// would make every addition wait for the one before.
+// Sum and count of the n samples at x below a limit, in four interleaved partial sums: one
+// running sum would make every addition wait for the one before.
 std::pair<double, std::size_t>
-sumBelow (const std::vector<float>& x, double limit)
+sumBelow (const float* x, std::size_t n, double limit)
 {
   double s[4] = {0, 0, 0, 0};
   std::size_t k[4] = {0, 0, 0, 0};
   std::size_t i = 0;
-  for (; i + 4 <= x.size (); i += 4)
+  for (; i + 4 <= n; i += 4)
     for (int j = 0; j < 4; ++j)
       if (x[i + j] < limit) { s[j] += x[i + j]; ++k[j]; }
-  for (; i < x.size (); ++i)
+  for (; i < n; ++i)
     if (x[i] < limit) { s[0] += x[i]; ++k[0]; }
   return {(s[0] + s[1]) + (s[2] + s[3]), k[0] + k[1] + k[2] + k[3]};
 }
 
-// Mean of the samples after three trims at 4 × the mean: depth jumps inflate a plain mean, the
-// trims leave the surface's own spread.
+// Mean of the n samples at x after three trims at 4 × the mean: depth jumps inflate a plain
+// mean, the trims leave the surface's own spread.
 double
-trimmedMean (const std::vector<float>& x)
+trimmedMean (const float* x, std::size_t n)
 {
-  if (x.empty ())
+  if (n == 0)
     return 0;
-  double mean = sumBelow (x, std::numeric_limits<double>::infinity ()).first / x.size ();
+  double mean = sumBelow (x, n, std::numeric_limits<double>::infinity ()).first / n;
   for (int it = 0; it < 3 && mean > 0; ++it)
   {
-    const auto [s, k] = sumBelow (x, 4 * mean);
+    const auto [s, k] = sumBelow (x, n, 4 * mean);
     mean = k ? s / k : mean;
   }
   return mean;
@@ -549,10 +549,9 @@ void
 CoupledSimplification::measureSpacing ()
 {
   const int W = w_, H = h_;
-  // Every other row is plenty for a mean. The samples go by index into a buffer sized for all of
-  // them: push_back would cost a function call per sample.
-  std::vector<float>& r = ratios_;
-  r.resize (static_cast<std::size_t> (W) * (H + 1));
+  // Every other row is plenty for a mean. The samples go by index into a buffer that holds
+  // them all (push_back would cost a function call per sample).
+  float* r = sampleBuffer (static_cast<std::size_t> (W) * (H + 1));
   std::size_t n = 0;
   for (int v = 0; v < H; v += 2)
     for (int u = 0; u < W; ++u)
@@ -565,19 +564,18 @@ CoupledSimplification::measureSpacing ()
       if (v + 1 < H && range_[i + W] > 0)
         r[n++] = (pts_[i] - pts_[i + W]).norm () / std::min (range_[i], range_[i + W]);
     }
-  r.resize (n);
-  stats_.edge_ratio_mean = trimmedMean (r);
+  stats_.edge_ratio_mean = trimmedMean (r, n);
+  // The median range over every seventh pixel, or over all when none of those is valid (the
+  // buffer holds at least one sample per pixel).
   n = 0;
-  r.resize (range_.size () / 7 + 1);
   for (std::size_t i = 0; i < range_.size (); i += 7)
     if (range_[i] > 0)
       r[n++] = range_[i];
-  r.resize (n);
-  if (r.empty ())
+  if (n == 0)
     for (float x : range_)
-      if (x > 0) r.push_back (x);
-  std::nth_element (r.begin (), r.begin () + r.size () / 2, r.end ());
-  stats_.median_range = r.empty () ? 0 : r[r.size () / 2];
+      if (x > 0) r[n++] = x;
+  std::nth_element (r, r + n / 2, r + n);
+  stats_.median_range = n == 0 ? 0 : r[n / 2];
 }
 
 // Trimmed mean of the second difference of range along rows, in pixel spacings: a smooth
@@ -587,8 +585,7 @@ CoupledSimplification::measureNoise ()
 {
   const int W = w_, H = h_;
   // Written by index, as in measureSpacing ().
-  std::vector<float>& r = ratios_;
-  r.resize (static_cast<std::size_t> (W) * (H + 1) / 2);
+  float* r = sampleBuffer (static_cast<std::size_t> (W) * (H + 1) / 2);
   std::size_t n = 0;
   for (int v = 0; v < H; v += 2)
     for (int u = 1; u + 1 < W; ++u)
@@ -597,8 +594,17 @@ CoupledSimplification::measureNoise ()
       if (range_[i - 1] > 0 && range_[i] > 0 && range_[i + 1] > 0)
         r[n++] = std::abs (range_[i - 1] - 2 * range_[i] + range_[i + 1]) / range_[i];
     }
-  r.resize (n);
-  stats_.range_noise = trimmedMean (r) * pixelsPerRadian ();
+  stats_.range_noise = trimmedMean (r, n) * pixelsPerRadian ();
+}
+
+// The sample buffer of measureSpacing () and measureNoise (), at least n long. It only grows,
+// so a frame does not clear what it is about to overwrite.
+float*
+CoupledSimplification::sampleBuffer (std::size_t n)
+{
+  if (ratios_.size () < n)
+    ratios_.resize (n);
+  return ratios_.data ();
 }
 
 // §3.2: 4-neighbour triangles under the edge threshold; each face's area-weighted plane

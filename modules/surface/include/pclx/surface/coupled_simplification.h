@@ -255,6 +255,7 @@ private:
   bool run (const Eigen::Matrix4d& pose, bool dense_only, pcl::FrameMesh& out);
   void measureSpacing ();
   void measureNoise ();
+  float* sampleBuffer (std::size_t n);
   void connect (bool dense_only);
   double pixelsPerRadian () const;
   int cellPixels () const;
@@ -350,7 +351,7 @@ private:
   std::vector<Eigen::Vector3f> cmin_, cmax_;
   std::vector<std::int32_t> ccount_;
   std::vector<float> cscale_;         // frustum cell size at the cluster (m)
-  std::vector<float> ratios_;
+  std::vector<float> ratios_;         // spacing and noise samples (sampleBuffer ())
   std::vector<std::vector<std::int32_t>> vf_;  // clustered vertex → faces
   std::vector<char> face_keep_;
   std::vector<std::pair<std::uint64_t, std::int32_t>> tri_keys_;
