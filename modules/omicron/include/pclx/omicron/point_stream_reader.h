@@ -9,6 +9,7 @@
 #include <exception>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace pcl {
@@ -167,13 +168,17 @@ PointStreamReader::read (std::size_t max_points, pcl::PointCloud<PointT>& out)
     if (file_ && binary_ && !compressed_ && !big_endian_ && x_.type == F32 && y_.type == F32 && z_.type == F32 &&
         max_points > 0)
     {
-      out.clear ();
+      // A PointXYZ block of the last block's size is reused as it is: the read overwrites every
+      // field it has. Other types are built afresh, so no field keeps an earlier value.
+      if constexpr (!std::is_same_v<PointT, pcl::PointXYZ>)
+        out.clear ();
       try
       {
         out.resize (static_cast<std::size_t> (std::min<std::uint64_t> (max_points, declared_ - consumed_)));
       }
       catch (const std::exception& e)  // a declared count far beyond memory
       {
+        out.clear ();
         return error ("read", path_ + ": " + e.what ());
       }
       std::size_t n = 0;

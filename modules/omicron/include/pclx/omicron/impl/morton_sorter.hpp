@@ -138,6 +138,7 @@ pclx::omicron::detail::MortonSorter<PointT>::countPerBlock (const PointT* points
   const std::size_t nb = std::size_t (1) << bucket_bits_;
   std::vector<std::size_t> hist (blocks * nb, 0);
   std::vector<std::size_t> bad (blocks, 0), outside (blocks, 0);
+  pclx::omicron::detail::reservePrefaulted (bucket_of_, n);
   bucket_of_.assign (n, 0);
   pool.parallelFor (blocks, [&] (std::size_t b, int) {
     std::size_t* h = hist.data () + b * nb;
@@ -226,9 +227,9 @@ pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& 
   std::vector<std::size_t> bucket_start;
   std::vector<std::size_t> offsets = startPass (cloud.data (), n, pool, blocks, bucket_start);
   const std::size_t nb = bucket_start.size () - 1, sum = bucket_start.back ();
-  // Fresh storage advised for huge pages before resize () first touches it.
+  // Fresh storage, mapped in one call (and advised for huge pages) before resize () writes it.
   PointVector ().swap (sorted);
-  pclx::omicron::detail::reserveHuge (sorted, sum);
+  pclx::omicron::detail::reservePrefaulted (sorted, sum);
   sorted.resize (sum);
   pool.parallelFor (blocks, [&] (std::size_t b, int) {
     std::size_t* h = offsets.data () + b * nb;
@@ -376,7 +377,7 @@ pclx::omicron::detail::MortonSorter<PointT>::sortChunk (std::size_t k, PointVect
       s.points.resize (largest_bucket);
     }
   if (codes.capacity () < n)
-    pclx::omicron::detail::reserveHuge (codes, largest_chunk);
+    pclx::omicron::detail::reservePrefaulted (codes, largest_chunk);
   codes.resize (n);
   // Chunk boundaries are bucket starts, so the chunk is its buckets in order.
   const std::size_t first =

@@ -321,7 +321,8 @@ pcl::ObliqueCutOctree<PointT>::readFileSorted (pclx::omicron::detail::MortonSort
   if (!reader.open (input_file_))
     return fail (reader.getLastError ());
   // Pass 1: the points in file order into sorted_ (storage for the declared count, advised for
-  // huge pages before the first touch), their bounds folded in as the blocks arrive.
+  // huge pages; each block's destination is mapped before it is copied in), their bounds
+  // folded in as the blocks arrive.
   Eigen::Array3f lo = Eigen::Array3f::Constant (std::numeric_limits<float>::max ());
   Eigen::Array3f hi = Eigen::Array3f::Constant (-std::numeric_limits<float>::max ());
   typename PointCloud::VectorType ().swap (sorted_);
@@ -336,6 +337,8 @@ pcl::ObliqueCutOctree<PointT>::readFileSorted (pclx::omicron::detail::MortonSort
     }
     lo = l;
     hi = h;
+    if (sorted_.size () + block.size () <= sorted_.capacity ())
+      pclx::omicron::detail::prefault (sorted_.data () + sorted_.size (), block.size () * sizeof (PointT));
     sorted_.insert (sorted_.end (), block.begin (), block.end ());
   });
   if (!read)

@@ -15,6 +15,7 @@
 //   collectBudgetedStatistics  per-level counts of the spilled and the retained nodes
 #include <pclx/omicron/detail/block_reader.h>
 #include <pclx/omicron/detail/budget_plan.h>
+#include <pclx/omicron/detail/huge_pages.h>
 #include <pclx/omicron/impl/potree_writer.hpp>
 #include <pclx/omicron/oblique_cut_octree.h>
 #include <pclx/omicron/point_stream_reader.h>
@@ -619,6 +620,7 @@ pcl::ObliqueCutOctree<PointT>::fixChunks (Budgeted& b)
   for (std::size_t k = 0; k < b.nchunks; ++k)
   {
     const std::size_t n = b.plan.chunk_points[k];
+    pclx::omicron::detail::reservePrefaulted (chunk.points, n);
     chunk.resize (n);
     b.ledger.set (Ledger::kChunkInput, chunk.points.capacity () * pb);
     if (!b.chunk_file.read (chunk.data (), n * pb, offset))
