@@ -207,6 +207,8 @@ GrowthRun<PointT>::configureOctree ()
   octree_.setWorklistSize (opt_.worklist);
   octree_.setSortChunks (opt_.chunks);
   octree_.setThreads (threads_);
+  // Headless without an orbit nothing evaluates the front, so the build does not feed it.
+  octree_.setFrontDuringBuild (frames_run_);
   octree_.setProjectionThreshold (opt_.threshold);
   octree_.setLeafSplatRadius (opt_.leaf_radius);
   // Default: one factor 1/sqrt(ratio) per level, the growth of the point spacing on a surface

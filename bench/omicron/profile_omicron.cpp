@@ -1,7 +1,8 @@
 // profile_omicron: stage breakdown of one in-memory ObliqueCutOctree build.
-//   profile_omicron FILE.pcd [--file] [--threads 2] [--repeat 3] [--potree DIR]
+//   profile_omicron FILE.pcd [--file] [--threads 2] [--repeat 3] [--potree DIR] [--no-front]
 // Loads FILE with pcl::io::loadPCDFile (or, with --file, builds from the file path) and prints
 // the build's stage times (Statistics) and the minor page faults of the build (getrusage).
+// --no-front builds without the front (setFrontDuringBuild (false)).
 // With --potree, each build is also written to DIR as Potree 2.0 (PotreeWriter::write); the
 // last line is the process's VmHWM (the whole process: run it with --repeat 1 for one build).
 #include <pclx/omicron/oblique_cut_octree.h>
@@ -37,12 +38,12 @@ int main (int argc, char** argv)
 {
   if (argc < 2)
   {
-    std::fprintf (stderr, "usage: profile_omicron FILE.pcd [--file] [--threads N] [--repeat N] [--potree DIR]\n");
+    std::fprintf (stderr, "usage: profile_omicron FILE.pcd [--file] [--threads N] [--repeat N] [--potree DIR] [--no-front]\n");
     return 2;
   }
   const std::string path = argv[1];
   std::string potree_dir;
-  bool from_file = false;
+  bool from_file = false, front = true;
   int threads = 2, repeat = 3;
   for (int i = 2; i < argc; ++i)
   {
@@ -54,6 +55,8 @@ int main (int argc, char** argv)
       repeat = std::atoi (argv[++i]);
     else if (!std::strcmp (argv[i], "--potree") && i + 1 < argc)
       potree_dir = argv[++i];
+    else if (!std::strcmp (argv[i], "--no-front"))
+      front = false;
   }
   std::printf ("VmRSS at start %.1f MB\n", pclx::testing::procStatusKb ("VmRSS") / 1024.0);
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
@@ -73,6 +76,7 @@ int main (int argc, char** argv)
     else
       octree.setInputCloud (cloud);
     octree.setThreads (threads);
+    octree.setFrontDuringBuild (front);
     const long f0 = minflt ();
     const double c0 = cpu ();
     if (!octree.build ())

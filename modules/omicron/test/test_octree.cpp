@@ -162,6 +162,49 @@ TEST (ObliqueCutOctree, BackgroundBuildWithAConcurrentFront)
   }
 }
 
+TEST (ObliqueCutOctree, FrontKeptOutOfTheBuildStartsAtTheRootAndBranches)
+{
+  // A build nobody watches: the same hierarchy, a front that holds nothing until the build
+  // ends and then starts at the root, and, from close up, every point drawn once.
+  const auto cloud = makeCloud (Shape::CLUSTERED, 100000, 21);
+  Octree watched, unwatched;
+  for (Octree* o : {&watched, &unwatched})
+  {
+    o->setInputCloud (cloud);
+    o->setMaxDepth (6);
+    o->setThreads (2);
+  }
+  EXPECT_TRUE (watched.getFrontDuringBuild ());
+  unwatched.setFrontDuringBuild (false);
+  EXPECT_FALSE (unwatched.getFrontDuringBuild ());
+  ASSERT_TRUE (watched.build ());
+  ASSERT_TRUE (unwatched.build ());
+  EXPECT_EQ (unwatched.getStatistics ().nodes_per_level, watched.getStatistics ().nodes_per_level);
+  EXPECT_EQ (unwatched.getStatistics ().seconds_to_first_front, unwatched.getStatistics ().seconds_total);
+  EXPECT_EQ (unwatched.getFront ().pendingLeaves (), 0u);
+  const auto start = unwatched.getFront ().entries ();
+  ASSERT_EQ (start.size (), 1u);
+  EXPECT_EQ (start[0].node, unwatched.getRoot ());
+
+  std::vector<Octree::Item> items;
+  unwatched.setProjectionThreshold (1e-7f);
+  const auto cam = topView (unwatched.getRootOrigin (), unwatched.getRootEdge (), 1.f);
+  unwatched.evaluate (cam, items);
+  EXPECT_GT (unwatched.getFront ().entries ().size (), 1u) << "the first evaluation branches the root";
+  for (int k = 0; k < 20; ++k)
+    unwatched.evaluate (cam, items);
+  checkFrontInvariants (unwatched.getFront ().entries (), nullptr, 6, "unwatched");
+  EXPECT_EQ (countPoints (items), cloud->size ());
+  for (const auto& it : items)
+    EXPECT_TRUE (it.node->isLeaf ());
+
+  // With the front on (again), the leaves wait in it for the first evaluation.
+  EXPECT_GT (watched.getFront ().pendingLeaves (), 0u);
+  unwatched.setFrontDuringBuild (true);
+  ASSERT_TRUE (unwatched.build ());
+  EXPECT_EQ (unwatched.getFront ().pendingLeaves (), watched.getFront ().pendingLeaves ());
+}
+
 TEST (ObliqueCutOctree, EmptyCloudIsAClearErrorAndAnEmptyResult)
 {
   Octree o;
@@ -310,6 +353,7 @@ TEST (ObliqueCutOctree, RefusesChangesWhileBuilding)
   o.setThreads (1);
   o.setMemoryBudget (1u << 30);
   o.setInputCloud (nullptr);
+  o.setFrontDuringBuild (false);
   const Octree::Statistics during = o.getStatistics ();
   ASSERT_TRUE (o.wait ()) << o.getLastError ();
   if (during.kept_points == 0)  // the calls came while it ran (as they almost always do)
@@ -318,6 +362,7 @@ TEST (ObliqueCutOctree, RefusesChangesWhileBuilding)
     EXPECT_FLOAT_EQ (o.getParentPointRatio (), 0.2f);
     EXPECT_EQ (o.getThreads (), 2);
     EXPECT_EQ (o.getMemoryBudget (), 0u);
+    EXPECT_TRUE (o.getFrontDuringBuild ());
   }
   EXPECT_EQ (o.getStatistics ().kept_points, cloud->size ());
 }

@@ -94,6 +94,11 @@ public:
     */
   void evaluate (const Camera& camera, std::vector<Item>& out);
 
+  /** \brief Start the front at one node of a finished hierarchy that sent it nothing while it
+    * was built; evaluate () branches from there (Algorithm 8).
+    * \param[in] node the node (the root), valid as long as the front is used */
+  void startFrom (const Node& node);
+
   /** \brief Receive new placeholders (called by ObliqueCut under its per-level mutexes).
     * \param[in] placeholders leaf-level codes, in Morton order */
   void insertPlaceholders (std::vector<MortonCode>&& placeholders);

@@ -248,6 +248,22 @@ public:
     * \param[in] ndc the projected box diagonal in NDC
     */
   void setProjectionThreshold (float ndc) { front_.setProjectionThreshold (ndc); }
+  /** \brief Send the cut's finished nodes to the front while the hierarchy is built, so it can
+    * be drawn during construction (OMiCroN's point).
+    * \param[in] on default true. Off is for builds nobody watches (a Potree export, a batch
+    * job): the front then holds nothing during the build instead of an entry per leaf (a few
+    * bytes per point on a cloud that fills every deepest cell); evaluate () draws nothing until
+    * the build ends, then starts from the root and branches one level per frame.
+    */
+  void
+  setFrontDuringBuild (bool on)
+  {
+    if (checkIdle ("setFrontDuringBuild"))
+      front_during_build_ = on;
+  }
+  /** \brief Whether the front follows the build (default on).
+    * \return whether the front follows the build */
+  bool getFrontDuringBuild () const { return front_during_build_; }
 
   /** \brief Blocking build.
     * \return false (PCL_ERROR, getLastError ()) on no input, no finite point or an I/O error
@@ -380,6 +396,7 @@ private:
   typename PointCloud::VectorType sorted_;
   std::unique_ptr<ObliqueCut<PointT>> cut_;
   Front front_;
+  bool front_during_build_ = true;
   Statistics stats_;
   std::thread thread_;
   std::atomic<bool> running_{false}, finished_{false};

@@ -43,6 +43,13 @@ pcl::ObliqueCutFront<PointT>::setProjectionThreshold (float t)
 }
 
 template <typename PointT> void
+pcl::ObliqueCutFront<PointT>::startFrom (const Node& node)
+{
+  std::lock_guard<std::mutex> g (front_mutex_);
+  front_.assign (1, Entry{&node, node.code});
+}
+
+template <typename PointT> void
 pcl::ObliqueCutFront<PointT>::insertPlaceholders (std::vector<MortonCode>&& placeholders)
 {
   std::lock_guard<std::mutex> g (placeholder_mutex_);

@@ -197,6 +197,9 @@ pcl::ObliqueCutOctree<PointT>::startBuild ()
   front_.reset (params_.max_depth, Eigen::Vector3d::Zero (), 1.0, {});
   thread_ = std::thread ([this] {
     result_ = run ();
+    // A front kept out of the build starts at the root once the hierarchy is whole.
+    if (result_ && !front_during_build_ && cut_ && cut_->getRoot ())
+      front_.startFrom (*cut_->getRoot ());
     running_ = false;
     finished_ = true;
   });
@@ -278,7 +281,7 @@ pcl::ObliqueCutOctree<PointT>::startCut (const std::vector<MortonCode>& first_ch
     radii_[l] = radii_[l + 1] * multipliers_[std::min<std::size_t> (lmax - 1 - l, multipliers_.size () - 1)];
   front_.reset (lmax, origin, edge, radii_);
   cut_.reset (new ObliqueCut<PointT> (params_));
-  cut_->setFront (&front_);
+  cut_->setFront (front_during_build_ ? &front_ : nullptr);
 }
 
 // Algorithm 1's inner loop: one leaf per run of equal codes in a sorted chunk (its points
