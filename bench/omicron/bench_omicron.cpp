@@ -7,7 +7,8 @@
 //   omicron         our build (front off / on with an orbiting camera thread), sweeps of
 //                   ratio × leaf collapse, worklist size, sort chunks, a memory budget (when the
 //                   API has one), hierarchy completion over time (thesis Fig. 4.4)
-//                   (also from the file: setInputFile without budget, read in blocks by the build)
+//                   (also from the file: setInputFile without budget, read in blocks by the build;
+//                   its front-off row writes the Potree folder and does not feed the front)
 //   topdown_10k     a top-down octree split at 10,000 points with a ratio LOD sample per inner node
 //   pcl_octree      pcl::octree::OctreePointCloudPointVector at the depth-7 leaf cell (no LOD)
 //   pcl_outofcore   pcl_outofcore_process -depth 7 -gen_lod (subprocess, /usr/bin/time -v)
@@ -275,6 +276,7 @@ struct Config
   std::string file, out_dir;  // budgeted builds read the PCD and write Potree output here
   bool from_file = false;     // in-memory build from the file path (setInputFile, no budget)
   std::string potree_dir;     // in-memory builds: also write the Potree folder here (file to Potree)
+  bool feed_front = true;     // setFrontDuringBuild (off for an export nobody watches)
 
   std::string
   params () const
@@ -286,6 +288,8 @@ struct Config
       p += ";budget_mb=" + fmt (budget / 1048576.0);
     if (from_file)
       p += ";input=file";
+    if (!feed_front)
+      p += ";front_fed=0";
     if (!curve.empty ())
       p += ";curve=" + curve;
     return p;
@@ -350,6 +354,7 @@ runOurs (const Cloud::ConstPtr& cloud, std::size_t n_points, const Config& c, st
   octree.setWorklistSize (c.worklist);
   octree.setSortChunks (c.chunks);
   octree.setThreads (c.threads);
+  octree.setFrontDuringBuild (c.feed_front);
   if (c.budget)
   {
     // Out of core: the file is streamed (pcl::PointStreamReader), the cloud is not touched.
@@ -890,7 +895,11 @@ main (int argc, char** argv)
         ff.file = path;
         ff.front = front;
         if (!front)
+        {
+          // File to a Potree folder, an export nobody watches: the build does not feed the front.
           ff.potree_dir = work + "/potree_" + name + "_" + label;
+          ff.feed_front = false;
+        }
         std::vector<Row> rows;
         if (!inChild ([&] (std::size_t rss0) { return runOurs (nullptr, n, ff, rss0); }, rows))
           std::cerr << "[omicron] " << name << " " << label << ": FAILED " << ff.params () << "\n";

@@ -1,8 +1,9 @@
 """Time against cloud size from the file: ours beside PCL's load and pcl_outofcore_process.
 
-Usage: read_bound_chart.py NEW.csv OLD.csv OUT.png
+Usage: read_bound_chart.py NEW.csv OLD.csv OUT.png [RUN,RUN,...]
 NEW.csv holds bench_omicron rows with a ";run=..." tag in params (omicron_read_bound.csv); the
-scene rows of each run are drawn as points, the line goes through their means. OLD.csv
+scene rows of each run (or only of the listed runs) are drawn as points, the line goes through
+their means. OLD.csv
 (omicron.csv) gives the earlier first-front times from the file for comparison.
 """
 import sys
@@ -23,11 +24,15 @@ def rows(path):
         yield dict(method=f[1], params=f[2], input=f[3], points=float(f[4]), seconds=float(f[5]), **m)
 
 
-def main(new_csv, old_csv, out_png):
+def main(new_csv, old_csv, out_png, runs=None):
+    wanted = set(runs.split(",")) if runs else None
     series = defaultdict(lambda: defaultdict(list))
     for r in rows(new_csv):
         p = r["params"]
         if "sweep=main" not in p or r["input"] != "scene":
+            continue
+        run = dict(kv.split("=", 1) for kv in p.split(";") if "=" in kv).get("run")
+        if wanted and run not in wanted:
             continue
         n = r["points"]
         if r["method"] == "pcl_load":
@@ -36,8 +41,10 @@ def main(new_csv, old_csv, out_png):
             series["pcl_outofcore_process -gen_lod (tmpfs ≤ 20M, disk above)"][n].append(r["seconds"])
         elif r["method"] == "omicron" and "input=file" in p:
             series["ours: build from the file"][n].append(r["seconds"])
-            series["ours: first renderable front"][n].append(float(r["first_front_s"]))
             series["ours: file → Potree folder"][n].append(float(r["file_to_potree_s"]))
+        elif r["method"] == "omicron_front" and "input=file" in p:
+            # The watched build (a thread evaluates the front): when it first has something to draw.
+            series["ours: first renderable front"][n].append(float(r["first_front_s"]))
     for r in rows(old_csv):
         if (r["method"] == "omicron" and r["input"] == "scene" and "input=file" in r["params"]
                 and "first_front_s" in r):
@@ -64,7 +71,7 @@ def main(new_csv, old_csv, out_png):
     ax.set_xlabel("points (scene PCD, warm page cache)")
     ax.set_ylabel("seconds")
     ax.set_title("OMiCroN from the file against PCL's load and out-of-core octree\n"
-                 "(2 cores, four runs, peers in the same runs; line = mean)", fontsize=10)
+                 f"(2 cores, runs: {runs or 'all'}, peers in the same runs; line = mean)", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -72,4 +79,4 @@ def main(new_csv, old_csv, out_png):
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:4])
+    main(*sys.argv[1:5])
