@@ -92,10 +92,12 @@ int main (int argc, char** argv)
     {
       std::printf ("VmHWM after the build %.1f MB\n", pclx::testing::procStatusKb ("VmHWM") / 1024.0);
       const auto t = std::chrono::steady_clock::now ();
+      const double write_cpu = cpu ();
       pcl::PotreeWriter<pcl::PointXYZ> writer;
       if (!writer.write (octree, potree_dir))
         return 1;
-      std::printf ("potree write %.3f s\n", std::chrono::duration<double> (std::chrono::steady_clock::now () - t).count ());
+      std::printf ("potree write %.3f s  cpu %.2f s\n",
+                   std::chrono::duration<double> (std::chrono::steady_clock::now () - t).count (), cpu () - write_cpu);
     }
     std::fflush (stdout);
   }
