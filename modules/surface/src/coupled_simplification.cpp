@@ -133,6 +133,13 @@ constexpr double kMinAveragedNoise = 0.5;
 const double kSecondDifferencePerSigma = std::sqrt (12.0 / M_PI);
 // Most input pixels per side that block averaging merges (two levels of the pyramid).
 constexpr int kMaxAveragingScale = 4;
+// Rows the frame statistics sample at least (evenly spaced): tens of thousands of samples on a
+// depth camera's frame, enough for a mean, without a pass over every pixel.
+constexpr int kStatisticsRows = 64;
+
+// Every how many rows the frame statistics sample a frame of `height` rows (every other row
+// on small frames).
+inline int statisticsRowStep (int height) { return std::max (2, height / kStatisticsRows); }
 // Fewest clusters or edges for which the collapse stage's independent loops run in parallel.
 constexpr std::ptrdiff_t kMinParallelItems = 4096;
 
@@ -548,12 +555,12 @@ CoupledSimplification::cluster ()
 void
 CoupledSimplification::measureSpacing ()
 {
-  const int W = w_, H = h_;
-  // Every other row is plenty for a mean. The samples go by index into a buffer that holds
-  // them all (push_back would cost a function call per sample).
+  const int W = w_, H = h_, step = statisticsRowStep (H);
+  // The samples go by index into a buffer that holds them all (push_back would cost a
+  // function call per sample).
   float* r = sampleBuffer (static_cast<std::size_t> (W) * (H + 1));
   std::size_t n = 0;
-  for (int v = 0; v < H; v += 2)
+  for (int v = 0; v < H; v += step)
     for (int u = 0; u < W; ++u)
     {
       const std::size_t i = static_cast<std::size_t> (v) * W + u;
@@ -583,11 +590,11 @@ CoupledSimplification::measureSpacing ()
 void
 CoupledSimplification::measureNoise ()
 {
-  const int W = w_, H = h_;
+  const int W = w_, H = h_, step = statisticsRowStep (H);
   // Written by index, as in measureSpacing ().
   float* r = sampleBuffer (static_cast<std::size_t> (W) * (H + 1) / 2);
   std::size_t n = 0;
-  for (int v = 0; v < H; v += 2)
+  for (int v = 0; v < H; v += step)
     for (int u = 1; u + 1 < W; ++u)
     {
       const std::size_t i = static_cast<std::size_t> (v) * W + u;
