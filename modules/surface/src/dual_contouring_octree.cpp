@@ -16,8 +16,10 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdlib>
+#include <future>
 #include <mutex>
 #include <new>
+#include <system_error>
 #include <unordered_set>
 
 #ifdef _OPENMP
@@ -451,7 +453,9 @@ struct DualContouringOctree::Impl
   std::unordered_map<std::uint64_t, std::uint32_t> root_of;
   std::vector<RootPtr> roots;
   std::size_t leaves = 0, voted = 0, edges = 0;
-  FrameTriangles frame;  // scratch of addFrameMesh
+  // Scratch of addFrameMesh, two frames' worth: one is merged while the next is prepared.
+  FrameTriangles frames[2];
+  int next_frame = 0;
 
   Root*
   find (int bx, int by, int bz) const
@@ -495,7 +499,19 @@ struct DualContouringOctree::Impl
 };
 
 DualContouringOctree::DualContouringOctree () : impl_ (new Impl) {}
-DualContouringOctree::~DualContouringOctree () = default;
+
+DualContouringOctree::~DualContouringOctree ()
+{
+  if (merging_.valid ())
+    merging_.wait ();  // a merge's exception has nobody left to report to
+}
+
+void
+DualContouringOctree::waitForMerge () const
+{
+  if (merging_.valid ())
+    merging_.get ();  // rethrows what the merge threw (std::bad_alloc)
+}
 
 bool
 DualContouringOctree::fail (const std::string& msg)
@@ -508,6 +524,7 @@ DualContouringOctree::fail (const std::string& msg)
 bool
 DualContouringOctree::setLeafSize (double h)
 {
+  waitForMerge ();
   if (!(h > 0) || !std::isfinite (h))
     return fail ("leaf size must be positive and finite");
   if (!impl_->roots.empty ())
@@ -520,6 +537,7 @@ DualContouringOctree::setLeafSize (double h)
 bool
 DualContouringOctree::setSimplificationError (double eps)
 {
+  waitForMerge ();
   if (!(eps >= 0) || !std::isfinite (eps))
     return fail ("simplification error must be finite and >= 0");
   eps_ = eps;
@@ -531,6 +549,7 @@ DualContouringOctree::setSimplificationError (double eps)
 bool
 DualContouringOctree::setVolume (const Eigen::Vector3d& min, const Eigen::Vector3d& max)
 {
+  waitForMerge ();
   if (!min.allFinite () || !max.allFinite () || !((max - min).array () > 0).all ())
     return fail ("volume must be finite with max > min on every axis");
   vol_min_ = min;
@@ -551,6 +570,7 @@ DualContouringOctree::getVolume (Eigen::Vector3d& min, Eigen::Vector3d& max) con
 void
 DualContouringOctree::clear ()
 {
+  waitForMerge ();
   impl_.reset (new Impl);
   stats_ = Stats ();
   all_dirty_ = true;
@@ -566,6 +586,7 @@ DualContouringOctree::toLattice (const Eigen::Vector3d& p) const
 std::pair<int, int>
 DualContouringOctree::gridVertexVotes (const Eigen::Vector3i& v) const
 {
+  waitForMerge ();
   const auto* r = impl_->findCell (v.x (), v.y (), v.z ());
   if (!r)
     return {0, 0};
@@ -765,6 +786,7 @@ struct SignResolver
 int
 DualContouringOctree::gridVertexState (const Eigen::Vector3i& v) const
 {
+  waitForMerge ();
   RootCache rc (*impl_);
   SignResolver sr{rc, rule_};
   int state = 0;
@@ -1169,9 +1191,10 @@ columnOf (std::uint64_t edge_key)
 // by mod 3). The edges of column (bx, by) write only to roots of columns bx − 1 … bx + 1,
 // by − 1 … by + 1, so the columns of one phase run in parallel, and each record receives its
 // writes in the same order for any number of threads. Columns, not slabs: a wall across x or y
-// spreads over many.
+// spreads over many. `parallel` false: on the calling thread alone.
 void
-mergeCrossings (DualContouringOctree::Impl& m, DualContouringOctree::Stats& st, const FrameTriangles& ft)
+mergeCrossings (DualContouringOctree::Impl& m, DualContouringOctree::Stats& st, const FrameTriangles& ft,
+                bool parallel)
 {
   const std::vector<Crossing>& crossings = ft.crossings;
   std::array<std::vector<std::pair<std::size_t, std::size_t>>, 9> phases;
@@ -1189,7 +1212,7 @@ mergeCrossings (DualContouringOctree::Impl& m, DualContouringOctree::Stats& st, 
   FrameMerger::Counts total;
   for (const auto& slabs : phases)
   {
-#pragma omp parallel
+#pragma omp parallel if (parallel)
     {
       FrameMerger::Counts local;
 #pragma omp for schedule(dynamic, 1) nowait
@@ -1214,9 +1237,8 @@ mergeCrossings (DualContouringOctree::Impl& m, DualContouringOctree::Stats& st, 
 }  // namespace
 
 bool
-DualContouringOctree::checkFrameTriangles (const pcl::FrameMesh& mesh, FrameTriangles& ft)
+DualContouringOctree::checkFrameTriangles (const pcl::FrameMesh& mesh, FrameTriangles& ft, Stats& st)
 {
-  Stats& st = stats_;
   const std::size_t nv = mesh.vertices.size ();
   ft.q.resize (nv);
   std::vector<char>& finite = ft.finite;
@@ -1306,27 +1328,74 @@ DualContouringOctree::checkFrameTriangles (const pcl::FrameMesh& mesh, FrameTria
   return true;
 }
 
+// Checks and intersects the frame on the calling thread, then merges it: on a thread of its
+// own when merges overlap (the previous frame's merge is joined first, so frames merge in
+// order), else here.
 bool
 DualContouringOctree::addFrameMesh (const pcl::FrameMesh& mesh)
 {
   const auto t0 = Clock::now ();
+  Stats checked;  // this frame's input counts; stats_ may still be the running merge's
+  checked.input_triangles = mesh.triangles.size ();
+  FrameTriangles& ft = impl_->frames[impl_->next_frame];
+  bool ok = !mesh.triangles.empty () && !mesh.vertices.empty ();
+  if (!ok)
+    fail ("empty mesh (no triangles)");
+  else
+    ok = checkFrameTriangles (mesh, ft, checked);
+  if (ok)
+  {
+    intersectLattice (mesh, ft);
+    checked.intersections = ft.crossings.size ();
+    checked.t_intersect_ms = msSince (t0);
+  }
+  waitForMerge ();
   Stats& st = stats_;
-  st.input_triangles = mesh.triangles.size ();
-  st.used_triangles = st.nonfinite_triangles = st.degenerate_triangles = st.outside_triangles =
-      st.bad_index_triangles = 0;
-  st.intersections = st.multi_intersection_edges = st.touched_roots = 0;
-  if (mesh.triangles.empty () || mesh.vertices.empty ())
-    return fail ("empty mesh (no triangles)");
-  FrameTriangles& ft = impl_->frame;
-  if (!checkFrameTriangles (mesh, ft))
+  st.input_triangles = checked.input_triangles;
+  st.used_triangles = checked.used_triangles;
+  st.nonfinite_triangles = checked.nonfinite_triangles;
+  st.degenerate_triangles = checked.degenerate_triangles;
+  st.outside_triangles = checked.outside_triangles;
+  st.bad_index_triangles = checked.bad_index_triangles;
+  st.intersections = checked.intersections;
+  st.multi_intersection_edges = st.touched_roots = 0;
+  st.t_intersect_ms = checked.t_intersect_ms;
+  if (!ok)
     return false;
-  intersectLattice (mesh, ft);
-  st.intersections = ft.crossings.size ();
-  st.t_intersect_ms = msSince (t0);
+  impl_->next_frame ^= 1;
+#ifdef _OPENMP
+  const bool overlap = overlap_ && omp_get_max_threads () > 1;
+#else
+  const bool overlap = false;
+#endif
+  const double t_intersect_ms = st.t_intersect_ms;
+  bool merged_here = !overlap;
+  if (overlap)
+  {
+    // One thread for the merge: the caller's next frame keeps the other core busy.
+    try
+    {
+      merging_ = std::async (std::launch::async,
+                             [this, &ft, t_intersect_ms] { mergeFrame (ft, t_intersect_ms, false); });
+    }
+    catch (const std::system_error&)
+    {
+      merged_here = true;  // no thread to be had: merge here
+    }
+  }
+  if (merged_here)
+    mergeFrame (ft, t_intersect_ms, true);
+  error_.clear ();
+  return true;
+}
 
-  const auto t1 = Clock::now ();
-  mergeCrossings (*impl_, st, ft);
-  st.t_merge_ms = msSince (t1);
+void
+DualContouringOctree::mergeFrame (const FrameTriangles& ft, double t_intersect_ms, bool parallel)
+{
+  const auto t0 = Clock::now ();
+  Stats& st = stats_;
+  mergeCrossings (*impl_, st, ft, parallel);
+  st.t_merge_ms = msSince (t0);
   ++st.frames;
   const Impl& m = *impl_;
   st.roots = m.roots.size ();
@@ -1334,14 +1403,15 @@ DualContouringOctree::addFrameMesh (const pcl::FrameMesh& mesh)
   st.grid_vertices = m.voted;
   st.memory_bytes = m.roots.size () * sizeof (Impl::Root) + m.leaves * sizeof (Leaf) + m.edges * sizeof (EdgeData) +
                     m.root_of.size () * 32;
-  st.last_frame_ms = msSince (t0);
-  error_.clear ();
-  return true;
+  st.last_frame_ms = t_intersect_ms + st.t_merge_ms;
+  st.total_intersect_ms += t_intersect_ms;
+  st.total_merge_ms += st.t_merge_ms;
 }
 
 void
 DualContouringOctree::reconstruct (pcl::PolygonMesh& mesh)
 {
+  waitForMerge ();
   polygonise (mesh, all_dirty_);
   error_.clear ();  // always succeeds: an earlier refusal is no longer the last call
 }
@@ -1349,6 +1419,7 @@ DualContouringOctree::reconstruct (pcl::PolygonMesh& mesh)
 void
 DualContouringOctree::reconstructFromScratch (pcl::PolygonMesh& mesh)
 {
+  waitForMerge ();
   polygonise (mesh, true);
   error_.clear ();  // always succeeds: an earlier refusal is no longer the last call
 }

@@ -755,6 +755,63 @@ TEST (IncrementalDualContouring, MergeDoesNotDependOnThreadCount)
   expectIdentical (one, two);
 }
 
+// Each frame's merge may run on while the next frame is prepared (setOverlapMerges): the map
+// is the one merging every frame in the call gives, also with a frame the octree refuses while
+// a merge runs and with the statistics read between frames.
+TEST (IncrementalDualContouring, OverlappedMergesGiveTheSameMap)
+{
+  const Eigen::Vector3f centre (0.3f, 0.2f, -0.1f);
+  const TriangleMesh sphere = pclx::testing::makeSphere (0.3f, 5, centre);
+  pclx::testing::RayCaster caster (sphere);
+  const auto K = smallCamera ();
+  pcl::FrameMesh refused;  // no finite vertex: refused by the octree, after the front end
+  refused.vertices.assign (3, Eigen::Vector3f::Constant (std::numeric_limits<float>::quiet_NaN ()));
+  refused.triangles.emplace_back (0, 1, 2);
+  const auto build = [&] (bool overlap, bool read_between, pcl::PolygonMesh& mesh) {
+    const int saved = omp_get_max_threads ();
+    omp_set_num_threads (2);
+    IDC idc;
+    idc.setLeafSize (0.01);
+    idc.getOctree ().setOverlapMerges (overlap);
+    pclx::testing::KinectNoise noise;
+    std::uint32_t seed = 1;
+    std::size_t fused = 0;
+    for (const auto& pose : orbit (centre, 1.2f))
+    {
+      const auto depth = pclx::testing::renderDepth (caster, K, pose, noise, seed++);
+      EXPECT_TRUE (idc.addFrame (depth.depth_mm.data (), depth.width, depth.height, toK (K),
+                                 pose.matrix ().cast<double> ()))
+          << idc.getLastError ();
+      if (++fused == 3)
+      {
+        EXPECT_FALSE (idc.addFrameMesh (refused));
+        EXPECT_FALSE (idc.getLastError ().empty ());
+      }
+      if (read_between)
+        EXPECT_EQ (idc.getStats ().frames, fused);
+    }
+    idc.reconstruct (mesh);
+    omp_set_num_threads (saved);
+    return idc.getOctree ().getStats ();
+  };
+  pcl::PolygonMesh in_call, overlapped, read;
+  const auto s0 = build (false, false, in_call);
+  const auto s1 = build (true, false, overlapped);
+  const auto s2 = build (true, true, read);
+  EXPECT_GT (s0.frames, 5u);
+  for (const auto& s : {s1, s2})
+  {
+    EXPECT_EQ (s.frames, s0.frames);
+    EXPECT_EQ (s.roots, s0.roots);
+    EXPECT_EQ (s.leaves, s0.leaves);
+    EXPECT_EQ (s.grid_vertices, s0.grid_vertices);
+    EXPECT_GT (s.total_merge_ms, 0.0);
+  }
+  ASSERT_GT (in_call.polygons.size (), 1000u);
+  expectIdentical (in_call, overlapped);
+  expectIdentical (in_call, read);
+}
+
 // Hermite data averaged over frames: a plane seen in 20 noisy frames is recovered with the
 // error of one frame divided by about the square root of 20.
 TEST (IncrementalDualContouring, HermiteDataAverageNoisyFrames)

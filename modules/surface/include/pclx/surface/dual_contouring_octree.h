@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <future>
 #include <memory>
 #include <string>
 #include <unordered_map>
@@ -117,7 +118,9 @@ public:
     std::size_t touched_roots = 0;             ///< last frame: roots whose data changed
     double t_intersect_ms = 0;  ///< last frame: intersecting the lattice (ms)
     double t_merge_ms = 0;      ///< last frame: merging into the map (ms)
-    double last_frame_ms = 0;   ///< last frame: total (ms)
+    double last_frame_ms = 0;   ///< last frame: intersecting and merging (ms)
+    double total_intersect_ms = 0;  ///< every frame: intersecting the lattice (ms)
+    double total_merge_ms = 0;      ///< every frame: merging into the map (ms)
     std::size_t repolygonised_roots = 0;  ///< last polygonisation: roots redone
     std::size_t cells = 0;                ///< last polygonisation: leaves and collapsed cells with a vertex
     std::size_t vertices = 0;             ///< last polygonisation: output vertices
@@ -137,7 +140,7 @@ public:
 
   /** \brief Empty map with the default settings. */
   DualContouringOctree ();
-  /** \brief Destructor. */
+  /** \brief Destructor (waits for a merge still running). */
   ~DualContouringOctree ();
   /** \brief Not copyable (the map can be large). */
   DualContouringOctree (const DualContouringOctree&) = delete;
@@ -175,7 +178,7 @@ public:
   /** \brief Let the volume grow with the geometry (default) or freeze it.
     * \param[in] on true: geometry outside the volume adds roots; false: it is dropped and counted
     */
-  void setGrowVolume (bool on) { grow_ = on; }
+  void setGrowVolume (bool on) { waitForMerge (); grow_ = on; }
   /** \brief Get the volume.
     * \param[out] min the lower corner (metres)
     * \param[out] max the upper corner (metres)
@@ -196,7 +199,7 @@ public:
   /** \brief Set how votes become signs.
     * \param[in] r the rule (default SignRule::WEIGHTED)
     */
-  void setSignRule (SignRule r) { rule_ = r; all_dirty_ = true; }
+  void setSignRule (SignRule r) { waitForMerge (); rule_ = r; all_dirty_ = true; }
   /** \brief Get how votes become signs.
     * \return the rule
     */
@@ -205,8 +208,21 @@ public:
   /** \brief Fuse a world-space mesh into the map (§3.4–3.5).
     * \param[in] world_mesh the mesh, counter-clockwise seen from outside
     * \return false (with a PCL_ERROR and getLastError ()) on bad input; the map is then unchanged
+    * \note With overlapped merges (setOverlapMerges ()) the call returns once the mesh is
+    * checked and intersected with the lattice, while its merge runs on.
     */
   bool addFrameMesh (const pcl::FrameMesh& world_mesh);
+  /** \brief Merge each frame into the map on a thread of its own, so that the caller prepares
+    * the next frame (its front end, its lattice crossings) meanwhile. Every other call first
+    * waits for that merge, and the merges run in frame order: the map is the same either way.
+    * \param[in] on default true; merges overlap only while OpenMP has more than one thread
+    */
+  void setOverlapMerges (bool on) { waitForMerge (); overlap_ = on; }
+  /** \brief Whether frames' merges may overlap the next frame's preparation.
+    * \return whether they may */
+  bool getOverlapMerges () const { return overlap_; }
+  /** \brief Wait for the merge of the last frame, when it still runs (setOverlapMerges ()). */
+  void waitForMerge () const;
   /** \brief Polygonise the map (§3.6). Only roots touched since the last call are
     * re-polygonised (with their neighbours whose quads share them); the other roots keep their
     * cached triangles.
@@ -241,7 +257,7 @@ public:
   /** \brief Get the counts and timings.
     * \return the statistics
     */
-  const Stats& getStats () const { return stats_; }
+  const Stats& getStats () const { waitForMerge (); return stats_; }
   /** \brief Get the reason of the last refused call.
     * \return the message, empty after a call that succeeded
     */
@@ -254,17 +270,19 @@ public:
 
 private:
   bool fail (const std::string& msg);
-  bool checkFrameTriangles (const pcl::FrameMesh& mesh, FrameTriangles& ft);
+  bool checkFrameTriangles (const pcl::FrameMesh& mesh, FrameTriangles& ft, Stats& st);
+  void mergeFrame (const FrameTriangles& ft, double t_intersect_ms, bool parallel);
   void polygonise (pcl::PolygonMesh& mesh, bool all);
   void writeMesh (pcl::PolygonMesh& mesh);
 
   double h_ = 0.01, eps_ = 0, margin_ = 1.5;
-  bool grow_ = true, volume_set_ = false, all_dirty_ = true;
+  bool grow_ = true, volume_set_ = false, all_dirty_ = true, overlap_ = true;
   SignRule rule_ = SignRule::WEIGHTED;
   Eigen::Vector3d vol_min_ = Eigen::Vector3d::Zero (), vol_max_ = Eigen::Vector3d::Zero ();
-  Stats stats_;
+  Stats stats_;  // written by a running merge until waitForMerge ()
   std::string error_;
   std::unique_ptr<Impl> impl_;
+  mutable std::future<void> merging_;  // the running merge, if any (declared last: joined first)
 };
 
 }  // namespace pcl

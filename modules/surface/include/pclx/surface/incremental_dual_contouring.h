@@ -74,9 +74,10 @@ public:
     std::size_t repolygonised_roots = 0; ///< roots redone by the last reconstruct
     std::size_t removed_plane_triangles = 0;  ///< triangles cut away with the dominant plane
     std::size_t suspect_pose_frames = 0;  ///< frames that, like the one before, line up with their predecessor only under the inverse poses
-    double last_frame_ms = 0;       ///< last frame: total (ms)
+    double last_frame_ms = 0;       ///< last frame: front end and octree update (ms)
     double last_frontend_ms = 0;    ///< last frame: front end, §3.2–3.3 (ms)
     double last_octree_ms = 0;      ///< last frame: octree update, §3.4–3.5 (ms)
+    double total_frontend_ms = 0;   ///< every frame: front end (ms)
     double last_reconstruct_ms = 0; ///< last reconstruct, §3.6 (ms)
   };
 
@@ -204,22 +205,24 @@ public:
     */
   void reconstruct (pcl::PolygonMesh& mesh);
 
-  /** \brief Get the counts and timings.
+  /** \brief Get the counts and timings (waits for the last frame's merge, see
+    * DualContouringOctree::setOverlapMerges ()).
     * \return the statistics
     */
-  const Stats& getStats () const { return stats_; }
+  const Stats& getStats () const;
   /** \brief Get the reason of the last refused call.
     * \return the message, empty after a call that succeeded
     */
   const std::string& getLastError () const { return error_; }
-  /** \brief The extrinsic representation, for diagnostics.
+  /** \brief The extrinsic representation, for diagnostics (waits for the last frame's merge).
     * \return the octree
     */
-  const DualContouringOctree& getOctree () const { return octree_; }
-  /** \brief The extrinsic representation, for diagnostics and its settings.
+  const DualContouringOctree& getOctree () const { octree_.waitForMerge (); return octree_; }
+  /** \brief The extrinsic representation, for diagnostics and its settings (waits for the
+    * last frame's merge).
     * \return the octree
     */
-  DualContouringOctree& getOctree () { return octree_; }
+  DualContouringOctree& getOctree () { octree_.waitForMerge (); return octree_; }
   /** \brief The last frame's mesh after §3.3.
     * \return the mesh in world coordinates
     */
@@ -246,7 +249,7 @@ private:
   int width_ = 0, height_ = 0;  // size of the first frame
   bool remove_plane_ = false;
   double plane_threshold_ = 0;
-  Stats stats_;
+  mutable Stats stats_;  // its octree counts are brought up to date by getStats ()
   std::string error_;
 };
 

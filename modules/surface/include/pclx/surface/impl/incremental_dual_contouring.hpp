@@ -56,7 +56,7 @@ IncrementalDualContouring<PointT>::checkPoseConvention (const Eigen::Matrix4d& c
     PCL_WARN ("[pcl::IncrementalDualContouring] frame %zu lines up with the previous one under the inverse "
               "poses (%.0f %% overlap) better than under the poses given (%.0f %%): addFrame takes "
               "camera-to-world poses; were world-to-camera poses given?\n",
-              stats_.frames, 100 * inverse, 100 * given);
+              getStats ().frames, 100 * inverse, 100 * given);
   }
 }
 
@@ -64,18 +64,26 @@ template <typename PointT> bool
 IncrementalDualContouring<PointT>::fuse (double frontend_ms)
 {
   stats_.frame_triangles = frame_.triangles.size ();
+  // The octree's counts are read by getStats (): reading them here would wait for the merge.
   if (!octree_.addFrameMesh (frame_))
     return forward (octree_.getLastError ());
-  const auto& os = octree_.getStats ();
+  stats_.last_frontend_ms = frontend_ms;
+  stats_.total_frontend_ms += frontend_ms;
+  error_.clear ();
+  return true;
+}
+
+template <typename PointT> const typename IncrementalDualContouring<PointT>::Stats&
+IncrementalDualContouring<PointT>::getStats () const
+{
+  const auto& os = octree_.getStats ();  // waits for the last frame's merge
   stats_.frames = os.frames;
   stats_.leaves = os.leaves;
   stats_.roots = os.roots;
   stats_.memory_bytes = os.memory_bytes;
-  stats_.last_frontend_ms = frontend_ms;
   stats_.last_octree_ms = os.last_frame_ms;
-  stats_.last_frame_ms = frontend_ms + os.last_frame_ms;
-  error_.clear ();
-  return true;
+  stats_.last_frame_ms = stats_.last_frontend_ms + os.last_frame_ms;
+  return stats_;
 }
 
 template <typename PointT> bool
