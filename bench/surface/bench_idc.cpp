@@ -33,6 +33,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <malloc.h>
 #include <unistd.h>
 #include <chrono>
 #include <cmath>
@@ -587,10 +588,21 @@ struct Bench
       *frames_csv << s.name << "," << method << "," << leaf << "," << i << "," << ms[i] << "\n";
   }
 
+  // Hands the memory freed by the runs before back to the kernel, so that every method starts
+  // as in a fresh process: on these VMs first writes to new pages are a large part of a frame,
+  // and a run that reuses another's freed pages (or cannot, when they sit in another thread's
+  // malloc arena) would be timed with a head start (or a handicap).
+  static void
+  startCold ()
+  {
+    malloc_trim (0);
+  }
+
   // IDC: every frame through addFrame; optionally reconstruct after each frame.
   void
   idc (const Sequence& s, double leaf, double eps, bool incremental, const Truth* truth, bool frame_rows)
   {
+    startCold ();
     pcl::IncrementalDualContouring<pcl::PointXYZ> idc;
     idc.setLeafSize (leaf);
     idc.setSimplificationError (eps);
@@ -661,6 +673,7 @@ struct Bench
   void
   open3d (const Sequence& s, double voxel, const Truth* truth, bool frame_rows)
   {
+    startCold ();
     std::vector<double> ms;
     std::vector<Eigen::Vector3f> v;
     std::vector<Eigen::Vector3i> f;
