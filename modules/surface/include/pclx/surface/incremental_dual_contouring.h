@@ -27,6 +27,10 @@ namespace pcl {
   *   removal of the dominant plane (RANSAC) to isolate an object (§4.4). Only roots touched
   *   since the last call are re-polygonised.
   *
+  * With two OpenMP threads or more, a frame's fusion into the octree runs on while the next
+  * frame goes through the front end (DualContouringOctree::setOverlapMerges ()); every other
+  * call waits for it first, so the map is the same as fusing each frame in its call.
+  *
   * Bad input (no valid pixel, NaN / Inf, zero intrinsics, a singular or non-finite pose,
   * frames of different sizes, empty meshes) gives false, one PCL_ERROR and getLastError ();
   * the map is left as it was.
