@@ -450,7 +450,7 @@ private:
     cameras_placed_ = r.mesh && !r.mesh->polygons.empty ();
   }
 
-  // Mean ms per stage so far and the frame rate they allow.
+  // Mean ms per stage so far, and their sum.
   std::string
   timingText () const
   {
@@ -468,7 +468,7 @@ private:
       s += line;
     }
     char line[96];
-    std::snprintf (line, sizeof line, "  total    %7.1f ms (%.1f fps)", total, total > 0 ? 1000.0 / total : 0.0);
+    std::snprintf (line, sizeof line, "  total    %7.1f ms", total);
     return s + line;
   }
 
