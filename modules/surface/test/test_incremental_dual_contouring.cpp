@@ -764,7 +764,7 @@ TEST (IncrementalDualContouring, OverlappedMergesGiveTheSameMap)
   const TriangleMesh sphere = pclx::testing::makeSphere (0.3f, 5, centre);
   pclx::testing::RayCaster caster (sphere);
   const auto K = smallCamera ();
-  pcl::FrameMesh refused;  // no finite vertex: refused by the octree, after the front end
+  pcl::FrameMesh refused;  // only NaN corners: refused by the octree itself
   refused.vertices.assign (3, Eigen::Vector3f::Constant (std::numeric_limits<float>::quiet_NaN ()));
   refused.triangles.emplace_back (0, 1, 2);
   const auto build = [&] (bool overlap, bool read_between, pcl::PolygonMesh& mesh) {
