@@ -1,4 +1,5 @@
 #include <pclx/surface/coupled_simplification.h>
+#include <pclx/surface/detail/plane_quadric.h>
 
 #include <pcl/console/print.h>
 
@@ -19,70 +20,19 @@ namespace {
 
 using Quadric = pcl::CoupledSimplification::Quadric;
 using Clock = std::chrono::steady_clock;
+using pclx::surface::detail::addPlane;
+using pclx::surface::detail::evaluate;
+using pclx::surface::detail::minimiseEdge;
+using pclx::surface::detail::weightOf;
 
 double ms (Clock::time_point a, Clock::time_point b)
 {
   return std::chrono::duration<double, std::milli> (b - a).count ();
 }
 
-// Adds w · p pᵀ for the plane n·x + d = 0 (packed upper triangle, see frame_mesh.h).
-inline void addPlane (Quadric& q, const Eigen::Vector3d& n, double d, double w)
-{
-  q[0] += w * n[0] * n[0]; q[1] += w * n[0] * n[1]; q[2] += w * n[0] * n[2]; q[3] += w * n[0] * d;
-  q[4] += w * n[1] * n[1]; q[5] += w * n[1] * n[2]; q[6] += w * n[1] * d;
-  q[7] += w * n[2] * n[2]; q[8] += w * n[2] * d;   q[9] += w * d * d;
-}
-
-inline double evaluate (const Quadric& q, const Eigen::Vector3d& x)
-{
-  return q[0] * x[0] * x[0] + 2 * q[1] * x[0] * x[1] + 2 * q[2] * x[0] * x[2] + q[4] * x[1] * x[1] +
-         2 * q[5] * x[1] * x[2] + q[7] * x[2] * x[2] + 2 * (q[3] * x[0] + q[6] * x[1] + q[8] * x[2]) + q[9];
-}
-
-inline double weightOf (const Quadric& q) { return q[0] + q[4] + q[7]; }
-
-// argmin of q: the truncated pseudo-inverse about the mass point m, so that directions the
-// planes do not constrain (flat or ridge-like clusters, noise) keep m's coordinate (as in
-// dual contouring's QEF). Eigenvalues below 2 % of the largest are dropped.
-Eigen::Vector3d minimise (const Quadric& q, const Eigen::Vector3d& m)
-{
-  Eigen::Matrix3d A;
-  A << q[0], q[1], q[2], q[1], q[4], q[5], q[2], q[5], q[7];
-  const Eigen::Vector3d b (-q[3], -q[6], -q[8]);
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
-  es.computeDirect (A);
-  const Eigen::Vector3d ev = es.eigenvalues ();
-  const double emax = std::max (std::abs (ev[0]), std::max (std::abs (ev[1]), std::abs (ev[2])));
-  if (!(emax > 0) || !std::isfinite (emax))
-    return m;
-  const Eigen::Vector3d r = b - A * m;
-  Eigen::Vector3d x = m;
-  for (int i = 0; i < 3; ++i)
-    if (ev[i] > 0.02 * emax)
-    {
-      const Eigen::Vector3d u = es.eigenvectors ().col (i);
-      x += u * (u.dot (r) / ev[i]);
-    }
-  return x;
-}
-
-// Garland–Heckbert's placement for an edge collapse: the exact minimiser when the 3×3
-// system is well conditioned (closed-form inverse, no eigen solve: this runs for every edge
-// and every re-queued neighbour), else NaN and the caller falls back.
-inline Eigen::Vector3d
-minimiseEdge (const Quadric& q)
-{
-  const double a = q[0], b = q[1], c = q[2], d = q[4], e = q[5], f = q[7];
-  const double c00 = d * f - e * e, c01 = c * e - b * f, c02 = b * e - c * d;
-  const double det = a * c00 + b * c01 + c * c02;
-  const double tr = (a + d + f) / 3;
-  if (!(std::abs (det) > 1e-6 * tr * tr * tr))
-    return Eigen::Vector3d::Constant (std::numeric_limits<double>::quiet_NaN ());
-  const double c11 = a * f - c * c, c12 = b * c - a * e, c22 = a * d - b * b;
-  const Eigen::Vector3d r (-q[3], -q[6], -q[8]);
-  return Eigen::Vector3d (c00 * r[0] + c01 * r[1] + c02 * r[2], c01 * r[0] + c11 * r[1] + c12 * r[2],
-                          c02 * r[0] + c12 * r[1] + c22 * r[2]) / det;
-}
+// Eigenvalues of a cluster quadric at most this share of the largest are dropped when placing
+// its representative.
+constexpr double kClusterKeepEigen = 0.02;
 
 // Qw = T⁻ᵀ Q T⁻¹ for T = camera_to_world (planes map with T⁻ᵀ).
 Quadric transformQuadric (const Quadric& q, const Eigen::Matrix4d& inv)
@@ -772,7 +722,7 @@ CoupledSimplification::placeRepresentatives ()
       cpos_[c] = mean;
       continue;
     }
-    Eigen::Vector3d x = minimise (cq_[c], mean);
+    Eigen::Vector3d x = pclx::surface::detail::minimise (cq_[c], mean, kClusterKeepEigen);
     const Eigen::Vector3d margin = Eigen::Vector3d::Constant (0.1 * cscale_[c]);
     const Eigen::Vector3d lo = cmin_[c].cast<double> () - margin, hi = cmax_[c].cast<double> () + margin;
     if (!x.allFinite ())

@@ -1,4 +1,5 @@
 #include <pclx/surface/dual_contouring_octree.h>
+#include <pclx/surface/detail/bounded_edge_collapse.h>
 
 #include <pcl/common/io.h>
 #include <pcl/console/print.h>
@@ -369,6 +370,10 @@ struct DualContouringOctree::Impl
     std::array<std::uint16_t, kRootCells> cell_vertex;
     std::array<std::uint32_t, kRootCells> cell_comp;
     std::vector<Vertex> vertices;
+    // With ε > 0, the crossing planes each vertex stands for (world frame, n·x + d = 0): those
+    // of vertex i start at plane_begin[i]; the mesh's edge collapse keeps vertices near them.
+    std::vector<Eigen::Vector4f> planes;
+    std::vector<std::uint32_t> plane_begin;
     std::vector<std::array<std::uint64_t, 3>> tris;  // vertex refs (see polygonise)
     // Polygons with a collapsed cell: the same one can come from several lattice edges along
     // a coarse edge; they are merged over the whole map at output (net orientation).
@@ -1570,6 +1575,8 @@ public:
   build ()
   {
     r_.vertices.clear ();
+    r_.planes.clear ();
+    r_.plane_begin.clear ();
     r_.cell_vertex.fill (kNone);
     r_.cell_comp.fill (0);
     r_.escaped = r_.collapsed = r_.rim = 0;
@@ -1579,6 +1586,8 @@ public:
       top = collapseLevels ();
     emitCollapsed (top);
     emitCells ();
+    if (eps_ > 0)
+      r_.plane_begin.push_back (static_cast<std::uint32_t> (r_.planes.size ()));
   }
   std::size_t
   ambiguous () const
@@ -1590,6 +1599,7 @@ private:
   struct Plane
   {
     Eigen::Vector3d p, n;  // leaf units, relative to the root's origin
+    int comp;              // the cell component of its edge
   };
   // Per cell: 0 no seen surface, 1 one component off the rim (may merge), 2 fixed.
   enum : std::uint8_t { kEmpty = 0, kSimple = 1, kFixed = 2 };
@@ -1700,7 +1710,7 @@ private:
         if (plane)
         {
           q[comp[e]].addPlane (p, nn);
-          planes_.push_back ({p + Eigen::Vector3d (x, y, z), nn});
+          planes_.push_back ({p + Eigen::Vector3d (x, y, z), nn, comp[e]});
         }
       }
       plane_end_[ci] = static_cast<std::uint32_t> (planes_.size ());
@@ -1831,7 +1841,27 @@ private:
   {
     const Eigen::Vector3d lat = root_local + r_.origin.cast<double> ();
     r_.vertices.push_back ({(lat * h_).cast<float> (), node});
+    if (eps_ > 0)
+      r_.plane_begin.push_back (static_cast<std::uint32_t> (r_.planes.size ()));
     return static_cast<std::uint16_t> (r_.vertices.size () - 1);
+  }
+  // With ε > 0: the crossing planes of cell ci (of its component `comp`, or all for −1) become
+  // planes of the vertex added last, in the world frame.
+  void
+  addCellPlanes (int ci, int comp)
+  {
+    if (!(eps_ > 0))
+      return;
+    for (std::uint32_t k = plane_begin_[ci]; k < plane_end_[ci]; ++k)
+    {
+      const Plane& pl = planes_[k];
+      const double len = pl.n.norm ();
+      if ((comp >= 0 && pl.comp != comp) || !(len > 0))
+        continue;
+      const Eigen::Vector3d n = pl.n / len;
+      const Eigen::Vector3d p = (pl.p + r_.origin.cast<double> ()) * h_;
+      r_.planes.emplace_back (float (n.x ()), float (n.y ()), float (n.z ()), float (-n.dot (p)));
+    }
   }
   // Nodes that merged and whose parent did not: one vertex for all their cells.
   void
@@ -1853,7 +1883,11 @@ private:
         for (int cz = z * s; cz < (z + 1) * s; ++cz)
           for (int cy = y * s; cy < (y + 1) * s; ++cy)
             for (int cx = x * s; cx < (x + 1) * s; ++cx)
-              r_.cell_vertex[(cz * kRootSide + cy) * kRootSide + cx] = vi;
+            {
+              const int ci = (cz * kRootSide + cy) * kRootSide + cx;
+              r_.cell_vertex[ci] = vi;
+              addCellPlanes (ci, -1);
+            }
         ++r_.collapsed;
       }
     }
@@ -1869,7 +1903,10 @@ private:
       r_.cell_vertex[ci] = static_cast<std::uint16_t> (r_.vertices.size ());
       r_.cell_comp[ci] = comp_bits_[ci];
       for (int c = 0; c < ncomp_[ci]; ++c)
+      {
         addVertex (comp_pos_[first_comp_[ci] + c], static_cast<std::uint32_t> (ci));
+        addCellPlanes (ci, c);
+      }
     }
   }
 
@@ -2150,7 +2187,8 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
   for (std::size_t i = 0; i < m.roots.size (); ++i)
     base[i + 1] = base[i] + m.roots[i]->vertices.size ();
   std::vector<std::int32_t> index (base.back (), -1);
-  pcl::PointCloud<pcl::PointXYZ> cloud;
+  std::vector<Eigen::Vector3f> points;
+  std::vector<std::uint64_t> refs;  // per output vertex
   std::size_t ntris = 0, escaped = 0, collapsed = 0, missing = 0, rim = 0;
   for (const auto& r : m.roots)
   {
@@ -2160,15 +2198,15 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
     missing += r->missing;
     rim += r->rim;
   }
-  auto outIndex = [&] (std::uint64_t ref) -> int {
+  auto outIndex = [&] (std::uint64_t ref) -> std::uint32_t {
     std::int32_t& idx = index[base[ref >> 16] + (ref & 0xFFFF)];
     if (idx < 0)
     {
-      const Eigen::Vector3f& p = refPosition (m, ref);
-      idx = static_cast<std::int32_t> (cloud.size ());
-      cloud.push_back (pcl::PointXYZ (p.x (), p.y (), p.z ()));
+      idx = static_cast<std::int32_t> (points.size ());
+      points.push_back (refPosition (m, ref));
+      refs.push_back (ref);
     }
-    return idx;
+    return static_cast<std::uint32_t> (idx);
   };
   std::vector<const Root*> order;
   order.reserve (m.roots.size ());
@@ -2176,23 +2214,27 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
     order.push_back (r.get ());
   std::sort (order.begin (), order.end (), [] (const Root* a, const Root* b) { return a->key < b->key; });
   const std::vector<std::array<std::uint64_t, 3>> merged = mergeSharedPolygons (m, order);
-  // Fill the caller's polygons in place: a mesh passed again (every frame) reuses its storage
-  // instead of one allocation per triangle.
-  ntris += merged.size ();
-  mesh.polygons.resize (ntris);
-  std::size_t ti = 0;
-  auto put = [&] (const std::array<std::uint64_t, 3>& t) {
-    auto& v = mesh.polygons[ti++].vertices;
-    v.resize (3);
-    v[0] = outIndex (t[0]);
-    v[1] = outIndex (t[1]);
-    v[2] = outIndex (t[2]);
-  };
+  std::vector<std::array<std::uint32_t, 3>> tris;
+  tris.reserve (ntris + merged.size ());
   for (const Root* r : order)
     for (const auto& t : r->tris)
-      put (t);
+      tris.push_back ({outIndex (t[0]), outIndex (t[1]), outIndex (t[2])});
   for (const auto& t : merged)
-    put (t);
+    tris.push_back ({outIndex (t[0]), outIndex (t[1]), outIndex (t[2])});
+  st.octree_triangles = tris.size ();
+  st.mesh_collapses = 0;
+  st.t_collapse_ms = 0;
+  if (eps_ > 0)
+    collapseAcrossNodes (refs, points, tris);
+  // Fill the caller's polygons in place: a mesh passed again (every frame) reuses its storage
+  // instead of one allocation per triangle.
+  mesh.polygons.resize (tris.size ());
+  for (std::size_t i = 0; i < tris.size (); ++i)
+    mesh.polygons[i].vertices.assign (tris[i].begin (), tris[i].end ());
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  cloud.resize (points.size ());
+  for (std::size_t i = 0; i < points.size (); ++i)
+    cloud[i].getVector3fMap () = points[i];
   pcl::toPCLPointCloud2 (cloud, mesh.cloud);
   st.vertices = cloud.size ();
   st.triangles = mesh.polygons.size ();
@@ -2204,8 +2246,32 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
   std::size_t cache_bytes = 0;
   for (const auto& r : m.roots)
     cache_bytes += r->vertices.capacity () * sizeof (Vertex) + r->tris.capacity () * sizeof (r->tris[0]) +
-                   r->leaves.capacity () * sizeof (Leaf) + r->edges.capacity () * sizeof (EdgeData);
+                   r->leaves.capacity () * sizeof (Leaf) + r->edges.capacity () * sizeof (EdgeData) +
+                   r->planes.capacity () * sizeof (r->planes[0]) + r->plane_begin.capacity () * sizeof (std::uint32_t);
   st.memory_bytes = m.roots.size () * sizeof (Root) + cache_bytes + m.root_of.size () * 32;
+}
+
+void
+DualContouringOctree::collapseAcrossNodes (const std::vector<std::uint64_t>& refs, std::vector<Eigen::Vector3f>& points,
+                                           std::vector<std::array<std::uint32_t, 3>>& tris)
+{
+  const auto t0 = Clock::now ();
+  const Impl& m = *impl_;
+  pclx::surface::detail::VertexPlanes vp;
+  vp.begin.reserve (refs.size () + 1);
+  vp.begin.push_back (0);
+  for (const std::uint64_t ref : refs)
+  {
+    const Root& r = *m.roots[ref >> 16];
+    const std::size_t i = ref & 0xFFFF;
+    vp.planes.insert (vp.planes.end (), r.planes.begin () + r.plane_begin[i], r.planes.begin () + r.plane_begin[i + 1]);
+    vp.begin.push_back (static_cast<std::uint32_t> (vp.planes.size ()));
+  }
+  pclx::surface::detail::EdgeCollapseStats cs;
+  if (!pclx::surface::detail::collapseEdgesWithinDistance (points, tris, vp, eps_, kMaxVertexPlanes, cs))
+    PCL_ERROR ("[pcl::DualContouringOctree::reconstruct] the mesh was left as the octree made it\n");
+  stats_.mesh_collapses = cs.collapses;
+  stats_.t_collapse_ms = msSince (t0);
 }
 
 }  // namespace pcl

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 
+#include <array>
 #include <cstdint>
 #include <future>
 #include <memory>
@@ -75,7 +76,11 @@ namespace pcl {
   * node: a merge neither opens a hole nor moves a crossing plane by more than ε. The test reads
   * the signs with unobserved vertices taking those of the observed ones a few steps away, so the
   * unseen inside of a wall does not count as a second surface; cells on the rim of what was seen
-  * do not merge (the two sides of a thin part could cancel).
+  * do not merge (the two sides of a thin part could cancel). The octree's merges stop where
+  * noise makes the signs near a wall random, at rims and at root borders, so the mesh is then
+  * simplified further by edge collapses (Garland and Heckbert 1997) with the same bound: every
+  * vertex stays within ε of every crossing plane of the cells it stands for (Ronfard and
+  * Rossignac 1996), and the link condition keeps the mesh's topology and its boundaries.
   * Incremental: a root whose data changed recomputes the vertices of the roots around it (a
   * cell's vertices read its neighbours' signs and edges); polygons are redone for the roots
   * within 2 of a changed one; all other roots keep their cached triangles.
@@ -83,7 +88,9 @@ namespace pcl {
   * \note H. O. da Paz, 2017, "Reconstrução Adaptativa de Superfícies Implícitas a partir de
   * Imagens de Profundidade", MSc dissertation, IMPA; T. Ju, F. Losasso, S. Schaefer, J. Warren,
   * 2002, "Dual Contouring of Hermite Data", ACM SIGGRAPH; S. Schaefer, T. Ju, J. Warren, 2007,
-  * "Manifold Dual Contouring", IEEE TVCG.
+  * "Manifold Dual Contouring", IEEE TVCG; M. Garland, P. S. Heckbert, 1997, "Surface
+  * Simplification Using Quadric Error Metrics", SIGGRAPH; R. Ronfard, J. Rossignac, 1996,
+  * "Full-range Approximation of Triangulated Polyhedra", Computer Graphics Forum 15(3).
   * \ingroup surface
   */
 class DualContouringOctree
@@ -133,7 +140,10 @@ public:
     double t_signs_ms = 0;           ///< last polygonisation: signs (ms)
     double t_vertices_ms = 0;        ///< last polygonisation: dual vertices (ms)
     double t_polygons_ms = 0;        ///< last polygonisation: polygons (ms)
-    double t_output_ms = 0;          ///< last polygonisation: output mesh (ms)
+    double t_output_ms = 0;          ///< last polygonisation: output mesh (ms), with the edge collapses
+    std::size_t octree_triangles = 0;  ///< last polygonisation: triangles before the edge collapses
+    std::size_t mesh_collapses = 0;    ///< last polygonisation: edges collapsed (ε > 0)
+    double t_collapse_ms = 0;          ///< last polygonisation: the edge collapses (ms)
     double last_reconstruct_ms = 0;  ///< last polygonisation: total (ms)
     std::size_t frames = 0;          ///< frames fused
   };
@@ -185,9 +195,9 @@ public:
     * \return false while no volume is set (before setVolume () or the first frame)
     */
   bool getVolume (Eigen::Vector3d& min, Eigen::Vector3d& max) const;
-  /** \brief Set ε of the octree simplification: sibling nodes merge while the merge is
-    * topology-safe and the merged vertex lies within ε of every crossing plane of the merged
-    * cells.
+  /** \brief Set ε of the simplification: sibling nodes merge while the merge is topology-safe
+    * and the merged vertex lies within ε of every crossing plane of the merged cells; then the
+    * mesh's edges collapse under the same bound, keeping its topology.
     * \param[in] eps ε in metres (≥ 0, finite; 0 = off, default)
     * \return false (with a PCL_ERROR, the old value kept) for ε < 0 or not finite
     */
@@ -274,6 +284,12 @@ private:
   void mergeFrame (const FrameTriangles& ft, double t_intersect_ms, bool parallel);
   void polygonise (pcl::PolygonMesh& mesh, bool all);
   void writeMesh (pcl::PolygonMesh& mesh);
+  void collapseAcrossNodes (const std::vector<std::uint64_t>& refs, std::vector<Eigen::Vector3f>& points,
+                            std::vector<std::array<std::uint32_t, 3>>& tris);
+
+  // Most crossing planes one output vertex may stand for after the edge collapses: bounds the
+  // cost of checking them.
+  static constexpr std::size_t kMaxVertexPlanes = 1024;
 
   double h_ = 0.01, eps_ = 0, margin_ = 1.5;
   bool grow_ = true, volume_set_ = false, all_dirty_ = true, overlap_ = true;

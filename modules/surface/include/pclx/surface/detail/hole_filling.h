@@ -1,18 +1,15 @@
 #pragma once
 // Closing the small holes of a triangle mesh, for surfaces reconstructed from scans.
+#include <pclx/surface/detail/triangle.h>
+
 #include <Eigen/Core>
 
-#include <array>
 #include <cstddef>
-#include <cstdint>
 #include <vector>
 
 namespace pclx {
 namespace surface {
 namespace detail {
-
-/** \brief A triangle as three vertex indices, without the allocation of a pcl::Vertices. */
-using Triangle = std::array<std::uint32_t, 3>;
 
 /** \brief What fillSmallHoles () found and did. */
 struct HoleFillingStats
