@@ -174,7 +174,7 @@ def error_vs_eps(rows, out):
         ax.grid(True, which="both", alpha=0.3)
     fig.legend(list(handles.values()), list(handles.keys()), loc="lower center", ncol=len(handles), fontsize=8,
                frameon=False)
-    fig.suptitle("IDC octree simplification at the finest swept leaf: error and triangles against eps\n(the largest "
+    fig.suptitle("IDC simplification (octree merges, then edge collapses) at the finest swept leaf: error and triangles against eps\n(the largest "
                  "distance of a merged vertex to the crossing planes it replaces; eps = 0 drawn at 1e-5)", fontsize=10)
     fig.tight_layout(rect=(0, 0.6 / (4.2 * nrows + 0.6), 1, 1))
     fig.savefig(out + "/idc_error_vs_eps.png", dpi=110)
