@@ -860,6 +860,73 @@ TEST (IncrementalDualContouring, HermiteDataAverageNoisyFrames)
   EXPECT_LT (twenty, 0.25 * one) << "one frame " << one;
 }
 
+// A noisy wall at ε = half a leaf: the edge collapses after the octree's merges leave under a
+// quarter of its triangles (the averaged planes' tilt bounds how far a vertex may move), near
+// the plane, with its area (no hole opened) and the same mesh on one thread and on two.
+TEST (IncrementalDualContouring, NoisyWallBecomesFewTrianglesAtEpsilon)
+{
+  const double h = 0.02, sigma = 0.2 * h, z0 = 0.37 * h, half = 0.6, eps = 0.5 * h;
+  const int n = static_cast<int> (2 * half / (0.5 * h));
+  auto noisyPlane = [&] (std::uint32_t seed) {
+    std::mt19937 rng (seed);
+    std::normal_distribution<float> g (0.f, static_cast<float> (sigma));
+    FrameMesh f;
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i)
+        f.vertices.emplace_back (static_cast<float> (-half + i * 0.5 * h), static_cast<float> (-half + j * 0.5 * h),
+                                 static_cast<float> (z0) + g (rng));
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+      {
+        const int a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+        f.triangles.emplace_back (a, b, d);
+        f.triangles.emplace_back (a, d, c);
+      }
+    f.viewpoint = Eigen::Vector3f (0.f, 0.f, 1.f);
+    return f;
+  };
+  auto area = [] (const pcl::PolygonMesh& mesh) {
+    const auto p = points (mesh);
+    double a = 0;
+    for (const auto& t : mesh.polygons)
+      a += 0.5 * (p[t.vertices[1]] - p[t.vertices[0]]).cross (p[t.vertices[2]] - p[t.vertices[0]]).norm ();
+    return a;
+  };
+  auto build = [&] (double e, int threads, pcl::PolygonMesh& mesh) {
+    const int saved = omp_get_max_threads ();
+    omp_set_num_threads (threads);
+    pcl::DualContouringOctree oct;
+    EXPECT_TRUE (oct.setLeafSize (h));
+    EXPECT_TRUE (oct.setSimplificationError (e));
+    for (int k = 0; k < 5; ++k)
+      EXPECT_TRUE (oct.addFrameMesh (noisyPlane (200 + k)));
+    oct.reconstruct (mesh);
+    omp_set_num_threads (saved);
+  };
+  pcl::PolygonMesh fine, coarse, coarse_one_thread;
+  build (0.0, 2, fine);
+  build (eps, 2, coarse);
+  build (eps, 1, coarse_one_thread);
+  expectIdentical (coarse, coarse_one_thread);
+  const MeshCheck cf = check (fine), cc = check (coarse);
+  expectManifold (cc);
+  EXPECT_LT (coarse.polygons.size () * 4, fine.polygons.size ()) << coarse.polygons.size () << " of " << fine.polygons.size ();
+  EXPECT_LE (cc.boundary_edges, cf.boundary_edges);
+  EXPECT_NEAR (area (coarse), area (fine), 0.05 * area (fine));
+  // Inside the wall within ε of the noisy planes; on its rim (where the rim cells' vertices
+  // already stand off at ε = 0) no further off than at ε = 0 plus ε.
+  double rim_fine = 0, rim_coarse = 0;
+  for (const auto& p : points (fine))
+    rim_fine = std::max (rim_fine, std::abs (p.z () - z0));
+  for (const auto& p : points (coarse))
+  {
+    rim_coarse = std::max (rim_coarse, std::abs (p.z () - z0));
+    if (std::abs (p.x ()) < half - 2 * h && std::abs (p.y ()) < half - 2 * h)
+      EXPECT_LT (std::abs (p.z () - z0), eps + 2 * sigma) << p.transpose ();
+  }
+  EXPECT_LT (rim_coarse, rim_fine + eps) << rim_fine;
+}
+
 // A wall seen close by low-noise frames and from afar by noisy ones (depth noise grows with
 // range): the far frames, whose pixel noise exceeds the leaf, are block averaged down to it, so
 // they leave no bubbles a few leaves in front of the wall or inside it.
