@@ -2214,23 +2214,28 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
     order.push_back (r.get ());
   std::sort (order.begin (), order.end (), [] (const Root* a, const Root* b) { return a->key < b->key; });
   const std::vector<std::array<std::uint64_t, 3>> merged = mergeSharedPolygons (m, order);
-  std::vector<std::array<std::uint32_t, 3>> tris;
-  tris.reserve (ntris + merged.size ());
+  // Fill the caller's polygons in place: a mesh passed again (every frame) reuses its storage
+  // instead of one allocation per triangle.
+  ntris += merged.size ();
+  mesh.polygons.resize (ntris);
+  std::size_t ti = 0;
+  auto put = [&] (const std::array<std::uint64_t, 3>& t) {
+    auto& v = mesh.polygons[ti++].vertices;
+    v.resize (3);
+    v[0] = outIndex (t[0]);
+    v[1] = outIndex (t[1]);
+    v[2] = outIndex (t[2]);
+  };
   for (const Root* r : order)
     for (const auto& t : r->tris)
-      tris.push_back ({outIndex (t[0]), outIndex (t[1]), outIndex (t[2])});
+      put (t);
   for (const auto& t : merged)
-    tris.push_back ({outIndex (t[0]), outIndex (t[1]), outIndex (t[2])});
-  st.octree_triangles = tris.size ();
+    put (t);
+  st.octree_triangles = ntris;
   st.mesh_collapses = 0;
   st.t_collapse_ms = 0;
   if (eps_ > 0)
-    collapseAcrossNodes (refs, points, tris);
-  // Fill the caller's polygons in place: a mesh passed again (every frame) reuses its storage
-  // instead of one allocation per triangle.
-  mesh.polygons.resize (tris.size ());
-  for (std::size_t i = 0; i < tris.size (); ++i)
-    mesh.polygons[i].vertices.assign (tris[i].begin (), tris[i].end ());
+    collapseAcrossNodes (refs, points, mesh.polygons);
   pcl::PointCloud<pcl::PointXYZ> cloud;
   cloud.resize (points.size ());
   for (std::size_t i = 0; i < points.size (); ++i)
@@ -2253,10 +2258,14 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
 
 void
 DualContouringOctree::collapseAcrossNodes (const std::vector<std::uint64_t>& refs, std::vector<Eigen::Vector3f>& points,
-                                           std::vector<std::array<std::uint32_t, 3>>& tris)
+                                           std::vector<pcl::Vertices>& polygons)
 {
   const auto t0 = Clock::now ();
   const Impl& m = *impl_;
+  std::vector<pclx::surface::detail::Triangle> tris (polygons.size ());
+  for (std::size_t i = 0; i < polygons.size (); ++i)
+    for (int k = 0; k < 3; ++k)
+      tris[i][k] = static_cast<std::uint32_t> (polygons[i].vertices[k]);
   pclx::surface::detail::VertexPlanes vp;
   vp.begin.reserve (refs.size () + 1);
   vp.begin.push_back (0);
@@ -2269,7 +2278,13 @@ DualContouringOctree::collapseAcrossNodes (const std::vector<std::uint64_t>& ref
   }
   pclx::surface::detail::EdgeCollapseStats cs;
   if (!pclx::surface::detail::collapseEdgesWithinDistance (points, tris, vp, eps_, kMaxVertexPlanes, cs))
+  {
     PCL_ERROR ("[pcl::DualContouringOctree::reconstruct] the mesh was left as the octree made it\n");
+    return;
+  }
+  polygons.resize (tris.size ());
+  for (std::size_t i = 0; i < tris.size (); ++i)
+    polygons[i].vertices.assign (tris[i].begin (), tris[i].end ());
   stats_.mesh_collapses = cs.collapses;
   stats_.t_collapse_ms = msSince (t0);
 }

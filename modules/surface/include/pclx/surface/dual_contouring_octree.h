@@ -5,7 +5,6 @@
 
 #include <Eigen/Core>
 
-#include <array>
 #include <cstdint>
 #include <future>
 #include <memory>
@@ -285,7 +284,7 @@ private:
   void polygonise (pcl::PolygonMesh& mesh, bool all);
   void writeMesh (pcl::PolygonMesh& mesh);
   void collapseAcrossNodes (const std::vector<std::uint64_t>& refs, std::vector<Eigen::Vector3f>& points,
-                            std::vector<std::array<std::uint32_t, 3>>& tris);
+                            std::vector<pcl::Vertices>& polygons);
 
   // Most crossing planes one output vertex may stand for after the edge collapses: bounds the
   // cost of checking them.
