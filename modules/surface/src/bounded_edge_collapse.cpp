@@ -96,37 +96,17 @@ public:
     buildAdjacency ();
     addPlanes (planes);
     const std::vector<std::int32_t> cut = holdCuts ();
-    const std::vector<float> keys = edgeKeys ();
     std::vector<Worker> workers (kSlabs);
-#pragma omp parallel for schedule (dynamic, 1)
-    for (int s = 0; s < kSlabs; ++s)
+    collapseSlabs (workers);
+    collapseCuts (cut, workers[0]);
+    for (const Worker& w : workers)
     {
-      Worker& w = workers[s];
-      w.queue.reset (eps_);
-      for (std::size_t i = 0; i < edges_.size (); ++i)
-        if (keys[i] >= 0 && slab_[edges_[i].first] == s)
-          w.queue.push ({keys[i], edges_[i].first, edges_[i].second, 0, 0});
-      collapseAll (w);
-    }
-    // The cuts: their vertices' edges, now that the slabs around them are done.
-    held_.assign (pos_.size (), 0);
-    Worker& w = workers[0];
-    w.queue.reset (eps_);
-    for (std::int32_t c : cut)
-    {
-      neighbours (c, w.na);
-      for (std::int32_t u : w.na)
-        push (w, std::min (c, u), std::max (c, u));
-    }
-    collapseAll (w);
-    for (const Worker& k : workers)
-    {
-      stats_.collapses += k.stats.collapses;
-      stats_.rejected_size += k.stats.rejected_size;
-      stats_.rejected_topology += k.stats.rejected_topology;
-      stats_.rejected_distance += k.stats.rejected_distance;
-      stats_.rejected_foldover += k.stats.rejected_foldover;
-      stats_.max_distance = std::max (stats_.max_distance, k.stats.max_distance);
+      stats_.collapses += w.stats.collapses;
+      stats_.rejected_size += w.stats.rejected_size;
+      stats_.rejected_topology += w.stats.rejected_topology;
+      stats_.rejected_distance += w.stats.rejected_distance;
+      stats_.rejected_foldover += w.stats.rejected_foldover;
+      stats_.max_distance = std::max (stats_.max_distance, w.stats.max_distance);
     }
   }
 
@@ -164,6 +144,39 @@ private:
     std::vector<std::int32_t> na, nb;
     EdgeCollapseStats stats;
   };
+
+  // Each slab collapses its own edges in parallel with the others: with the vertices on the
+  // cuts held, no two slabs touch the same vertex or triangle.
+  void
+  collapseSlabs (std::vector<Worker>& workers)
+  {
+    const std::vector<float> keys = edgeKeys ();
+#pragma omp parallel for schedule (dynamic, 1)
+    for (int s = 0; s < kSlabs; ++s)
+    {
+      Worker& w = workers[s];
+      w.queue.reset (eps_);
+      for (std::size_t i = 0; i < edges_.size (); ++i)
+        if (keys[i] >= 0 && slab_[edges_[i].first] == s)
+          w.queue.push ({keys[i], edges_[i].first, edges_[i].second, 0, 0});
+      collapseAll (w);
+    }
+  }
+
+  // Then the edges of the vertices on the cuts, released.
+  void
+  collapseCuts (const std::vector<std::int32_t>& cut, Worker& w)
+  {
+    held_.assign (pos_.size (), 0);
+    w.queue.reset (eps_);
+    for (std::int32_t c : cut)
+    {
+      neighbours (c, w.na);
+      for (std::int32_t u : w.na)
+        push (w, std::min (c, u), std::max (c, u));
+    }
+    collapseAll (w);
+  }
 
   // Cuts the vertices into kSlabs slabs of equal counts along the longest axis of their box and
   // holds the vertices with a neighbour in another slab; returns those.
