@@ -812,30 +812,36 @@ TEST (IncrementalDualContouring, OverlappedMergesGiveTheSameMap)
   expectIdentical (in_call, read);
 }
 
+// The square [−half, half]² at height z0 sampled every half leaf h, with Gaussian noise of
+// sigma in z, as one frame seen from above.
+FrameMesh
+noisyPlaneFrame (double h, double sigma, double z0, double half, std::uint32_t seed)
+{
+  const int n = static_cast<int> (2 * half / (0.5 * h));
+  std::mt19937 rng (seed);
+  std::normal_distribution<float> g (0.f, static_cast<float> (sigma));
+  FrameMesh f;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i)
+      f.vertices.emplace_back (static_cast<float> (-half + i * 0.5 * h), static_cast<float> (-half + j * 0.5 * h),
+                               static_cast<float> (z0) + g (rng));
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i)
+    {
+      const int a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+      f.triangles.emplace_back (a, b, d);  // counter-clockwise seen from +z
+      f.triangles.emplace_back (a, d, c);
+    }
+  f.viewpoint = Eigen::Vector3f (0.f, 0.f, 1.f);
+  return f;
+}
+
 // Hermite data averaged over frames: a plane seen in 20 noisy frames is recovered with the
 // error of one frame divided by about the square root of 20.
 TEST (IncrementalDualContouring, HermiteDataAverageNoisyFrames)
 {
   const double h = 0.02, sigma = 0.2 * h, z0 = 0.37 * h, half = 0.3;
-  const int n = static_cast<int> (2 * half / (0.5 * h));
-  auto noisyPlane = [&] (std::uint32_t seed) {
-    std::mt19937 rng (seed);
-    std::normal_distribution<float> g (0.f, static_cast<float> (sigma));
-    FrameMesh f;
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i)
-        f.vertices.emplace_back (static_cast<float> (-half + i * 0.5 * h), static_cast<float> (-half + j * 0.5 * h),
-                                 static_cast<float> (z0) + g (rng));
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i)
-      {
-        const int a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
-        f.triangles.emplace_back (a, b, d);  // counter-clockwise seen from +z
-        f.triangles.emplace_back (a, d, c);
-      }
-    f.viewpoint = Eigen::Vector3f (0.f, 0.f, 1.f);
-    return f;
-  };
+  auto noisyPlane = [&] (std::uint32_t seed) { return noisyPlaneFrame (h, sigma, z0, half, seed); };
   auto rmsError = [&] (int frames) {
     pcl::DualContouringOctree oct;
     EXPECT_TRUE (oct.setLeafSize (h));
@@ -866,25 +872,7 @@ TEST (IncrementalDualContouring, HermiteDataAverageNoisyFrames)
 TEST (IncrementalDualContouring, NoisyWallBecomesFewTrianglesAtEpsilon)
 {
   const double h = 0.02, sigma = 0.2 * h, z0 = 0.37 * h, half = 0.6, eps = 0.5 * h;
-  const int n = static_cast<int> (2 * half / (0.5 * h));
-  auto noisyPlane = [&] (std::uint32_t seed) {
-    std::mt19937 rng (seed);
-    std::normal_distribution<float> g (0.f, static_cast<float> (sigma));
-    FrameMesh f;
-    for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i)
-        f.vertices.emplace_back (static_cast<float> (-half + i * 0.5 * h), static_cast<float> (-half + j * 0.5 * h),
-                                 static_cast<float> (z0) + g (rng));
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i)
-      {
-        const int a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
-        f.triangles.emplace_back (a, b, d);
-        f.triangles.emplace_back (a, d, c);
-      }
-    f.viewpoint = Eigen::Vector3f (0.f, 0.f, 1.f);
-    return f;
-  };
+  auto noisyPlane = [&] (std::uint32_t seed) { return noisyPlaneFrame (h, sigma, z0, half, seed); };
   auto area = [] (const pcl::PolygonMesh& mesh) {
     const auto p = points (mesh);
     double a = 0;
