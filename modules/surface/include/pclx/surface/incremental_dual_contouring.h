@@ -23,7 +23,8 @@ namespace pcl {
   * - §3.4–3.5: the FrameMesh is fused into an extrinsic hashed octree of Hermite data averaged
   *   over frames and grid vertex signs (pcl::DualContouringOctree, see there);
   * - §3.6: reconstruct () runs manifold dual contouring over minimal edges, an optional
-  *   topology-safe simplification within ε (flat regions get few triangles) and an optional
+  *   topology-safe simplification within ε (octree merges, then edge collapses; flat regions
+  *   get few triangles) and an optional
   *   removal of the dominant plane (RANSAC) to isolate an object (§4.4). Only roots touched
   *   since the last call are re-polygonised.
   *
@@ -124,13 +125,16 @@ public:
     * and counted
     */
   void setGrowVolume (bool on) { octree_.setGrowVolume (on); }
-  /** \brief Set ε of the octree simplification: cells merge while the merge keeps the topology
-    * and the merged vertex stays within ε of every crossing plane of the merged cells.
+  /** \brief Set ε of the simplification: cells merge while the merge keeps the topology and the
+    * merged vertex stays within ε of every crossing plane of the merged cells, then the mesh's
+    * edges collapse under the same bound (see DualContouringOctree).
     * \param[in] eps ε in metres (≥ 0; 0 = off, default)
+    * \note With ε > 0 every reconstruct () also collapses the whole mesh's edges, which takes
+    * longer than the polygonisation itself on large maps (docs/surface.md).
     * \return false (with a PCL_ERROR and getLastError (), the old value kept) for ε < 0 or NaN
     */
   bool setSimplificationError (double eps) { return settled (octree_.setSimplificationError (eps)); }
-  /** \brief Get ε of the octree simplification.
+  /** \brief Get ε of the simplification.
     * \return ε in metres
     */
   double getSimplificationError () const { return octree_.getSimplificationError (); }
