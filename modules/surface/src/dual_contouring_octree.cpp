@@ -2121,6 +2121,49 @@ mergeSharedPolygons (const DualContouringOctree::Impl& m, const std::vector<cons
   return merged;
 }
 
+// Most crossing planes one output vertex may stand for after the edge collapses: bounds the
+// cost of checking them.
+constexpr std::size_t kMaxVertexPlanes = 1024;
+
+// The octree's mesh (cloud and polygons, vertex i from root vertex refs[i]) simplified by edge
+// collapses that keep every vertex within eps of the crossing planes it stands for; returns
+// the number of collapses (the mesh is left as it was when the collapse refuses it).
+std::size_t
+collapseAcrossNodes (const DualContouringOctree::Impl& m, double eps, const std::vector<std::uint64_t>& refs,
+                     pcl::PointCloud<pcl::PointXYZ>& cloud, std::vector<pcl::Vertices>& polygons)
+{
+  std::vector<Eigen::Vector3f> points (cloud.size ());
+  for (std::size_t i = 0; i < cloud.size (); ++i)
+    points[i] = cloud[i].getVector3fMap ();
+  std::vector<pclx::surface::detail::Triangle> tris (polygons.size ());
+  for (std::size_t i = 0; i < polygons.size (); ++i)
+    for (int k = 0; k < 3; ++k)
+      tris[i][k] = static_cast<std::uint32_t> (polygons[i].vertices[k]);
+  pclx::surface::detail::VertexPlanes vp;
+  vp.begin.reserve (refs.size () + 1);
+  vp.begin.push_back (0);
+  for (const std::uint64_t ref : refs)
+  {
+    const auto& r = *m.roots[ref >> 16];
+    const std::size_t i = ref & 0xFFFF;
+    vp.planes.insert (vp.planes.end (), r.planes.begin () + r.plane_begin[i], r.planes.begin () + r.plane_begin[i + 1]);
+    vp.begin.push_back (static_cast<std::uint32_t> (vp.planes.size ()));
+  }
+  pclx::surface::detail::EdgeCollapseStats cs;
+  if (!pclx::surface::detail::collapseEdgesWithinDistance (points, tris, vp, eps, kMaxVertexPlanes, cs))
+  {
+    PCL_ERROR ("[pcl::DualContouringOctree::reconstruct] the mesh was left as the octree made it\n");
+    return 0;
+  }
+  polygons.resize (tris.size ());
+  for (std::size_t i = 0; i < tris.size (); ++i)
+    polygons[i].vertices.assign (tris[i].begin (), tris[i].end ());
+  cloud.resize (points.size ());
+  for (std::size_t i = 0; i < points.size (); ++i)
+    cloud[i].getVector3fMap () = points[i];
+  return cs.collapses;
+}
+
 }  // namespace
 
 void
@@ -2187,8 +2230,8 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
   for (std::size_t i = 0; i < m.roots.size (); ++i)
     base[i + 1] = base[i] + m.roots[i]->vertices.size ();
   std::vector<std::int32_t> index (base.back (), -1);
-  std::vector<Eigen::Vector3f> points;
-  std::vector<std::uint64_t> refs;  // per output vertex
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  std::vector<std::uint64_t> refs;  // per output vertex, for the edge collapses (ε > 0)
   std::size_t ntris = 0, escaped = 0, collapsed = 0, missing = 0, rim = 0;
   for (const auto& r : m.roots)
   {
@@ -2202,9 +2245,11 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
     std::int32_t& idx = index[base[ref >> 16] + (ref & 0xFFFF)];
     if (idx < 0)
     {
-      idx = static_cast<std::int32_t> (points.size ());
-      points.push_back (refPosition (m, ref));
-      refs.push_back (ref);
+      const Eigen::Vector3f& p = refPosition (m, ref);
+      idx = static_cast<std::int32_t> (cloud.size ());
+      cloud.push_back (pcl::PointXYZ (p.x (), p.y (), p.z ()));
+      if (eps_ > 0)
+        refs.push_back (ref);
     }
     return static_cast<std::uint32_t> (idx);
   };
@@ -2235,11 +2280,11 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
   st.mesh_collapses = 0;
   st.t_collapse_ms = 0;
   if (eps_ > 0)
-    collapseAcrossNodes (refs, points, mesh.polygons);
-  pcl::PointCloud<pcl::PointXYZ> cloud;
-  cloud.resize (points.size ());
-  for (std::size_t i = 0; i < points.size (); ++i)
-    cloud[i].getVector3fMap () = points[i];
+  {
+    const auto tc = Clock::now ();
+    st.mesh_collapses = collapseAcrossNodes (m, eps_, refs, cloud, mesh.polygons);
+    st.t_collapse_ms = msSince (tc);
+  }
   pcl::toPCLPointCloud2 (cloud, mesh.cloud);
   st.vertices = cloud.size ();
   st.triangles = mesh.polygons.size ();
@@ -2256,37 +2301,5 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
   st.memory_bytes = m.roots.size () * sizeof (Root) + cache_bytes + m.root_of.size () * 32;
 }
 
-void
-DualContouringOctree::collapseAcrossNodes (const std::vector<std::uint64_t>& refs, std::vector<Eigen::Vector3f>& points,
-                                           std::vector<pcl::Vertices>& polygons)
-{
-  const auto t0 = Clock::now ();
-  const Impl& m = *impl_;
-  std::vector<pclx::surface::detail::Triangle> tris (polygons.size ());
-  for (std::size_t i = 0; i < polygons.size (); ++i)
-    for (int k = 0; k < 3; ++k)
-      tris[i][k] = static_cast<std::uint32_t> (polygons[i].vertices[k]);
-  pclx::surface::detail::VertexPlanes vp;
-  vp.begin.reserve (refs.size () + 1);
-  vp.begin.push_back (0);
-  for (const std::uint64_t ref : refs)
-  {
-    const Root& r = *m.roots[ref >> 16];
-    const std::size_t i = ref & 0xFFFF;
-    vp.planes.insert (vp.planes.end (), r.planes.begin () + r.plane_begin[i], r.planes.begin () + r.plane_begin[i + 1]);
-    vp.begin.push_back (static_cast<std::uint32_t> (vp.planes.size ()));
-  }
-  pclx::surface::detail::EdgeCollapseStats cs;
-  if (!pclx::surface::detail::collapseEdgesWithinDistance (points, tris, vp, eps_, kMaxVertexPlanes, cs))
-  {
-    PCL_ERROR ("[pcl::DualContouringOctree::reconstruct] the mesh was left as the octree made it\n");
-    return;
-  }
-  polygons.resize (tris.size ());
-  for (std::size_t i = 0; i < tris.size (); ++i)
-    polygons[i].vertices.assign (tris[i].begin (), tris[i].end ());
-  stats_.mesh_collapses = cs.collapses;
-  stats_.t_collapse_ms = msSince (t0);
-}
 
 }  // namespace pcl

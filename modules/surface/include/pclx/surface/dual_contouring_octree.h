@@ -283,12 +283,6 @@ private:
   void mergeFrame (const FrameTriangles& ft, double t_intersect_ms, bool parallel);
   void polygonise (pcl::PolygonMesh& mesh, bool all);
   void writeMesh (pcl::PolygonMesh& mesh);
-  void collapseAcrossNodes (const std::vector<std::uint64_t>& refs, std::vector<Eigen::Vector3f>& points,
-                            std::vector<pcl::Vertices>& polygons);
-
-  // Most crossing planes one output vertex may stand for after the edge collapses: bounds the
-  // cost of checking them.
-  static constexpr std::size_t kMaxVertexPlanes = 1024;
 
   double h_ = 0.01, eps_ = 0, margin_ = 1.5;
   bool grow_ = true, volume_set_ = false, all_dirty_ = true, overlap_ = true;
