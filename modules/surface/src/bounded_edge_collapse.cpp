@@ -277,13 +277,12 @@ private:
     for (const auto& [a, b] : boundary_edges_)
     {
       const auto& t = tris_[sharedFace (a, b)];
-      const Eigen::Vector3d e = pos_[b] - pos_[a];
       const Eigen::Vector3d fn = (pos_[t[1]] - pos_[t[0]]).cross (pos_[t[2]] - pos_[t[0]]);
-      const Eigen::Vector3d pn = e.cross (fn);
-      if (!(pn.norm () > 0))
+      Eigen::Vector3d u;
+      double d;
+      if (!boundaryPlane (pos_[a], pos_[b], fn, u, d))
         continue;
-      const Eigen::Vector3d u = pn.normalized ();
-      const Eigen::Vector4f plane = Eigen::Vector4d (u.x (), u.y (), u.z (), -u.dot (pos_[a])).cast<float> ();
+      const Eigen::Vector4f plane = Eigen::Vector4d (u.x (), u.y (), u.z (), d).cast<float> ();
       extra[a].push_back (plane);
       extra[b].push_back (plane);
     }
@@ -374,34 +373,16 @@ private:
   bool
   keepsTopology (std::int32_t a, std::int32_t b, Worker& w) const
   {
-    auto& na = w.na;
-    auto& nb = w.nb;
-    na.clear ();
-    nb.clear ();
     int shared = 0;
     for (std::int32_t f : vf_[a])
-    {
-      if (!face_alive_[f])
-        continue;
-      shared += hasCorner (tris_[f], b);
-      for (std::uint32_t c : tris_[f])
-        if (static_cast<std::int32_t> (c) != a && static_cast<std::int32_t> (c) != b)
-          na.push_back (static_cast<std::int32_t> (c));
-    }
-    for (std::int32_t f : vf_[b])
-    {
-      if (!face_alive_[f])
-        continue;
-      for (std::uint32_t c : tris_[f])
-        if (static_cast<std::int32_t> (c) != a && static_cast<std::int32_t> (c) != b)
-          nb.push_back (static_cast<std::int32_t> (c));
-    }
+      shared += face_alive_[f] && hasCorner (tris_[f], b);
     if (shared == 0 || (boundary_[a] && boundary_[b] && shared != 1))
       return false;
-    std::sort (na.begin (), na.end ());
-    na.erase (std::unique (na.begin (), na.end ()), na.end ());
-    std::sort (nb.begin (), nb.end ());
-    nb.erase (std::unique (nb.begin (), nb.end ()), nb.end ());
+    // a's list holds b and b's holds a, but neither holds itself: they never count as common.
+    neighbours (a, w.na);
+    neighbours (b, w.nb);
+    const auto& na = w.na;
+    const auto& nb = w.nb;
     int common = 0;
     for (std::size_t i = 0, j = 0; i < na.size () && j < nb.size ();)
     {

@@ -826,15 +826,14 @@ CoupledSimplification::addBoundaryConstraint (std::int32_t a, std::int32_t b)
     const auto& t = ctris_[f];
     if ((t[0] == b || t[1] == b || t[2] == b))
     {
-      const Eigen::Vector3d e = cpos_[b] - cpos_[a];
       const Eigen::Vector3d fn = (cpos_[t[1]] - cpos_[t[0]]).cross (cpos_[t[2]] - cpos_[t[0]]);
-      Eigen::Vector3d n = e.cross (fn);
-      if (n.norm () > 0)
+      Eigen::Vector3d n;
+      double d;
+      if (pclx::surface::detail::boundaryPlane (cpos_[a], cpos_[b], fn, n, d))
       {
-        n.normalize ();
-        const double w = boundary_weight_ * e.squaredNorm ();
-        addPlane (cb_[a], n, -n.dot (cpos_[a]), w);
-        addPlane (cb_[b], n, -n.dot (cpos_[a]), w);
+        const double w = boundary_weight_ * (cpos_[b] - cpos_[a]).squaredNorm ();
+        addPlane (cb_[a], n, d, w);
+        addPlane (cb_[b], n, d, w);
       }
       break;
     }

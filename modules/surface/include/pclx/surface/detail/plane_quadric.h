@@ -72,6 +72,27 @@ minimise (const PlaneQuadric& q, const Eigen::Vector3d& m, double keep)
   return x;
 }
 
+/** \brief Garland–Heckbert's boundary plane: through the boundary edge (a, b), perpendicular to
+  * the triangle on it, so that a quadric holding it keeps the boundary in place.
+  * \param[in] a, b the edge's ends
+  * \param[in] face_normal a normal of the edge's triangle (any length)
+  * \param[out] n the plane's unit normal
+  * \param[out] d its offset (n·x + d = 0)
+  * \return false when the edge or the triangle is degenerate (no plane)
+  */
+inline bool
+boundaryPlane (const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& face_normal,
+               Eigen::Vector3d& n, double& d)
+{
+  n = (b - a).cross (face_normal);
+  const double len = n.norm ();
+  if (!(len > 0))
+    return false;
+  n /= len;
+  d = -n.dot (a);
+  return true;
+}
+
 /** \brief Garland–Heckbert's placement for an edge collapse: the exact minimiser when the 3 × 3
   * system is well conditioned (closed-form inverse, no eigen solve: it runs for every candidate).
   * \return the minimiser, or NaN when the system is ill-conditioned (the caller falls back)
