@@ -186,7 +186,7 @@ compareTrees (const Node& n, const RefNode& r)
     return where + ": collapse flag differs";
   for (std::size_t i = 0; i < r.children.size (); ++i)
   {
-    if (n.children[i].parent.load () != &n)
+    if (n.children[i].parent () != &n)
       return where + ": child " + std::to_string (i) + " has no parent link";
     const std::string d = compareTrees (n.children[i], r.children[i]);
     if (!d.empty ())

@@ -155,7 +155,7 @@ compareRetained (const Octree& budgeted, const Octree& full, int spill, std::siz
       return where + ": children differ, or a node at/below the spill level was not spilled";
     for (int j = 0; j < n->num_children; ++j)
     {
-      if (n->children[j].parent.load () != n)
+      if (n->children[j].parent () != n)
         return where + ": child without parent link";
       stack.push_back (n->children + j);
     }

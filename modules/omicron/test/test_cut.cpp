@@ -306,3 +306,34 @@ TEST (ObliqueCut, RefusesABadSpill)
   EXPECT_TRUE (cut.setSpill (2, sink));
   EXPECT_EQ (cut.getSpillLevel (), 2);
 }
+
+// Siblings share one parent link, stored before their group, so a node stays at 32 bytes.
+TEST (NodeArena, SiblingsShareTheirGroupsParentLink)
+{
+  using Arena = pclx::omicron::detail::NodeArena<pcl::PointXYZ>;
+  static_assert (sizeof (Node) == 32, "a node of the hierarchy is 32 bytes");
+  Arena arena (16);
+  Node* root = arena.allocate (1);
+  std::vector<Node*> groups;
+  for (std::size_t k : {8, 3, 1, 8, 5})  // more than one block, and a group of one
+    groups.push_back (arena.allocate (k));
+  EXPECT_EQ (root->parent (), nullptr);
+  Node* parent = groups[1];  // the first of three siblings becomes the parent of the last group
+  parent->children = groups[4];
+  parent->num_children = 5;
+  for (std::size_t j = 0; j < 5; ++j)
+  {
+    EXPECT_EQ (groups[4][j].sibling, j);
+    EXPECT_EQ (groups[4][j].parent (), nullptr);
+  }
+  parent->linkChildren ();
+  for (std::size_t j = 0; j < 5; ++j)
+    EXPECT_EQ (groups[4][j].parent (), parent);
+  // Other groups, before and after it in the arena, keep no parent.
+  for (std::size_t g = 0; g < 4; ++g)
+    EXPECT_EQ (groups[g][0].parent (), nullptr);
+  EXPECT_EQ (groups[0][7].parent (), nullptr);
+  EXPECT_GE (arena.bytes (), 25 * sizeof (Node) + 6 * Arena::groupBytes (0));
+  arena.clear ();
+  EXPECT_EQ (arena.bytes (), 0u);
+}

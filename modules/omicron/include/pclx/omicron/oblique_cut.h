@@ -166,9 +166,9 @@ private:
   };
   struct Slot
   {
-    pclx::omicron::detail::BlockArena<Node> nodes{1024};
+    pclx::omicron::detail::NodeArena<PointT> nodes{1024};
     pclx::omicron::detail::BlockArena<PointT> points{8192};
-    pclx::omicron::detail::BlockArena<Node> scratch_nodes{1024};     // below the spill level
+    pclx::omicron::detail::NodeArena<PointT> scratch_nodes{1024};     // below the spill level
     pclx::omicron::detail::BlockArena<PointT> scratch_points{8192};
   };
   // The state of one fixLevel () pass, shared by its stages.

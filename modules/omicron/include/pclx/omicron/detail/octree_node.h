@@ -2,11 +2,12 @@
 // Node records shared by pcl::ObliqueCut and pcl::ObliqueCutFront (OMiCroN §3).
 //
 // A subtree root in a cut list L_{C,l} is a value (CutNode) in a worklist: fix moves it from
-// list to list. When its parent is created it is copied into permanent storage (Node, in an
-// arena, siblings contiguous) and never moves again. The front only ever holds permanent
+// list to list. When its parent is created it is copied into permanent storage (Node, in a
+// NodeArena, siblings contiguous) and never moves again. The front only ever holds permanent
 // nodes, which is what keeps roots of L_C out of it (invariant 2.2). A node's parent link
 // is set when its grandparent is created (Algorithm 4), so a front node can be pruned into
-// its parent only once that parent has itself left L_C.
+// its parent only once that parent has itself left L_C. Siblings share that link, so it is
+// stored once, in a header before their group, which keeps a node at 32 bytes.
 #include <pclx/omicron/morton_code.h>
 
 #include <algorithm>
@@ -15,6 +16,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <new>
 #include <utility>
 #include <vector>
 
@@ -33,16 +35,46 @@ enum NodeFlags : std::uint8_t
 template <typename PointT>
 struct Node
 {
+  // What precedes a sibling group in its NodeArena: the group's parent link, set when the
+  // grandparent is created.
+  struct GroupHeader
+  {
+    std::atomic<const Node*> parent{nullptr};
+  };
+
   MortonCode code;
   const PointT* points = nullptr;    // leaves: a range of the sorted array; parents: own sample
+  const Node* children = nullptr;    // contiguous, Morton order
   std::uint32_t num_points = 0;
   std::uint8_t level = 0;
   std::uint8_t num_children = 0;
   std::uint8_t flags = 0;
-  const Node* children = nullptr;    // contiguous, Morton order
-  mutable std::atomic<const Node*> parent{nullptr};  // set when the grandparent is created
+  std::uint8_t sibling = 0;          // index in the sibling group
 
   bool isLeaf () const { return num_children == 0; }
+
+  // The parent, or null while the grandparent is not created (and for the root). Only for
+  // nodes allocated by a NodeArena: a copy has no group header.
+  const Node*
+  parent () const
+  {
+    return header (this - sibling).parent.load (std::memory_order_acquire);
+  }
+
+  // Links the children to this node (they must come from a NodeArena).
+  void
+  linkChildren () const
+  {
+    if (num_children > 0)
+      header (children).parent.store (this, std::memory_order_release);
+  }
+
+  static GroupHeader&
+  header (const Node* first)
+  {
+    const unsigned char* at = reinterpret_cast<const unsigned char*> (first) - sizeof (GroupHeader);
+    return *std::launder (reinterpret_cast<GroupHeader*> (const_cast<unsigned char*> (at)));
+  }
 };
 
 template <typename PointT>
@@ -136,6 +168,44 @@ private:
   std::size_t block_;
   std::vector<std::unique_ptr<T[]>> blocks_;
   std::size_t used_ = 0, capacity_ = 0, reserved_ = 0;
+};
+
+// Sibling groups of Node, each behind the header that holds its parent link, in blocks that
+// never move (a BlockArena of 8-byte words).
+template <typename PointT>
+class NodeArena
+{
+public:
+  using NodeT = Node<PointT>;
+  using Header = typename NodeT::GroupHeader;
+  static_assert (sizeof (Header) % alignof (NodeT) == 0 && sizeof (NodeT) % sizeof (std::uint64_t) == 0,
+                 "a group header and its nodes must tile 8-byte words");
+
+  // `block`: nodes per block (in groups of eight).
+  explicit NodeArena (std::size_t block = 1024) : words_ (groupWords (8) * (block / 8)) {}
+
+  // k siblings, default-constructed, their indices set and their parent link null.
+  NodeT*
+  allocate (std::size_t k)
+  {
+    std::uint64_t* w = words_.allocate (groupWords (k));
+    new (w) Header;
+    NodeT* first = std::launder (reinterpret_cast<NodeT*> (w + sizeof (Header) / sizeof (std::uint64_t)));
+    for (std::size_t i = 0; i < k; ++i)
+      new (first + i) NodeT ();
+    for (std::size_t i = 0; i < k; ++i)
+      first[i].sibling = static_cast<std::uint8_t> (i);
+    return first;
+  }
+  std::size_t bytes () const { return words_.bytes (); }
+  // Frees every block (pointers into them become invalid).
+  void clear () { words_.clear (); }
+  // Bytes a group of k siblings takes.
+  static constexpr std::size_t groupBytes (std::size_t k) { return sizeof (Header) + k * sizeof (NodeT); }
+
+private:
+  static constexpr std::size_t groupWords (std::size_t k) { return groupBytes (k) / sizeof (std::uint64_t); }
+  BlockArena<std::uint64_t> words_;
 };
 
 // Points a parent takes from a child of n points: round (ratio · n), at least one.

@@ -202,7 +202,7 @@ pcl::ObliqueCut<PointT>::createParent (const CutNode* group, std::size_t k, Slot
   }
   // Budgeted build: the group and the parent's sample below the spill level go to scratch.
   const bool spill = spill_level_ >= 0;
-  pclx::omicron::detail::BlockArena<Node>& node_arena = spill && l > spill_level_ ? slot.scratch_nodes : slot.nodes;
+  pclx::omicron::detail::NodeArena<PointT>& node_arena = spill && l > spill_level_ ? slot.scratch_nodes : slot.nodes;
   pclx::omicron::detail::BlockArena<PointT>& point_arena = spill && l - 1 > spill_level_ ? slot.scratch_points : slot.points;
   CutNode pa;
   pa.code = group[0].code.parent ();
@@ -243,12 +243,11 @@ pcl::ObliqueCut<PointT>::createParent (const CutNode* group, std::size_t k, Slot
     // among them may enter the front (invariant 2.2).
     // (Nothing below the spill level enters the front: it is dropped after the spill.)
     const bool front_level = !spill || l + 1 <= spill_level_;
-    for (std::uint8_t j = 0; j < n.num_children; ++j)
-    {
-      n.children[j].parent.store (&n, std::memory_order_release);
-      if (front_level && n.children[j].isLeaf ())
-        out.leaves.push_back (&n.children[j]);
-    }
+    n.linkChildren ();
+    if (front_level)
+      for (std::uint8_t j = 0; j < n.num_children; ++j)
+        if (n.children[j].isLeaf ())
+          out.leaves.push_back (&n.children[j]);
   }
   if (spill && l - 1 == spill_level_)
   {
@@ -462,12 +461,10 @@ pcl::ObliqueCut<PointT>::finalize ()
     r->num_children = c.num_children;
     r->flags = c.flags;
     r->children = c.children;
+    r->linkChildren ();
     for (std::uint8_t j = 0; j < r->num_children; ++j)
-    {
-      r->children[j].parent.store (r, std::memory_order_release);
       if (r->children[j].isLeaf ())
         leaves1.push_back (&r->children[j]);
-    }
     root_ = r;
   }
   if (front_)

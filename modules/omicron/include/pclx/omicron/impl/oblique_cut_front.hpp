@@ -211,7 +211,7 @@ pcl::ObliqueCutFront<PointT>::evaluate (const Camera& camera, std::vector<Item>&
       continue;
     }
     const Node* n = e.node;
-    const Node* p = n->parent.load (std::memory_order_acquire);
+    const Node* p = n->parent ();
     float ps = 0.f;
     if (p && n == p->children && (culled (*p, camera, ps) || ps < threshold_) && i + p->num_children <= size)
     {

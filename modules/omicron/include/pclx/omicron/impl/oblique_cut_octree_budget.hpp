@@ -323,7 +323,8 @@ pcl::ObliqueCutOctree<PointT>::planSizes (Budgeted& b)
   // worker (retained and scratch, nodes and points), a read block of at least 4096 points
   // (stream reader record + its PointXYZRGB copy + two blocks in flight + the scatter copy +
   // chunk id), the coarsest count grid and small tables.
-  b.slack = static_cast<std::size_t> (b.threads) * 2 * (1024 * sizeof (Node) + 8192 * pb);
+  using Arena = pclx::omicron::detail::NodeArena<PointT>;
+  b.slack = static_cast<std::size_t> (b.threads) * 2 * (1024 / 8 * Arena::groupBytes (8) + 8192 * pb);
   // MortonSorter::prepare's per-block bucket histograms (its bucket count as it chooses it).
   int bucket_bits = 12;
   while (bucket_bits < 16 && (std::size_t (1) << bucket_bits) < 64 * chunks_)
@@ -472,7 +473,9 @@ pcl::ObliqueCutOctree<PointT>::countAndPlan (Budgeted& b)
     pp.budget = b.budget;
     pp.point_bytes = b.pb;
     pp.encoded_bytes = pcl::traits::has_color_v<PointT> ? 18 : 12;
-    pp.scratch_node_bytes = sizeof (Node) + 2 * sizeof (pclx::omicron::detail::CutNode<PointT>);
+    // A node with a group header of its own (a group of one), the most a node can take.
+    pp.scratch_node_bytes = pclx::omicron::detail::NodeArena<PointT>::groupBytes (1) +
+                            2 * sizeof (pclx::omicron::detail::CutNode<PointT>);
     pp.retained_node_bytes = pp.scratch_node_bytes + 2 * sizeof (typename Front::Entry);
     pp.record_bytes = sizeof (pclx::omicron::detail::potree::NodeRecord);
     // One hierarchy.bin chunk buffer is in the tables.
