@@ -493,7 +493,7 @@ struct Bench
   std::ofstream* frames_csv;
   std::size_t samples;
   double cell_factor, collapse_ratio, collapse_error;
-  int min_cell_pixels;
+  int min_cell_pixels, narrowest_cell_pixels;
   std::string mesh_dir;  // when set, every IDC and TSDF mesh is written there as PLY
 
   void
@@ -613,6 +613,7 @@ struct Bench
     idc.getSimplification ().setCollapseTargetRatio (collapse_ratio);
     idc.getSimplification ().setCollapseMaxError (collapse_error);
     idc.getSimplification ().setMinCellPixels (min_cell_pixels);
+    idc.getSimplification ().setNarrowestCellPixels (narrowest_cell_pixels);
     idc.setDepthRange (0.1f, float (s.depth_trunc));  // as Open3D's depth_trunc
     std::vector<double> ms, recon_ms;
     std::size_t failed = 0;
@@ -653,9 +654,10 @@ struct Bench
     const auto& os = idc.getOctree ().getStats ();
     const double fused = std::max<double> (1, double (st.frames));
     const Quality q = measure (pclx::testing::fromPolygonMesh (mesh), truth);
-    char params[96];
-    std::snprintf (params, sizeof params, "leaf=%g;eps=%g;cell=%g;collapse=%g;collapse_err=%g;min_cell_px=%d", leaf, eps,
-                   cell_factor * leaf, collapse_ratio, collapse_error, min_cell_pixels);
+    char params[128];
+    std::snprintf (params, sizeof params,
+                   "leaf=%g;eps=%g;cell=%g;collapse=%g;collapse_err=%g;min_cell_px=%d;narrowest_cell_px=%d", leaf, eps,
+                   cell_factor * leaf, collapse_ratio, collapse_error, min_cell_pixels, narrowest_cell_pixels);
     if (!incremental)
       saveMesh (s, "idc", params, mesh);
     row (s, incremental ? "idc_incremental" : "idc", params, q, ms, extract, st.memory_bytes / 1048576.0,
@@ -973,6 +975,7 @@ main (int argc, char** argv)
                   "into this folder, and exit");
   double cell_factor = 2, collapse_ratio = 0, collapse_error = 0;  // CoupledSimplification's defaults
   int min_cell_pixels = pcl::CoupledSimplification ().getMinCellPixels ();
+  int narrowest_cell_pixels = pcl::CoupledSimplification ().getNarrowestCellPixels ();
   app.add_option ("--cell-factor", cell_factor, "front-end frustum cell = factor x leaf (0: 8 x 8 pixel blocks)")
       ->capture_default_str ();
   app.add_option ("--collapse-ratio", collapse_ratio, "front-end edge-collapse target ratio")->capture_default_str ();
@@ -980,6 +983,9 @@ main (int argc, char** argv)
       ->capture_default_str ();
   app.add_option ("--min-cell-pixels", min_cell_pixels,
                   "front end: fewest pixels per cell side before 2 x 2 block averaging (0: full resolution)")
+      ->capture_default_str ();
+  app.add_option ("--narrowest-cell-pixels", narrowest_cell_pixels,
+                  "front end: narrowest frustum cell side in pixels when cells follow the leaf (1: no floor)")
       ->capture_default_str ();
   bool verbose = false;
   app.add_flag ("--verbose", verbose, "progress lines on stderr");
@@ -1000,8 +1006,8 @@ main (int argc, char** argv)
     fcsv.open (frames_csv);
     fcsv << "input,method,leaf,frame,ms\n";
   }
-  Bench bench{out, frames_csv.empty () ? nullptr : &fcsv, samples, cell_factor, collapse_ratio, collapse_error, min_cell_pixels,
-              mesh_dir};
+  Bench bench{out, frames_csv.empty () ? nullptr : &fcsv, samples, cell_factor, collapse_ratio, collapse_error,
+              min_cell_pixels, narrowest_cell_pixels, mesh_dir};
   for (const auto& s : seqs)
     runSequence (bench, s, opt);
   return 0;

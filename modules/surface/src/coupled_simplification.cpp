@@ -292,6 +292,8 @@ CoupledSimplification::run (const Eigen::Matrix4d& pose, bool dense_only, pcl::F
     return fail ("frustum cell must be ≥ 1 pixel");
   if (min_cell_pixels_ < 0)
     return fail ("fewest pixels per frustum cell must be ≥ 0");
+  if (narrowest_cell_pixels_ < 1)
+    return fail ("narrowest frustum cell must be ≥ 1 pixel");
   if (bin_ratio_ < 0 || !std::isfinite (bin_ratio_))
     return fail ("depth-bin ratio must be ≥ 0");
   if (!(target_ratio_ >= 0 && target_ratio_ <= 1))
@@ -352,8 +354,11 @@ int
 CoupledSimplification::cellPixels () const
 {
   if (cell_size_ > 0 && stats_.median_range > 0)
-    return static_cast<int> (
-        std::lround (std::clamp (cell_size_ * pixelsPerRadian () / stats_.median_range, 1.0, 64.0 / scale_)));
+  {
+    // The narrowest cell is in input pixels: an averaged pixel is scale_ of them.
+    const double lo = std::ceil (static_cast<double> (narrowest_cell_pixels_) / scale_), hi = std::max (64.0 / scale_, lo);
+    return static_cast<int> (std::lround (std::clamp (cell_size_ * pixelsPerRadian () / stats_.median_range, lo, hi)));
+  }
   return std::max (1, cell_pixels_ / scale_);
 }
 

@@ -311,6 +311,13 @@ TEST (CoupledSimplification, CellSizeInMetresSetsThePixelBlock)
       pts[v * kW + u] = Eigen::Vector3f ((u - kK.cx) / kK.fx * 2.f, (v - kK.cy) / kK.fy * 2.f, 2.f);
   ASSERT_TRUE (s.compute (pts.data (), kW, kH, Eigen::Matrix4d::Identity (), coarse));
   EXPECT_NEAR (s.getStats ().cell_pixels, b_coarse, 1);
+  // A size under a pixel gives the narrowest cell: 3 pixels by default, 1 when lowered.
+  s.setFrustumCellSize (0.002);
+  ASSERT_TRUE (s.compute (depth.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), fine));
+  EXPECT_EQ (s.getStats ().cell_pixels, 3);
+  s.setNarrowestCellPixels (1);
+  ASSERT_TRUE (s.compute (depth.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), fine));
+  EXPECT_EQ (s.getStats ().cell_pixels, 1);
 }
 
 TEST (CoupledSimplification, BlockAveragingKeepsCoarseCellsAsAccurate)
@@ -443,6 +450,12 @@ TEST (CoupledSimplification, BadInputFailsAndLeavesTheOutputAlone)
   negative.setMinCellPixels (-1);
   EXPECT_FALSE (negative.compute (good.data (), kW, kH, kK, I, out));
   EXPECT_NE (negative.getLastError ().find ("fewest pixels"), std::string::npos) << negative.getLastError ();
+  EXPECT_TRUE (untouched ());
+  Simplifier narrow;
+  narrow.setFrustumCellSize (0.02);
+  narrow.setNarrowestCellPixels (0);
+  EXPECT_FALSE (narrow.compute (good.data (), kW, kH, kK, I, out));
+  EXPECT_NE (narrow.getLastError ().find ("narrowest"), std::string::npos) << narrow.getLastError ();
   EXPECT_TRUE (untouched ());
 
   // Partly bad frames are fine: the bad pixels are skipped and counted.

@@ -133,13 +133,25 @@ public:
     * \return the value set with setMinCellPixels ()
     */
   int getMinCellPixels () const { return min_cell_pixels_; }
+  /** \brief Set the narrowest frustum cell, in pixels of the input frame, when the cells
+    * follow a size in metres (setFrustumCellSize ()): B is then at least this. A cell of 2 × 2
+    * pixels fits its quadric to four noisy depths and leaves most of the reduction to the edge
+    * collapses, so a fine leaf seen from afar would cost several times the work of the same
+    * leaf seen from nearby, for a noisier mesh (docs/surface.md, "Narrowest frustum cell").
+    * \param[in] pixels the narrowest cell side (≥ 1, default 3; 1: cells follow the size alone)
+    */
+  void setNarrowestCellPixels (int pixels) { narrowest_cell_pixels_ = pixels; }
+  /** \brief Get the narrowest frustum cell when the cells follow a size in metres.
+    * \return the value set with setNarrowestCellPixels ()
+    */
+  int getNarrowestCellPixels () const { return narrowest_cell_pixels_; }
   /** \brief Set the depth-bin ratio r of the frustum cells (§3.3).
     * \param[in] r the ratio (> 0); 0 (default) is automatic: B / fx, about cubic cells, or for
     * organized clouds without intrinsics B × the mean neighbour spacing / range
     */
   void setDepthBinRatio (double r) { bin_ratio_ = r; }
   /** \brief Set the frustum cell side in metres at the frame's median range: B is then chosen
-    * per frame as size · fx / median range (1–64 pixels). pcl::IncrementalDualContouring sets
+    * per frame as size · fx / median range (from getNarrowestCellPixels () to 64 pixels). pcl::IncrementalDualContouring sets
     * it to two octree leaves.
     * \param[in] metres the cell side (> 0); 0 (default) uses setFrustumCellPixels () instead
     */
@@ -329,7 +341,7 @@ private:
   double edge_factor_ = 3, edge_abs_ = 0, bin_ratio_ = 0, target_ratio_ = 0, max_error_ = 0;
   double boundary_weight_ = 10, max_turn_deg_ = 60, cell_size_ = 0;
   float min_depth_ = 0.1f, max_depth_ = 8.f;
-  int cell_pixels_ = 8, min_cell_pixels_ = 2;
+  int cell_pixels_ = 8, min_cell_pixels_ = 2, narrowest_cell_pixels_ = 3;
   int scale_ = 1;  // input pixels per pixel side after block averaging (1, 2 or 4)
 
   Stats stats_;
