@@ -77,7 +77,7 @@ trimmedMean (const float* x, std::size_t n)
   return mean;
 }
 
-// Frames whose range noise (in pixel spacings) is below this keep every pixel.
+// Frames whose range noise (in pixel spacings) is below this keep every pixel and any cell width.
 constexpr double kMinAveragedNoise = 0.5;
 // Mean |second difference| of white noise per standard deviation: E|N (0, 6 σ²)| = √(12 / π) σ.
 const double kSecondDifferencePerSigma = std::sqrt (12.0 / M_PI);
@@ -355,8 +355,11 @@ CoupledSimplification::cellPixels () const
 {
   if (cell_size_ > 0 && stats_.median_range > 0)
   {
-    // The narrowest cell is in input pixels: an averaged pixel is scale_ of them.
-    const double lo = std::ceil (static_cast<double> (narrowest_cell_pixels_) / scale_), hi = std::max (64.0 / scale_, lo);
+    // The narrowest cell holds for noisy frames only (low-noise scans fit 2 × 2 cells well), in
+    // input pixels: an averaged pixel is scale_ of them.
+    const bool noisy = stats_.range_noise >= kMinAveragedNoise;
+    const double lo = noisy ? std::ceil (static_cast<double> (narrowest_cell_pixels_) / scale_) : 1.0;
+    const double hi = std::max (64.0 / scale_, lo);
     return static_cast<int> (std::lround (std::clamp (cell_size_ * pixelsPerRadian () / stats_.median_range, lo, hi)));
   }
   return std::max (1, cell_pixels_ / scale_);

@@ -311,13 +311,24 @@ TEST (CoupledSimplification, CellSizeInMetresSetsThePixelBlock)
       pts[v * kW + u] = Eigen::Vector3f ((u - kK.cx) / kK.fx * 2.f, (v - kK.cy) / kK.fy * 2.f, 2.f);
   ASSERT_TRUE (s.compute (pts.data (), kW, kH, Eigen::Matrix4d::Identity (), coarse));
   EXPECT_NEAR (s.getStats ().cell_pixels, b_coarse, 1);
-  // A size under a pixel gives the narrowest cell: 3 pixels by default, 1 when lowered.
-  s.setFrustumCellSize (0.002);
-  ASSERT_TRUE (s.compute (depth.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), fine));
-  EXPECT_EQ (s.getStats ().cell_pixels, 3);
-  s.setNarrowestCellPixels (1);
-  ASSERT_TRUE (s.compute (depth.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), fine));
-  EXPECT_EQ (s.getStats ().cell_pixels, 1);
+  // A size under a pixel: a noisy frame's cells stop at 3 pixels (1 when lowered), a noise-free
+  // frame's do not.
+  auto noisy = depth;
+  std::mt19937 rng (5);
+  std::normal_distribution<float> noise (0.f, 0.004f);
+  for (float& z : noisy)
+    z += noise (rng);
+  Simplifier t;
+  t.setCollapseTargetRatio (1);
+  t.setMinCellPixels (0);  // no block averaging
+  t.setFrustumCellSize (0.002);
+  ASSERT_TRUE (t.compute (noisy.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), fine));
+  EXPECT_EQ (t.getStats ().cell_pixels, 3);
+  ASSERT_TRUE (t.compute (depth.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), fine));
+  EXPECT_EQ (t.getStats ().cell_pixels, 1);
+  t.setNarrowestCellPixels (1);
+  ASSERT_TRUE (t.compute (noisy.data (), kW, kH, kK, Eigen::Matrix4d::Identity (), fine));
+  EXPECT_EQ (t.getStats ().cell_pixels, 1);
 }
 
 TEST (CoupledSimplification, BlockAveragingKeepsCoarseCellsAsAccurate)

@@ -134,10 +134,11 @@ public:
     */
   int getMinCellPixels () const { return min_cell_pixels_; }
   /** \brief Set the narrowest frustum cell, in pixels of the input frame, when the cells
-    * follow a size in metres (setFrustumCellSize ()): B is then at least this. A cell of 2 × 2
-    * pixels fits its quadric to four noisy depths and leaves most of the reduction to the edge
-    * collapses, so a fine leaf seen from afar would cost several times the work of the same
-    * leaf seen from nearby, for a noisier mesh (docs/surface.md, "Narrowest frustum cell").
+    * follow a size in metres (setFrustumCellSize ()) and the frame is noisy (as for block
+    * averaging, see setMinCellPixels ()): B is then at least this. A cell of 2 × 2 pixels fits
+    * its quadric to four noisy depths and leaves most of the reduction to the edge collapses, so
+    * a fine leaf seen from afar would cost several times the work of the same leaf seen from
+    * nearby, for a noisier mesh (docs/surface.md, "Narrowest frustum cell").
     * \param[in] pixels the narrowest cell side (≥ 1, default 3; 1: cells follow the size alone)
     */
   void setNarrowestCellPixels (int pixels) { narrowest_cell_pixels_ = pixels; }
