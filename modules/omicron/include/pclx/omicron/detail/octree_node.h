@@ -188,14 +188,15 @@ public:
   NodeT*
   allocate (std::size_t k)
   {
-    std::uint64_t* w = words_.allocate (groupWords (k));
-    new (w) Header;
-    NodeT* first = std::launder (reinterpret_cast<NodeT*> (w + sizeof (Header) / sizeof (std::uint64_t)));
+    unsigned char* at = reinterpret_cast<unsigned char*> (words_.allocate (groupWords (k)));
+    new (at) Header;
+    at += sizeof (Header);
     for (std::size_t i = 0; i < k; ++i)
-      new (first + i) NodeT ();
-    for (std::size_t i = 0; i < k; ++i)
-      first[i].sibling = static_cast<std::uint8_t> (i);
-    return first;
+    {
+      NodeT* n = new (at + i * sizeof (NodeT)) NodeT ();
+      n->sibling = static_cast<std::uint8_t> (i);
+    }
+    return std::launder (reinterpret_cast<NodeT*> (at));
   }
   std::size_t bytes () const { return words_.bytes (); }
   // Frees every block (pointers into them become invalid).
