@@ -79,6 +79,13 @@ trimmedMean (const float* x, std::size_t n)
 
 // Frames whose range noise (in pixel spacings) is below this keep every pixel and any cell width.
 constexpr double kMinAveragedNoise = 0.5;
+// Whether a frame is noisy enough for block averaging and the narrowest frustum cell (depth
+// cameras: 1–2 pixel spacings; laser range scans: about 0.1).
+bool
+isNoisy (double range_noise)
+{
+  return range_noise >= kMinAveragedNoise;
+}
 // Mean |second difference| of white noise per standard deviation: E|N (0, 6 σ²)| = √(12 / π) σ.
 const double kSecondDifferencePerSigma = std::sqrt (12.0 / M_PI);
 // Most input pixels per side that block averaging merges (two levels of the pyramid).
@@ -357,8 +364,8 @@ CoupledSimplification::cellPixels () const
   {
     // The narrowest cell holds for noisy frames only (low-noise scans fit 2 × 2 cells well), in
     // input pixels: an averaged pixel is scale_ of them.
-    const bool noisy = stats_.range_noise >= kMinAveragedNoise;
-    const double lo = noisy ? std::ceil (static_cast<double> (narrowest_cell_pixels_) / scale_) : 1.0;
+    const double narrowest = std::ceil (static_cast<double> (narrowest_cell_pixels_) / scale_);
+    const double lo = isNoisy (stats_.range_noise) ? narrowest : 1.0;
     const double hi = std::max (64.0 / scale_, lo);
     return static_cast<int> (std::lround (std::clamp (cell_size_ * pixelsPerRadian () / stats_.median_range, lo, hi)));
   }
@@ -376,7 +383,7 @@ void
 CoupledSimplification::reduceResolution ()
 {
   scale_ = 1;
-  if (min_cell_pixels_ <= 0 || stats_.range_noise < kMinAveragedNoise)
+  if (min_cell_pixels_ <= 0 || !isNoisy (stats_.range_noise))
     return;
   double sigma = stats_.range_noise / (kSecondDifferencePerSigma * pixelsPerRadian ()) * stats_.median_range;
   const bool wide_cells = cellPixels () >= 2 * min_cell_pixels_;

@@ -152,8 +152,8 @@ public:
     */
   void setDepthBinRatio (double r) { bin_ratio_ = r; }
   /** \brief Set the frustum cell side in metres at the frame's median range: B is then chosen
-    * per frame as size · fx / median range (from getNarrowestCellPixels () to 64 pixels). pcl::IncrementalDualContouring sets
-    * it to two octree leaves.
+    * per frame as size · fx / median range (1–64 pixels; on noisy frames at least
+    * getNarrowestCellPixels ()). pcl::IncrementalDualContouring sets it to two octree leaves.
     * \param[in] metres the cell side (> 0); 0 (default) uses setFrustumCellPixels () instead
     */
   void setFrustumCellSize (double metres) { cell_size_ = metres; }
