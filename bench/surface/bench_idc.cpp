@@ -236,10 +236,10 @@ roomPath (int frames)
 }
 
 Sequence
-renderRoom (int frames, int width, int height, std::vector<double> leaves)
+renderRoom (int frames, int width, int height, std::vector<double> leaves, std::string name = "room-generated")
 {
   Sequence s;
-  s.name = "room-generated";
+  s.name = std::move (name);
   s.truth = roomScene ();
   s.has_truth = true;
   s.leaves = std::move (leaves);
@@ -852,6 +852,10 @@ loadSequences (const Options& opt)
   }
   if (want ("room-generated"))
     seqs.push_back (quick ? renderRoom (8, 320, 240, {0.02}) : renderRoom (30, 640, 480, {0.02, 0.01}));
+  // The same room at the frame size of a 1200 × 680 RGB-D sequence: the front end's share grows
+  // with the pixels, the TSDF's with the voxels in view.
+  if (!quick && want ("room-1200x680"))
+    seqs.push_back (renderRoom (30, 1200, 680, {0.02, 0.01}, "room-1200x680"));
   if (!quick && want ("rooms-multi"))
     seqs.push_back (renderTwoRooms (40, 640, 480));
   if (data && want ("7scenes-office"))

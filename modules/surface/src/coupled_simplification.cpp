@@ -599,6 +599,9 @@ CoupledSimplification::connect (bool dense_only)
   // its own cache line (the counters change with every face). A border row between two bands
   // keeps its quadrics for the pixels before `defer_before` (the rows above the border) in
   // `deferred`.
+  // The faces inside one cluster that follow each other along a quad row are summed in `run`
+  // first (`run_pixel`: a pixel of that cluster), so a cluster's quadric is loaded and stored
+  // once per run rather than once per face.
   struct alignas (64) Part
   {
     std::vector<Eigen::Vector3i> tris;
@@ -606,12 +609,20 @@ CoupledSimplification::connect (bool dense_only)
     std::size_t dense = 0;
     std::size_t defer_before = 0;
     std::vector<std::pair<std::int32_t, Quadric>> deferred;
+    Quadric run = Quadric::Zero ();
+    std::int64_t run_pixel = -1;
   };
   auto addQuadric = [&] (Part& part, std::size_t pixel, const Quadric& k) {
     if (pixel < part.defer_before)
       part.deferred.emplace_back (cid_[pixel], k);
     else
       cq_[cid_[pixel]] += k;
+  };
+  auto flushRun = [&] (Part& part) {
+    if (part.run_pixel >= 0)
+      addQuadric (part, static_cast<std::size_t> (part.run_pixel), part.run);
+    part.run.setZero ();
+    part.run_pixel = -1;
   };
   auto face = [&] (Part& part, std::size_t a, std::size_t b, std::size_t c, bool diag_ab, bool diag_bc,
                    bool diag_ca) {
@@ -627,12 +638,21 @@ CoupledSimplification::connect (bool dense_only)
     part.vote += (d > 0) ? 1 : -1;  // n·(0 − a) > 0: faces the camera
     const std::int32_t ia = cid_[a], ib = cid_[b], ic = cid_[c];
     // One face quadric (area-weighted), added at each corner; most faces lie in one cluster.
-    Quadric k = Quadric::Zero ();
-    addPlane (k, nf.cast<double> (), d, 0.5 * len);
+    // A face's first corner lies on the quad row's upper pixel row, so a run never spans the
+    // rows a border defers.
     if (ia == ib && ib == ic)
-      addQuadric (part, a, 3 * k);
+    {
+      if (part.run_pixel < 0 || cid_[static_cast<std::size_t> (part.run_pixel)] != ia)
+      {
+        flushRun (part);
+        part.run_pixel = static_cast<std::int64_t> (a);
+      }
+      addPlane (part.run, nf.cast<double> (), d, 1.5 * len);
+    }
     else
     {
+      Quadric k = Quadric::Zero ();
+      addPlane (k, nf.cast<double> (), d, 0.5 * len);
       addQuadric (part, a, k);
       addQuadric (part, b, k);
       addQuadric (part, c, k);
@@ -669,6 +689,7 @@ CoupledSimplification::connect (bool dense_only)
       else if (!v10) face (part, i00, i01, i11, false, false, true);
       else face (part, i00, i11, i10, true, false, false);
     }
+    flushRun (part);
   };
   // Row bands, one per thread, cut at cluster-block rows: a band's quads below its last row
   // touch only its own clusters (or dense vertices), so the bands run in parallel. The quad row
