@@ -216,6 +216,30 @@ TEST (ObliqueCutFront, PlaceholdersAreNeitherDrawnNorPruned)
   EXPECT_EQ (e.size (), s.leaves.size () - cut.snapshot ().lists[depth].size ());
 }
 
+TEST (ObliqueCutFront, PlaceholdersKeepTheirCodesAtTheDeepestLevel)
+{
+  // A placeholder shares its 8-byte slot with a tag bit: at l_max = 21 its code uses all 64
+  // bits, and it must come back whole, for the first and the last cell of the grid.
+  const int depth = MortonCode::kMaxDepth;
+  const std::uint32_t last = (std::uint32_t (1) << depth) - 1;
+  const std::vector<MortonCode> codes{MortonCode::fromCell (0, 0, 0, depth), MortonCode::fromCell (5, 9, 1, depth),
+                                      MortonCode::fromCell (last, last, last, depth)};
+  Front front;
+  front.reset (depth, Eigen::Vector3d::Zero (), 1.0, std::vector<float> (depth + 1, 1.f));
+  front.insertPlaceholders (std::vector<MortonCode> (codes));
+  EXPECT_EQ (front.entryCount (), codes.size ());
+  std::vector<Front::Item> items;
+  front.evaluate (lookAt (Eigen::Vector3f (0.5f, 0.5f, 5.f), Eigen::Vector3f::Constant (0.5f)), items);
+  EXPECT_TRUE (items.empty ());
+  const auto e = front.entries ();
+  ASSERT_EQ (e.size (), codes.size ());
+  for (std::size_t i = 0; i < codes.size (); ++i)
+  {
+    EXPECT_EQ (e[i].node, nullptr);
+    EXPECT_EQ (e[i].code.bits (), codes[i].bits ()) << "placeholder " << i;
+  }
+}
+
 TEST (ObliqueCutFront, RejectsABadThreshold)
 {
   // Refused (PCL_ERROR); the previous threshold is kept.

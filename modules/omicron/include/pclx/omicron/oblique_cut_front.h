@@ -100,7 +100,7 @@ public:
   void startFrom (const Node& node);
 
   /** \brief Receive new placeholders (called by ObliqueCut under its per-level mutexes).
-    * \param[in] placeholders leaf-level codes, in Morton order */
+    * \param[in] placeholders codes at the hierarchy's l_max (P_{X,l_max}), in Morton order */
   void insertPlaceholders (std::vector<MortonCode>&& placeholders);
   /** \brief Receive leaves that left L_C (called by ObliqueCut under its per-level mutexes).
     * \param[in] level their level
@@ -113,6 +113,11 @@ public:
   /** \brief Front entries plus placeholders waiting to enter (for memory accounting).
     * \return the count */
   std::size_t entryCount () const;
+  /** \brief The most bytes the front holds per entry (for memory accounting): its slot in the
+    * front and in the next front, and a third while it waits as a placeholder or the front
+    * grows.
+    * \return the bytes */
+  static constexpr std::size_t bytesPerEntry () { return 3 * sizeof (Slot); }
   /** \brief Leaves received and not yet substituted.
     * \return the count */
   std::size_t pendingLeaves () const;
@@ -132,7 +137,40 @@ public:
   float splatRadius (const Node& n) const;
 
 private:
-  bool trySubstitution (Entry& e, std::deque<const Node*>& subs) const;
+  // A front entry in 8 bytes: a node's address (nodes are at least 8-byte aligned, so bit 0 is
+  // clear), or a placeholder. Placeholders are always at l_max, so their prefix bit is implied:
+  // the 3 · l_max bits below it are stored shifted left once, with bit 0 set.
+  class Slot
+  {
+  public:
+    static Slot
+    of (const Node* n)
+    {
+      return Slot (reinterpret_cast<std::uintptr_t> (n));
+    }
+    static Slot
+    placeholder (MortonCode c, int max_depth)
+    {
+      return Slot (((c.bits () ^ (std::uint64_t (1) << (3 * max_depth))) << 1) | 1u);
+    }
+    const Node*
+    node () const
+    {
+      return (v_ & 1u) ? nullptr : reinterpret_cast<const Node*> (static_cast<std::uintptr_t> (v_));
+    }
+    MortonCode
+    code (int max_depth) const
+    {
+      return (v_ & 1u) ? MortonCode ((v_ >> 1) | (std::uint64_t (1) << (3 * max_depth))) : node ()->code;
+    }
+
+  private:
+    explicit Slot (std::uint64_t v) : v_ (v) {}
+    std::uint64_t v_;
+  };
+  static_assert (alignof (Node) >= 2, "a node's address must leave bit 0 for the placeholder tag");
+
+  bool trySubstitution (Slot& e, std::deque<const Node*>& subs) const;
 
   static constexpr int kLevels = MortonCode::kMaxDepth + 1;
   int max_depth_ = 0;
@@ -142,9 +180,9 @@ private:
   float threshold_ = 0.2f;
 
   mutable std::mutex front_mutex_;
-  std::vector<Entry> front_, next_;
+  std::vector<Slot> front_, next_;
   mutable std::mutex placeholder_mutex_;
-  std::vector<MortonCode> placeholders_;
+  std::deque<MortonCode> placeholders_;  // blocks of their own: no copy as it grows
   mutable std::array<std::mutex, kLevels> leaf_mutex_;
   std::array<std::deque<const Node*>, kLevels> leaves_;
   std::chrono::steady_clock::time_point start_;

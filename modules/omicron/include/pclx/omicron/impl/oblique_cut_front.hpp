@@ -46,17 +46,14 @@ template <typename PointT> void
 pcl::ObliqueCutFront<PointT>::startFrom (const Node& node)
 {
   std::lock_guard<std::mutex> g (front_mutex_);
-  front_.assign (1, Entry{&node, node.code});
+  front_.assign (1, Slot::of (&node));
 }
 
 template <typename PointT> void
 pcl::ObliqueCutFront<PointT>::insertPlaceholders (std::vector<MortonCode>&& placeholders)
 {
   std::lock_guard<std::mutex> g (placeholder_mutex_);
-  if (placeholders_.empty ())
-    placeholders_ = std::move (placeholders);
-  else
-    placeholders_.insert (placeholders_.end (), placeholders.begin (), placeholders.end ());
+  placeholders_.insert (placeholders_.end (), placeholders.begin (), placeholders.end ());
 }
 
 template <typename PointT> void
@@ -90,7 +87,11 @@ template <typename PointT> std::vector<typename pcl::ObliqueCutFront<PointT>::En
 pcl::ObliqueCutFront<PointT>::entries () const
 {
   std::lock_guard<std::mutex> g (front_mutex_);
-  return front_;
+  std::vector<Entry> out;
+  out.reserve (front_.size ());
+  for (const Slot& s : front_)
+    out.push_back (Entry{s.node (), s.code (max_depth_)});
+  return out;
 }
 
 template <typename PointT> std::size_t
@@ -150,13 +151,12 @@ pcl::ObliqueCutFront<PointT>::culled (const Node& n, const Camera& camera, float
 }
 
 template <typename PointT> bool
-pcl::ObliqueCutFront<PointT>::trySubstitution (Entry& e, std::deque<const Node*>& subs) const
+pcl::ObliqueCutFront<PointT>::trySubstitution (Slot& e, std::deque<const Node*>& subs) const
 {
   // Algorithm 6: only the head of the substitution list can match (both are in Morton order).
-  if (e.node || subs.empty () || !subs.front ()->code.isAncestorOf (e.code))
+  if (e.node () || subs.empty () || !subs.front ()->code.isAncestorOf (e.code (max_depth_)))
     return false;
-  e.node = subs.front ();
-  e.code = e.node->code;
+  e = Slot::of (subs.front ());
   subs.pop_front ();
   return true;
 }
@@ -189,7 +189,7 @@ pcl::ObliqueCutFront<PointT>::evaluate (const Camera& camera, std::vector<Item>&
     std::lock_guard<std::mutex> p (placeholder_mutex_);
     front_.reserve (front_.size () + placeholders_.size ());
     for (const MortonCode& c : placeholders_)
-      front_.push_back (Entry{nullptr, c});
+      front_.push_back (Slot::placeholder (c, max_depth_));
     placeholders_.clear ();
   }
 
@@ -202,15 +202,15 @@ pcl::ObliqueCutFront<PointT>::evaluate (const Camera& camera, std::vector<Item>&
   const std::size_t size = front_.size ();
   for (std::size_t i = 0; i < size;)
   {
-    Entry& e = front_[i];
+    Slot& e = front_[i];
     trySubstitution (e, subs);
-    if (!e.node)
+    const Node* n = e.node ();
+    if (!n)
     {
       next_.push_back (e);  // placeholders are neither drawn nor pruned
       ++i;
       continue;
     }
-    const Node* n = e.node;
     const Node* p = n->parent ();
     float ps = 0.f;
     if (p && n == p->children && (culled (*p, camera, ps) || ps < threshold_) && i + p->num_children <= size)
@@ -219,13 +219,13 @@ pcl::ObliqueCutFront<PointT>::evaluate (const Camera& camera, std::vector<Item>&
       bool all = true;
       for (std::uint8_t j = 1; j < p->num_children && all; ++j)
       {
-        Entry& s = front_[i + j];
+        Slot& s = front_[i + j];
         trySubstitution (s, subs);
-        all = s.node == p->children + j;
+        all = s.node () == p->children + j;
       }
       if (all)
       {
-        next_.push_back (Entry{p, p->code});
+        next_.push_back (Slot::of (p));
         if (!culled (*p, camera, ps))
           draw (p);
         i += p->num_children;
@@ -240,7 +240,7 @@ pcl::ObliqueCutFront<PointT>::evaluate (const Camera& camera, std::vector<Item>&
       for (std::uint8_t j = 0; j < n->num_children; ++j)
       {
         const Node* c = n->children + j;
-        next_.push_back (Entry{c, c->code});
+        next_.push_back (Slot::of (c));
         float cs;
         if (!culled (*c, camera, cs))
           draw (c);

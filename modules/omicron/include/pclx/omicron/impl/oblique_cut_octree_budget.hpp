@@ -476,7 +476,7 @@ pcl::ObliqueCutOctree<PointT>::countAndPlan (Budgeted& b)
     // A node with a group header of its own (a group of one), the most a node can take.
     pp.scratch_node_bytes = pclx::omicron::detail::NodeArena<PointT>::groupBytes (1) +
                             2 * sizeof (pclx::omicron::detail::CutNode<PointT>);
-    pp.retained_node_bytes = pp.scratch_node_bytes + 2 * sizeof (typename Front::Entry);
+    pp.retained_node_bytes = pp.scratch_node_bytes + Front::bytesPerEntry ();
     pp.record_bytes = sizeof (pclx::omicron::detail::potree::NodeRecord);
     // One hierarchy.bin chunk buffer is in the tables.
     pp.close_record_bytes = Budgeted::kCloseRecordBytes;
@@ -619,7 +619,7 @@ pcl::ObliqueCutOctree<PointT>::fixChunks (Budgeted& b)
   typename PointCloud::VectorType sorted;
   std::vector<MortonCode> codes;
   std::uint64_t offset = 0;
-  const std::size_t entry_bytes = 2 * sizeof (typename Front::Entry);
+  const std::size_t entry_bytes = Front::bytesPerEntry ();
   for (std::size_t k = 0; k < b.nchunks; ++k)
   {
     const std::size_t n = b.plan.chunk_points[k];
