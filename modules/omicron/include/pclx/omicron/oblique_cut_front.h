@@ -113,9 +113,9 @@ public:
   /** \brief Front entries plus placeholders waiting to enter (for memory accounting).
     * \return the count */
   std::size_t entryCount () const;
-  /** \brief The most bytes the front holds per entry (for memory accounting): its slot in the
-    * front and in the next front, and a third while it waits as a placeholder or the front
-    * grows.
+  /** \brief The most bytes the front holds per entry (for memory accounting): its slot, and
+    * up to two more while it waits as a placeholder, while the front grows, or while a branch
+    * has moved the rest of the front aside.
     * \return the bytes */
   static constexpr std::size_t bytesPerEntry () { return 3 * sizeof (Slot); }
   /** \brief Leaves received and not yet substituted.
@@ -180,7 +180,7 @@ private:
   float threshold_ = 0.2f;
 
   mutable std::mutex front_mutex_;
-  std::vector<Slot> front_, next_;
+  std::vector<Slot> front_;
   mutable std::mutex placeholder_mutex_;
   std::deque<MortonCode> placeholders_;  // blocks of their own: no copy as it grows
   mutable std::array<std::mutex, kLevels> leaf_mutex_;

@@ -197,17 +197,27 @@ pcl::ObliqueCutFront<PointT>::evaluate (const Camera& camera, std::vector<Item>&
     if (n->num_points > 0)
       out.push_back (Item{n, n->points, n->num_points, splatRadius (*n)});
   };
-  next_.clear ();
-  next_.reserve (front_.size ());
-  const std::size_t size = front_.size ();
+  // The walk rewrites the front in place: what it keeps of the entries read so far never
+  // takes more slots than they did, except after a branch, which first moves the unread rest
+  // aside and then appends to the front.
+  std::vector<Slot> rest;
+  Slot* in = front_.data ();
+  std::size_t size = front_.size (), kept = 0;
+  bool in_place = true;
+  const auto keep = [&] (Slot s) {
+    if (in_place)
+      front_[kept++] = s;
+    else
+      front_.push_back (s);
+  };
   for (std::size_t i = 0; i < size;)
   {
-    Slot& e = front_[i];
+    Slot& e = in[i];
     trySubstitution (e, subs);
     const Node* n = e.node ();
     if (!n)
     {
-      next_.push_back (e);  // placeholders are neither drawn nor pruned
+      keep (e);  // placeholders are neither drawn nor pruned
       ++i;
       continue;
     }
@@ -219,13 +229,13 @@ pcl::ObliqueCutFront<PointT>::evaluate (const Camera& camera, std::vector<Item>&
       bool all = true;
       for (std::uint8_t j = 1; j < p->num_children && all; ++j)
       {
-        Slot& s = front_[i + j];
+        Slot& s = in[i + j];
         trySubstitution (s, subs);
         all = s.node () == p->children + j;
       }
       if (all)
       {
-        next_.push_back (Slot::of (p));
+        keep (Slot::of (p));
         if (!culled (*p, camera, ps))
           draw (p);
         i += p->num_children;
@@ -237,24 +247,33 @@ pcl::ObliqueCutFront<PointT>::evaluate (const Camera& camera, std::vector<Item>&
     if (!hidden && ns >= threshold_ && !n->isLeaf ())
     {
       // Algorithm 8: branch one level per frame.
+      ++i;
+      if (in_place && kept + n->num_children > i)
+      {
+        rest.assign (in + i, in + size);
+        front_.erase (front_.begin () + static_cast<std::ptrdiff_t> (kept), front_.end ());
+        in = rest.data ();
+        size = rest.size ();
+        i = 0;
+        in_place = false;
+      }
       for (std::uint8_t j = 0; j < n->num_children; ++j)
       {
         const Node* c = n->children + j;
-        next_.push_back (Slot::of (c));
+        keep (Slot::of (c));
         float cs;
         if (!culled (*c, camera, cs))
           draw (c);
       }
+      continue;
     }
-    else
-    {
-      next_.push_back (e);
-      if (!hidden)
-        draw (n);
-    }
+    keep (e);
+    if (!hidden)
+      draw (n);
     ++i;
   }
-  front_.swap (next_);
+  if (in_place)
+    front_.erase (front_.begin () + static_cast<std::ptrdiff_t> (kept), front_.end ());
   if (!subs.empty ())
   {
     std::lock_guard<std::mutex> q (leaf_mutex_[sl]);
