@@ -100,6 +100,16 @@ inline int statisticsRowStep (int height) { return std::max (2, height / kStatis
 // Fewest clusters or edges for which the collapse stage's independent loops run in parallel.
 constexpr std::ptrdiff_t kMinParallelItems = 4096;
 
+// Block borders 0 = e_0 < e_1 < … < e_m = n for blocks of mean width b ≥ 1: e_k = ⌊k b + ½⌋,
+// so the blocks are ⌊b⌋ or ⌈b⌉ pixels wide (all b when b is whole).
+void
+blockEdges (int n, double b, std::vector<int>& edges)
+{
+  edges.clear ();
+  for (int k = 0; edges.empty () || edges.back () < n; ++k)
+    edges.push_back (std::min (n, static_cast<int> (std::floor (k * b + 0.5))));
+}
+
 inline std::uint64_t triKey (int a, int b, int c)
 {
   if (a > b) std::swap (a, b);
@@ -326,7 +336,7 @@ CoupledSimplification::run (const Eigen::Matrix4d& pose, bool dense_only, pcl::F
       if (range_[i] > 0)
         cid_[i] = k++;
     cq_.assign (k, Quadric::Zero ());
-    block_rows_ = 1;
+    blockEdges (h_, 1.0, row_edges_);
   }
   else
   {
@@ -357,17 +367,20 @@ CoupledSimplification::pixelsPerRadian () const
   return fx_ > 0 ? fx_ : (stats_.edge_ratio_mean > 0 ? 1.0 / stats_.edge_ratio_mean : 500.0);
 }
 
-int
-CoupledSimplification::cellPixels () const
+double
+CoupledSimplification::cellWidth () const
 {
   if (cell_size_ > 0 && stats_.median_range > 0)
   {
     // The narrowest cell holds for noisy frames only (low-noise scans fit 2 × 2 cells well), in
-    // input pixels: an averaged pixel is scale_ of them.
+    // input pixels: an averaged pixel is scale_ of them. Between the bounds the width is not
+    // rounded: cells of ⌊B⌋ and ⌈B⌉ pixels alternate, so the cell count follows the range
+    // smoothly instead of jumping when the median range crosses a rounding step (from 3 to 2
+    // pixels: 2.25 times the cells).
     const double narrowest = std::ceil (static_cast<double> (narrowest_cell_pixels_) / scale_);
     const double lo = isNoisy (stats_.range_noise) ? narrowest : 1.0;
     const double hi = std::max (64.0 / scale_, lo);
-    return static_cast<int> (std::lround (std::clamp (cell_size_ * pixelsPerRadian () / stats_.median_range, lo, hi)));
+    return std::clamp (cell_size_ * pixelsPerRadian () / stats_.median_range, lo, hi);
   }
   return std::max (1, cell_pixels_ / scale_);
 }
@@ -386,7 +399,7 @@ CoupledSimplification::reduceResolution ()
   if (min_cell_pixels_ <= 0 || !isNoisy (stats_.range_noise))
     return;
   double sigma = stats_.range_noise / (kSecondDifferencePerSigma * pixelsPerRadian ()) * stats_.median_range;
-  const bool wide_cells = cellPixels () >= 2 * min_cell_pixels_;
+  const bool wide_cells = std::lround (cellWidth ()) >= 2 * min_cell_pixels_;
   const auto noisier_than_cells = [this, &sigma] { return cell_size_ > 0 && sigma > 0.5 * cell_size_; };
   while (w_ >= 2 && h_ >= 2 && scale_ < kMaxAveragingScale && ((scale_ == 1 && wide_cells) || noisier_than_cells ()))
   {
@@ -456,9 +469,10 @@ void
 CoupledSimplification::cluster ()
 {
   const double fx_eff = pixelsPerRadian ();
-  const int B = cellPixels ();
-  stats_.cell_pixels = B * scale_;
-  block_rows_ = B;
+  const double B = cellWidth ();
+  stats_.cell_pixels = static_cast<int> (std::lround (B * scale_));
+  blockEdges (w_, B, col_edges_);
+  blockEdges (h_, B, row_edges_);
   const double r = bin_ratio_ > 0 ? bin_ratio_ : B / fx_eff;
   cid_.assign (pts_.size (), -1);
   cq_.clear (); csum_.clear (); cmin_.clear (); cmax_.clear (); ccount_.clear (); cscale_.clear ();
@@ -466,14 +480,15 @@ CoupledSimplification::cluster ()
   // bin (r · range) or the cell grows deeper than two bins. Fixed bin boundaries would cut a
   // continuous (noisy) surface into slivers; gaps are where the surfaces along the rays part.
   std::vector<std::pair<float, std::int32_t>> block;
-  block.reserve (static_cast<std::size_t> (B) * B);
+  const int side = static_cast<int> (std::ceil (B));
+  block.reserve (static_cast<std::size_t> (side) * side);
   const float rf = static_cast<float> (r);
-  for (int by = 0; by < h_; by += B)
-    for (int bx = 0; bx < w_; bx += B)
+  for (std::size_t j = 0; j + 1 < row_edges_.size (); ++j)
+    for (std::size_t k = 0; k + 1 < col_edges_.size (); ++k)
     {
       block.clear ();
-      for (int v = by; v < std::min (by + B, h_); ++v)
-        for (int u = bx; u < std::min (bx + B, w_); ++u)
+      for (int v = row_edges_[j]; v < row_edges_[j + 1]; ++v)
+        for (int u = col_edges_[k]; u < col_edges_[k + 1]; ++u)
         {
           const std::int32_t i = v * w_ + u;
           if (range_[i] > 0)
@@ -696,14 +711,15 @@ CoupledSimplification::connect (bool dense_only)
   // across each border runs first for the clusters below it and last for those above, and the
   // faces are joined in row order: every cluster sums its quadrics in the order one thread
   // does, so the result depends neither on timing nor on the thread count.
+  const int block_rows = static_cast<int> (row_edges_.size ()) - 1;
 #ifdef _OPENMP
-  const int threads = std::max (1, std::min (omp_get_max_threads (), H / (4 * std::max (1, block_rows_))));
+  const int threads = std::max (1, std::min (omp_get_max_threads (), block_rows / 4));
 #else
   const int threads = 1;
 #endif
   std::vector<int> cut (threads + 1, 0);
-  for (int t = 1; t < threads; ++t)
-    cut[t] = (H * t / threads) / std::max (1, block_rows_) * std::max (1, block_rows_);
+  for (int t = 1; t < threads; ++t)  // the last block border at or before an even split
+    cut[t] = *(std::upper_bound (row_edges_.begin (), row_edges_.end (), H * t / threads) - 1);
   cut[threads] = H - 1;  // quad rows are 0 … H − 2
   std::vector<Part> bands (threads), borders (threads);
   std::vector<Eigen::Vector3i>& tris = dense_only ? dense_tris_ : ctris_;

@@ -153,7 +153,8 @@ public:
   void setDepthBinRatio (double r) { bin_ratio_ = r; }
   /** \brief Set the frustum cell side in metres at the frame's median range: B is then chosen
     * per frame as size · fx / median range (1–64 pixels; on noisy frames at least
-    * getNarrowestCellPixels ()). pcl::IncrementalDualContouring sets it to two octree leaves.
+    * getNarrowestCellPixels ()), not rounded: blocks of ⌊B⌋ and ⌈B⌉ pixels alternate, so the
+    * cells keep the size on average. pcl::IncrementalDualContouring sets it to two octree leaves.
     * \param[in] metres the cell side (> 0); 0 (default) uses setFrustumCellPixels () instead
     */
   void setFrustumCellSize (double metres) { cell_size_ = metres; }
@@ -271,7 +272,7 @@ private:
   float* sampleBuffer (std::size_t n);
   void connect (bool dense_only);
   double pixelsPerRadian () const;
-  int cellPixels () const;
+  double cellWidth () const;
   void reduceResolution ();
   void halveResolution ();
   void cluster ();
@@ -371,7 +372,7 @@ private:
   std::vector<Eigen::Vector3i> ctris_;
   CollapseState collapse_state_;
   long orientation_vote_ = 0;
-  int block_rows_ = 1;  // rows of a cluster block (band cuts for the parallel connect)
+  std::vector<int> row_edges_, col_edges_;  // cluster block borders; the parallel connect cuts at row borders
 };
 
 }  // namespace pcl
