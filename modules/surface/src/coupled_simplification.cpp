@@ -594,12 +594,31 @@ CoupledSimplification::sampleBuffer (std::size_t n)
   return ratios_.data ();
 }
 
+// The row bands of connect (), one per thread: band t holds quad rows cut[t] … cut[t + 1] − 1
+// (the last band ends at H − 2). Each cut is the last cluster-block border at or before an even
+// split of the rows, and a band spans at least four block rows.
+std::vector<int>
+CoupledSimplification::connectBands () const
+{
+  const int block_rows = static_cast<int> (row_edges_.size ()) - 1;
+#ifdef _OPENMP
+  const int threads = std::max (1, std::min (omp_get_max_threads (), block_rows / 4));
+#else
+  const int threads = 1;
+#endif
+  std::vector<int> cut (threads + 1, 0);
+  for (int t = 1; t < threads; ++t)
+    cut[t] = *(std::upper_bound (row_edges_.begin (), row_edges_.end (), h_ * t / threads) - 1);
+  cut[threads] = h_ - 1;  // quad rows are 0 … H − 2
+  return cut;
+}
+
 // §3.2: 4-neighbour triangles under the edge threshold; each face's area-weighted plane
 // quadric goes to the clusters (or dense vertices) of its three corners.
 void
 CoupledSimplification::connect (bool dense_only)
 {
-  const int W = w_, H = h_;
+  const int W = w_;
   const double ratio = stats_.edge_ratio_mean;
   const float kf = static_cast<float> (edge_factor_ * ratio);
   const float abs2 = static_cast<float> (edge_abs_ * edge_abs_);
@@ -711,16 +730,8 @@ CoupledSimplification::connect (bool dense_only)
   // across each border runs first for the clusters below it and last for those above, and the
   // faces are joined in row order: every cluster sums its quadrics in the order one thread
   // does, so the result depends neither on timing nor on the thread count.
-  const int block_rows = static_cast<int> (row_edges_.size ()) - 1;
-#ifdef _OPENMP
-  const int threads = std::max (1, std::min (omp_get_max_threads (), block_rows / 4));
-#else
-  const int threads = 1;
-#endif
-  std::vector<int> cut (threads + 1, 0);
-  for (int t = 1; t < threads; ++t)  // the last block border at or before an even split
-    cut[t] = *(std::upper_bound (row_edges_.begin (), row_edges_.end (), H * t / threads) - 1);
-  cut[threads] = H - 1;  // quad rows are 0 … H − 2
+  const std::vector<int> cut = connectBands ();
+  const int threads = static_cast<int> (cut.size ()) - 1;
   std::vector<Part> bands (threads), borders (threads);
   std::vector<Eigen::Vector3i>& tris = dense_only ? dense_tris_ : ctris_;
   tris.clear ();

@@ -270,6 +270,7 @@ private:
   void measureSpacing ();
   void measureNoise ();
   float* sampleBuffer (std::size_t n);
+  std::vector<int> connectBands () const;
   void connect (bool dense_only);
   double pixelsPerRadian () const;
   double cellWidth () const;
