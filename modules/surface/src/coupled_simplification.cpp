@@ -594,9 +594,9 @@ CoupledSimplification::sampleBuffer (std::size_t n)
   return ratios_.data ();
 }
 
-// The row bands of connect (), one per thread: band t holds quad rows cut[t] … cut[t + 1] − 1
-// (the last band ends at H − 2). Each cut is the last cluster-block border at or before an even
-// split of the rows, and a band spans at least four block rows.
+// The row bands of connect (), one per thread: cut[t] is band t's first quad row, and
+// cut[threads] = H − 1 ends the last band. Each inner cut is the last cluster-block border at or
+// before an even split of the rows; there are at most a quarter as many bands as block rows.
 std::vector<int>
 CoupledSimplification::connectBands () const
 {
