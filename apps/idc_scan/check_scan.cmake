@@ -38,3 +38,11 @@ foreach(args "--depth-dir;${WORK_DIR}/missing" "--pcd-dir;${WORK_DIR}/empty" "--
     message(FATAL_ERROR "bad input ${args} must end with exit 1 and one line (rc ${rc}): ${err}")
   endif()
 endforeach()
+
+# A bad setting ends with exit 2 and one line, before any frame is read.
+execute_process(COMMAND ${APP} --depth-dir ${WORK_DIR}/depth --max-hole-size -0.5 --no-window
+                RESULT_VARIABLE rc OUTPUT_QUIET ERROR_VARIABLE err TIMEOUT 60)
+string(STRIP "${err}" err)
+if(NOT rc EQUAL 2 OR NOT err MATCHES "^idc_scan: .*--max-hole-size" OR err MATCHES "\n")
+  message(FATAL_ERROR "--max-hole-size -0.5 must end with exit 2 and one line (rc ${rc}): ${err}")
+endif()

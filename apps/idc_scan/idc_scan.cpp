@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <deque>
 #include <filesystem>
@@ -130,7 +131,7 @@ struct Options
 {
   pclx::apps::SourceOptions source;
   std::string bunny, pose_file, poses_dir, output, screenshot;
-  double leaf = 0.01, epsilon = 0, cell_size = -1;
+  double leaf = 0.01, epsilon = 0, cell_size = -1, max_hole_size = -1;  // max_hole_size < 0: the class's
   int cell_pixels = 0, min_cell_pixels = pcl::CoupledSimplification ().getMinCellPixels ();
   int max_frames = 0, width = 1024, height = 768, update_every = 1;
   bool plane_removal = false, no_window = false;
@@ -144,6 +145,8 @@ public:
     idc_.setLeafSize (o.leaf);
     idc_.setSimplificationError (o.epsilon);
     idc_.setPlaneRemoval (o.plane_removal);
+    if (o.max_hole_size >= 0)
+      idc_.setMaxHoleSize (o.max_hole_size);
     // Front-end cells in metres (default two leaves) unless --cell-pixels fixes the block.
     if (o.cell_pixels > 0)
       idc_.getSimplification ().setFrustumCellPixels (o.cell_pixels);
@@ -173,10 +176,12 @@ public:
     const auto& s = idc_.getStats ();
     std::size_t boundary = 0, non_manifold = 0;
     pclx::apps::countOpenEdges (mesh, boundary, non_manifold);
+    const auto& os = idc_.getOctree ().getStats ();
     std::printf ("done: %zu frames fused (%zu skipped); mesh %zu vertices, %zu triangles; %zu edges used once, "
-                 "%zu used > 2 times%s; %zu leaves, %.1f MB\n",
+                 "%zu used > 2 times%s; %zu holes closed; %zu leaves, %.1f MB\n",
                  fused_, skipped_, s.vertices, s.triangles, boundary, non_manifold,
-                 boundary == 0 && non_manifold == 0 ? " (watertight)" : "", s.leaves, s.memory_bytes / 1048576.0);
+                 boundary == 0 && non_manifold == 0 ? " (watertight)" : "", os.holes_filled, s.leaves,
+                 s.memory_bytes / 1048576.0);
     if (!opt_.output.empty ())
     {
       if (pcl::io::savePLYFileBinary (opt_.output, mesh) < 0)
@@ -400,6 +405,8 @@ main (int argc, char** argv)
   app.add_option ("--min-cell-pixels", o.min_cell_pixels,
                   "front end: fewest pixels per cell side before 2 x 2 block averaging (0: every pixel)")
       ->capture_default_str ();
+  app.add_option ("--max-hole-size", o.max_hole_size,
+                  "close holes up to this box diagonal in metres (0: none; default 10 leaves)");
   app.add_flag ("--remove-plane", o.plane_removal, "cut away the dominant plane (RANSAC) to isolate an object");
   app.add_option ("--frames", o.max_frames, "stop after this many frames (0: all)")->capture_default_str ();
   app.add_option ("--update-every", o.update_every, "on screen: re-polygonise every N frames")->capture_default_str ();
@@ -410,9 +417,11 @@ main (int argc, char** argv)
   app.add_option ("--height", o.height, "window and screenshot height in pixels")->capture_default_str ();
   CLI11_PARSE (app, argc, argv);
   pclx::apps::finishSourceOptions (app, o.source);
-  if (!(o.leaf > 0) || o.epsilon < 0 || o.cell_pixels < 0 || o.min_cell_pixels < 0)
+  const bool hole_size_set = app.count ("--max-hole-size") > 0;
+  if (!(o.leaf > 0) || o.epsilon < 0 || o.cell_pixels < 0 || o.min_cell_pixels < 0 ||
+      (hole_size_set && !(o.max_hole_size >= 0 && std::isfinite (o.max_hole_size))))
   {
-    std::cerr << "idc_scan: --leaf must be > 0, --epsilon, --cell-pixels and --min-cell-pixels >= 0\n";
+    std::cerr << "idc_scan: --leaf must be > 0, --epsilon, --cell-pixels, --min-cell-pixels and --max-hole-size >= 0\n";
     return 2;
   }
   try

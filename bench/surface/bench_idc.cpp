@@ -2,7 +2,8 @@
 // ScalableTSDFVolume + marching cubes over a sweep of voxel sizes, and PCL's MarchingCubesHoppe /
 // GreedyProjectionTriangulation on the fused cloud (object sequences).
 // Inputs: frames rendered from meshes with Kinect-like noise (a torus around a sphere seen from
-// an orbit, the Stanford bunny mesh scaled to 0.6 m when ../shared/data exists, a furnished room
+// an orbit, the Stanford bunny mesh scaled to 0.6 m and the fertility statue at 0.4 m when
+// ../shared/data exists, a furnished room
 // and two furnished rooms joined by a door, both seen from inside), the 50 7-Scenes frames
 // (speed and looks; no truth) and the 10 bunny range scans (truth: bun_zipper.ply).
 // Metrics: accuracy (output samples to the truth), completion (the truth samples that some
@@ -494,6 +495,7 @@ struct Bench
   std::size_t samples;
   double cell_factor, collapse_ratio, collapse_error;
   int min_cell_pixels, narrowest_cell_pixels;
+  double hole_leaves;    // largest hole closed, in leaves (< 0: the class's default)
   std::string mesh_dir;  // when set, every IDC and TSDF mesh is written there as PLY
 
   void
@@ -615,6 +617,8 @@ struct Bench
     idc.getSimplification ().setMinCellPixels (min_cell_pixels);
     idc.getSimplification ().setNarrowestCellPixels (narrowest_cell_pixels);
     idc.setDepthRange (0.1f, float (s.depth_trunc));  // as Open3D's depth_trunc
+    if (hole_leaves >= 0)
+      idc.setMaxHoleSize (hole_leaves * leaf);
     std::vector<double> ms, recon_ms;
     std::size_t failed = 0;
     pcl::PolygonMesh mesh;
@@ -654,10 +658,13 @@ struct Bench
     const auto& os = idc.getOctree ().getStats ();
     const double fused = std::max<double> (1, double (st.frames));
     const Quality q = measure (pclx::testing::fromPolygonMesh (mesh), truth);
-    char params[128];
-    std::snprintf (params, sizeof params,
-                   "leaf=%g;eps=%g;cell=%g;collapse=%g;collapse_err=%g;min_cell_px=%d;narrowest_cell_px=%d", leaf, eps,
-                   cell_factor * leaf, collapse_ratio, collapse_error, min_cell_pixels, narrowest_cell_pixels);
+    char params[160];
+    const int n =
+        std::snprintf (params, sizeof params,
+                       "leaf=%g;eps=%g;cell=%g;collapse=%g;collapse_err=%g;min_cell_px=%d;narrowest_cell_px=%d", leaf,
+                       eps, cell_factor * leaf, collapse_ratio, collapse_error, min_cell_pixels, narrowest_cell_pixels);
+    if (hole_leaves >= 0)
+      std::snprintf (params + n, sizeof params - std::size_t (n), ";hole_leaves=%g", hole_leaves);
     if (!incremental)
       saveMesh (s, "idc", params, mesh);
     row (s, incremental ? "idc_incremental" : "idc", params, q, ms, extract, st.memory_bytes / 1048576.0,
@@ -666,7 +673,9 @@ struct Bench
           {"reconstruct_ms_median", percentile (recon_ms, 0.5)},
           {"frontend_ms_mean", st.total_frontend_ms / fused},
           {"octree_ms_mean", (os.total_intersect_ms + os.total_merge_ms) / fused},
-          {"intersect_ms_mean", os.total_intersect_ms / fused}, {"merge_ms_mean", os.total_merge_ms / fused}});
+          {"intersect_ms_mean", os.total_intersect_ms / fused}, {"merge_ms_mean", os.total_merge_ms / fused},
+          {"holes_filled", double (os.holes_filled)}, {"holes_open", double (os.holes_open)},
+          {"hole_triangles", double (os.hole_triangles)}, {"holes_ms", os.t_holes_ms}});
     if (frame_rows)
       frameRows (s, incremental ? "idc_incremental" : "idc", leaf, ms);
   }
@@ -850,6 +859,24 @@ loadSequences (const Options& opt)
     big.transform (Eigen::Affine3f (Eigen::Scaling (4.f) * Eigen::Translation3f (-c)));
     seqs.push_back (renderOrbit ("bunny-mesh-x4", big, 36, 1.3, 640, 480, {0.02, 0.01, 0.005}));
   }
+  if (data && !quick && want ("fertility-mesh"))
+  {
+    // The held-back orbits' setup: an organic closed mesh (genus 4) at 0.4 m, 24 views.
+    try
+    {
+      TriangleMesh statue = pclx::testing::loadPlyMesh (*data + "/meshes/fertility.ply");
+      const Eigen::Vector3f c = 0.5f * (statue.bboxMin () + statue.bboxMax ());
+      const float scale = 0.4f / (statue.bboxMax () - statue.bboxMin ()).maxCoeff ();
+      // Its height runs along x: stand it up along z, the orbit's axis.
+      statue.transform (Eigen::Affine3f (Eigen::AngleAxisf (-0.5f * float (M_PI), Eigen::Vector3f::UnitY ()) *
+                                         Eigen::Scaling (scale) * Eigen::Translation3f (-c)));
+      seqs.push_back (renderOrbit ("fertility-mesh", statue, 24, 0.9, 640, 480, {0.02, 0.01, 0.005}));
+    }
+    catch (const std::exception& e)
+    {
+      std::cerr << "bench_idc: " << e.what () << "\n";
+    }
+  }
   if (want ("room-generated"))
     seqs.push_back (quick ? renderRoom (8, 320, 240, {0.02}) : renderRoom (30, 640, 480, {0.02, 0.01}));
   // The same room at the frame size of a 1200 × 680 RGB-D sequence: the front end's share grows
@@ -991,6 +1018,9 @@ main (int argc, char** argv)
   app.add_option ("--narrowest-cell-pixels", narrowest_cell_pixels,
                   "front end: narrowest frustum cell side in pixels when cells follow the leaf (1: no floor)")
       ->capture_default_str ();
+  double hole_leaves = -1;
+  app.add_option ("--hole-leaves", hole_leaves,
+                  "largest hole IDC closes, in leaves (0: none; unset: the class's default)");
   bool verbose = false;
   app.add_flag ("--verbose", verbose, "progress lines on stderr");
   CLI11_PARSE (app, argc, argv);
@@ -1011,7 +1041,7 @@ main (int argc, char** argv)
     fcsv << "input,method,leaf,frame,ms\n";
   }
   Bench bench{out, frames_csv.empty () ? nullptr : &fcsv, samples, cell_factor, collapse_ratio, collapse_error,
-              min_cell_pixels, narrowest_cell_pixels, mesh_dir};
+              min_cell_pixels, narrowest_cell_pixels, hole_leaves, mesh_dir};
   for (const auto& s : seqs)
     runSequence (bench, s, opt);
   return 0;

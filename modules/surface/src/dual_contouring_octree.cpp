@@ -1,5 +1,6 @@
 #include <pclx/surface/dual_contouring_octree.h>
 #include <pclx/surface/detail/bounded_edge_collapse.h>
+#include <pclx/surface/detail/hole_filling.h>
 
 #include <pcl/common/io.h>
 #include <pcl/console/print.h>
@@ -461,6 +462,8 @@ struct DualContouringOctree::Impl
   // Scratch of addFrameMesh, two frames' worth: one is merged while the next is prepared.
   FrameTriangles frames[2];
   int next_frame = 0;
+  // The patches of the last reconstruct's holes: most survive a frame that changed other roots.
+  pclx::surface::detail::HolePatchCache hole_patches;
 
   Root*
   find (int bx, int by, int bz) const
@@ -547,6 +550,18 @@ DualContouringOctree::setSimplificationError (double eps)
     return fail ("simplification error must be finite and >= 0");
   eps_ = eps;
   all_dirty_ = true;
+  error_.clear ();
+  return true;
+}
+
+bool
+DualContouringOctree::setMaxHoleSize (double diameter)
+{
+  waitForMerge ();
+  if (!(diameter >= 0) || !std::isfinite (diameter))
+    return fail ("largest hole closed must be finite and >= 0");
+  max_hole_ = diameter;
+  hole_auto_ = false;
   error_.clear ();
   return true;
 }
@@ -2220,6 +2235,46 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
   st.last_reconstruct_ms = msSince (t0);
 }
 
+namespace {
+
+// Closes the mesh's holes up to `diameter` (metres) with patches appended to it.
+void
+closeSmallHoles (double diameter, pclx::surface::detail::HolePatchCache& cache, pcl::PointCloud<pcl::PointXYZ>& cloud,
+                 std::vector<pcl::Vertices>& polygons, DualContouringOctree::Stats& st)
+{
+  st.holes_filled = st.holes_open = st.hole_triangles = st.hole_patches_reused = 0;
+  if (!(diameter > 0))
+    return;
+  std::vector<Eigen::Vector3f> vertices;
+  vertices.reserve (cloud.size ());
+  for (const auto& p : cloud)
+    vertices.push_back (p.getVector3fMap ());
+  std::vector<pclx::surface::detail::Triangle> triangles;
+  triangles.reserve (polygons.size ());
+  for (const auto& p : polygons)
+    triangles.push_back ({static_cast<std::uint32_t> (p.vertices[0]), static_cast<std::uint32_t> (p.vertices[1]),
+                          static_cast<std::uint32_t> (p.vertices[2])});
+  pclx::surface::detail::HoleFillingStats hs;
+  // Lattice loops are often coplanar: only the search free of geometric predicates.
+  using pclx::surface::detail::kCubicSearchEdges;
+  if (!pclx::surface::detail::fillSmallHoles (vertices, triangles, diameter, hs, kCubicSearchEdges, &cache))
+    return;
+  st.holes_filled = hs.filled;
+  st.holes_open = hs.too_large + hs.failed;
+  st.hole_triangles = hs.added_triangles;
+  st.hole_patches_reused = cache.hits;
+  for (std::size_t v = cloud.size (); v < vertices.size (); ++v)
+    cloud.push_back (pcl::PointXYZ (vertices[v].x (), vertices[v].y (), vertices[v].z ()));
+  for (std::size_t t = polygons.size (); t < triangles.size (); ++t)
+  {
+    pcl::Vertices poly;
+    poly.vertices.assign (triangles[t].begin (), triangles[t].end ());
+    polygons.push_back (std::move (poly));
+  }
+}
+
+}  // namespace
+
 void
 DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
 {
@@ -2285,6 +2340,9 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
     st.mesh_collapses = collapseAcrossNodes (m, eps_, refs, cloud, mesh.polygons);
     st.t_collapse_ms = msSince (tc);
   }
+  const auto th = Clock::now ();
+  closeSmallHoles (getMaxHoleSize (), impl_->hole_patches, cloud, mesh.polygons, st);
+  st.t_holes_ms = msSince (th);
   pcl::toPCLPointCloud2 (cloud, mesh.cloud);
   st.vertices = cloud.size ();
   st.triangles = mesh.polygons.size ();

@@ -4,6 +4,8 @@
 
 #include <pcl/console/print.h>
 
+#include <Eigen/Geometry>
+
 #include <CGAL/Polygon_mesh_processing/border.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Simple_cartesian.h>
@@ -13,6 +15,7 @@
 #include <array>
 #include <cmath>
 #include <iterator>
+#include <unordered_map>
 #include <utility>
 
 namespace pclx {
@@ -25,69 +28,240 @@ using Kernel = CGAL::Simple_cartesian<double>;
 using Mesh = CGAL::Surface_mesh<Kernel::Point_3>;
 using Halfedge = Mesh::Halfedge_index;
 
-// True when some edge is used by one triangle only: most meshes need no halfedge structure.
-bool
-hasBoundary (const std::vector<Triangle>& triangles)
+// The triangles' directed edges grouped by their source vertex (compressed rows): each triangle
+// gives each of its corners one outgoing edge, so a vertex's rows also list its triangles.
+struct HalfEdges
 {
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
-  edges.reserve (3 * triangles.size ());
-  for (const auto& t : triangles)
-    for (int j = 0; j < 3; ++j)
-    {
-      const std::uint32_t a = t[j], b = t[(j + 1) % 3];
-      edges.emplace_back (std::min (a, b), std::max (a, b));
-    }
-  std::sort (edges.begin (), edges.end ());
-  for (std::size_t i = 0; i < edges.size ();)
+  std::vector<std::uint32_t> begin;  // per vertex, and one past the last
+  std::vector<std::uint32_t> target, triangle;
+
+  HalfEdges (std::size_t num_vertices, const std::vector<Triangle>& triangles) : begin (num_vertices + 1, 0)
   {
-    std::size_t j = i;
-    while (j < edges.size () && edges[j] == edges[i])
-      ++j;
-    if (j - i == 1)
-      return true;
-    i = j;
+    for (const auto& t : triangles)
+      for (const std::uint32_t v : t)
+        ++begin[v + 1];
+    for (std::size_t v = 0; v < num_vertices; ++v)
+      begin[v + 1] += begin[v];
+    target.resize (3 * triangles.size ());
+    triangle.resize (3 * triangles.size ());
+    std::vector<std::uint32_t> fill (begin.begin (), begin.end () - 1);
+    for (std::size_t t = 0; t < triangles.size (); ++t)
+      for (int j = 0; j < 3; ++j)
+      {
+        const std::uint32_t k = fill[triangles[t][j]]++;
+        target[k] = triangles[t][(j + 1) % 3];
+        triangle[k] = static_cast<std::uint32_t> (t);
+      }
   }
-  return false;
+  // How often the directed edge a → b occurs.
+  int
+  count (std::uint32_t a, std::uint32_t b) const
+  {
+    return static_cast<int> (std::count (target.begin () + begin[a], target.begin () + begin[a + 1], b));
+  }
+};
+
+// The boundary edges of an oriented 2-manifold, as connected groups of their vertices with the
+// diagonal of each group's bounding box; false when an edge has two triangles of one
+// orientation or more than two (then no halfedge structure holds the mesh).
+struct BoundaryGroups
+{
+  std::vector<std::uint32_t> group_of;  // per vertex: its group, or kNone when not on a boundary
+  std::vector<double> diameter;         // per group
+  static constexpr std::uint32_t kNone = ~std::uint32_t (0);
+};
+
+std::uint32_t
+findRoot (std::vector<std::uint32_t>& parent, std::uint32_t v)
+{
+  while (parent[v] != v)
+    v = parent[v] = parent[parent[v]];
+  return v;
 }
 
 bool
-toMesh (const std::vector<Eigen::Vector3f>& vertices, const std::vector<Triangle>& triangles, Mesh& mesh)
+findBoundaries (const std::vector<Eigen::Vector3f>& vertices, const HalfEdges& he, BoundaryGroups& out)
 {
-  mesh.reserve (Mesh::size_type (vertices.size ()), Mesh::size_type (3 * triangles.size () / 2),
-                Mesh::size_type (triangles.size ()));
-  for (const auto& v : vertices)
-    mesh.add_vertex (Kernel::Point_3 (v.x (), v.y (), v.z ()));
-  for (const auto& t : triangles)
+  const std::size_t n = vertices.size ();
+  // Each directed edge: 0 with its twin, 1 on a boundary, 2 repeated or with two twins. The
+  // rows are independent, so they are read in parallel; the few boundary edges join serially.
+  std::vector<std::uint8_t> kind (he.target.size (), 0);
+  bool manifold = true;
+#pragma omp parallel for schedule(static, 4096) reduction(&& : manifold)
+  for (std::ptrdiff_t ai = 0; ai < static_cast<std::ptrdiff_t> (n); ++ai)
   {
-    if (std::size_t (std::max ({t[0], t[1], t[2]})) >= vertices.size ())
-      return false;
-    const Mesh::Vertex_index a (t[0]), b (t[1]), c (t[2]);
+    const std::uint32_t a = static_cast<std::uint32_t> (ai);
+    for (std::uint32_t k = he.begin[a]; k < he.begin[a + 1]; ++k)
+    {
+      const std::uint32_t b = he.target[k];
+      const int twins = he.count (b, a);
+      const bool repeated = std::find (he.target.begin () + k + 1, he.target.begin () + he.begin[a + 1], b) !=
+                            he.target.begin () + he.begin[a + 1];
+      kind[k] = static_cast<std::uint8_t> (repeated || twins > 1 ? 2 : (twins == 0 ? 1 : 0));
+      manifold = manifold && kind[k] != 2;
+    }
+  }
+  if (!manifold)
+    return false;
+  std::vector<std::uint32_t> parent (n, BoundaryGroups::kNone);
+  for (std::uint32_t a = 0; a < n; ++a)
+    for (std::uint32_t k = he.begin[a]; k < he.begin[a + 1]; ++k)
+      if (kind[k] == 1)
+      {
+        const std::uint32_t b = he.target[k];
+        for (const std::uint32_t v : {a, b})
+          if (parent[v] == BoundaryGroups::kNone)
+            parent[v] = v;
+        parent[findRoot (parent, a)] = findRoot (parent, b);
+      }
+  out.group_of.assign (n, BoundaryGroups::kNone);
+  std::vector<Eigen::AlignedBox3d> boxes;
+  for (std::uint32_t v = 0; v < n; ++v)
+    if (parent[v] != BoundaryGroups::kNone)
+    {
+      const std::uint32_t r = findRoot (parent, v);
+      if (out.group_of[r] == BoundaryGroups::kNone)
+      {
+        out.group_of[r] = static_cast<std::uint32_t> (boxes.size ());
+        boxes.emplace_back ();
+      }
+      out.group_of[v] = out.group_of[r];
+      boxes[out.group_of[v]].extend (vertices[v].cast<double> ());
+    }
+  out.diameter.clear ();
+  for (const auto& b : boxes)
+    out.diameter.push_back (b.diagonal ().norm ());
+  return true;
+}
+
+// Gathers the triangles within some rings of a set of vertices: enough of the surface around a
+// hole for the patch's refinement and fairing, which read the ring around its boundary. Its
+// marks are kept from call to call, so that each hole costs what its neighbourhood holds.
+class RingCollector
+{
+public:
+  RingCollector (const HalfEdges& he, const std::vector<Triangle>& triangles)
+    : he_ (he), triangles_ (triangles), vertex_mark_ (he.begin.size () - 1, 0), triangle_mark_ (triangles.size (), 0)
+  {}
+
+  // The triangles in index order.
+  std::vector<std::uint32_t>
+  collect (std::vector<std::uint32_t> frontier, int rings)
+  {
+    ++stamp_;
+    for (const std::uint32_t v : frontier)
+      vertex_mark_[v] = stamp_;
+    std::vector<std::uint32_t> out, next;
+    for (int r = 0; r < rings; ++r)
+    {
+      next.clear ();
+      for (const std::uint32_t v : frontier)
+        for (std::uint32_t k = he_.begin[v]; k < he_.begin[v + 1]; ++k)
+        {
+          const std::uint32_t t = he_.triangle[k];
+          if (triangle_mark_[t] == stamp_)
+            continue;
+          triangle_mark_[t] = stamp_;
+          out.push_back (t);
+          for (const std::uint32_t w : triangles_[t])
+            if (vertex_mark_[w] != stamp_)
+            {
+              vertex_mark_[w] = stamp_;
+              next.push_back (w);
+            }
+        }
+      frontier.swap (next);
+    }
+    std::sort (out.begin (), out.end ());
+    return out;
+  }
+
+  const HalfEdges&
+  halfEdges () const
+  {
+    return he_;
+  }
+
+private:
+  const HalfEdges& he_;
+  const std::vector<Triangle>& triangles_;
+  std::vector<std::uint32_t> vertex_mark_, triangle_mark_;
+  std::uint32_t stamp_ = 0;
+};
+
+// The triangles around a hole in a numbering of their own: vertices in order of first use
+// (`global` maps them back), the triangles in that numbering, then the hole's vertices; and a
+// hash of all of it with the positions, the key of HolePatchCache.
+struct LocalSurface
+{
+  std::vector<std::uint32_t> global;
+  std::vector<Eigen::Vector3f> positions;
+  std::vector<std::uint32_t> layout;
+  std::uint64_t key = 0;
+
+  LocalSurface (const std::vector<Eigen::Vector3f>& vertices, const std::vector<Triangle>& triangles,
+                const std::vector<std::uint32_t>& subset, const std::vector<std::uint32_t>& hole)
+  {
+    std::unordered_map<std::uint32_t, std::uint32_t> local;
+    auto localOf = [&] (std::uint32_t v) {
+      const auto it = local.emplace (v, static_cast<std::uint32_t> (global.size ())).first;
+      if (it->second == global.size ())
+      {
+        global.push_back (v);
+        positions.push_back (vertices[v]);
+      }
+      return it->second;
+    };
+    for (const std::uint32_t t : subset)
+      for (const std::uint32_t v : triangles[t])
+        layout.push_back (localOf (v));
+    for (const std::uint32_t v : hole)
+      layout.push_back (localOf (v));
+    key = 1469598103934665603ull;  // FNV-1a over the layout and the positions' bits
+    auto mix = [this] (const void* data, std::size_t bytes) {
+      for (std::size_t i = 0; i < bytes; ++i)
+        key = (key ^ static_cast<const unsigned char*> (data)[i]) * 1099511628211ull;
+    };
+    mix (layout.data (), layout.size () * sizeof (std::uint32_t));
+    mix (positions.data (), positions.size () * sizeof (Eigen::Vector3f));
+  }
+  std::size_t
+  numTriangles (std::size_t hole_size) const
+  {
+    return (layout.size () - hole_size) / 3;
+  }
+};
+
+// A halfedge mesh of the local surface; false when its triangles do not form one.
+bool
+toMesh (const LocalSurface& surface, std::size_t hole_size, Mesh& mesh)
+{
+  for (const auto& p : surface.positions)
+    mesh.add_vertex (Kernel::Point_3 (p.x (), p.y (), p.z ()));
+  for (std::size_t t = 0; t < surface.numTriangles (hole_size); ++t)
+  {
+    const Mesh::Vertex_index a (surface.layout[3 * t]), b (surface.layout[3 * t + 1]), c (surface.layout[3 * t + 2]);
     if (mesh.add_face (a, b, c) == Mesh::null_face ())
       return false;
   }
   return true;
 }
 
-// One halfedge per boundary loop, with the diagonal of the loop's bounding box.
-std::vector<std::pair<Halfedge, double>>
-boundaryLoops (Mesh& mesh)
+// The boundary cycles of the local mesh whose vertices all lie on boundary group `g`.
+std::vector<Halfedge>
+cyclesOf (Mesh& mesh, const std::vector<std::uint32_t>& global, const BoundaryGroups& groups, std::uint32_t g)
 {
-  std::vector<Halfedge> cycles;
+  std::vector<Halfedge> cycles, out;
   CGAL::Polygon_mesh_processing::extract_boundary_cycles (mesh, std::back_inserter (cycles));
-  std::vector<std::pair<Halfedge, double>> loops;
   for (const Halfedge h : cycles)
   {
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant (HUGE_VAL), hi = -lo;
+    bool hole = true;
     for (const Halfedge e : CGAL::halfedges_around_face (h, mesh))
-    {
-      const auto& p = mesh.point (mesh.target (e));
-      const Eigen::Vector3d q (p.x (), p.y (), p.z ());
-      lo = lo.cwiseMin (q);
-      hi = hi.cwiseMax (q);
-    }
-    loops.emplace_back (h, (hi - lo).norm ());
+      hole = hole && groups.group_of[global[mesh.target (e)]] == g;
+    if (hole)
+      out.push_back (h);
   }
-  return loops;
+  return out;
 }
 
 double
@@ -100,11 +274,201 @@ triangleArea (const Mesh& mesh, Mesh::Face_index f)
   return std::sqrt (CGAL::squared_area (a, b, c));
 }
 
+// The vertices of a boundary cycle in the order of its edges, when `boundary` is one simple
+// cycle; empty otherwise.
+std::vector<std::uint32_t>
+cycleOrder (const HalfEdges& he, const std::vector<std::uint32_t>& boundary)
+{
+  std::vector<std::uint32_t> cycle{boundary.front ()};
+  while (cycle.size () <= boundary.size ())
+  {
+    const std::uint32_t a = cycle.back ();
+    std::uint32_t next = BoundaryGroups::kNone;
+    for (std::uint32_t k = he.begin[a]; k < he.begin[a + 1]; ++k)
+      if (he.count (he.target[k], a) == 0)
+      {
+        if (next != BoundaryGroups::kNone)
+          return {};  // two boundary edges leave a: not a simple cycle
+        next = he.target[k];
+      }
+    if (next == BoundaryGroups::kNone)
+      return {};
+    if (next == cycle.front ())
+      break;
+    cycle.push_back (next);
+  }
+  return cycle.size () == boundary.size () ? cycle : std::vector<std::uint32_t>{};
+}
+
+// A hole of three or four edges (one missing triangle or dual quad) closes with one or two
+// triangles along the shorter free diagonal: the density around it, nothing to fair. False
+// when the hole is not such a cycle or every way to close it would repeat an edge or have no area.
+bool
+closeTinyHole (const HalfEdges& he, const std::vector<std::uint32_t>& boundary,
+               const std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& triangles,
+               HoleFillingStats& stats)
+{
+  if (boundary.size () != 3 && boundary.size () != 4)
+    return false;
+  std::vector<std::uint32_t> r = cycleOrder (he, boundary);
+  if (r.empty ())
+    return false;
+  std::reverse (r.begin () + 1, r.end ());  // the patch runs against the boundary's edges
+  auto area = [&] (std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+    return double ((vertices[b] - vertices[a]).cross (vertices[c] - vertices[a]).norm ()) / 2;
+  };
+  std::vector<Triangle> patch;
+  if (r.size () == 3)
+    patch.push_back ({r[0], r[1], r[2]});
+  else
+  {
+    const bool first =
+        (vertices[r[0]] - vertices[r[2]]).squaredNorm () <= (vertices[r[1]] - vertices[r[3]]).squaredNorm ();
+    for (const int d : {first ? 0 : 1, first ? 1 : 0})
+    {
+      const std::uint32_t a = r[d], b = r[d + 1], c = r[d + 2], e = r[(d + 3) % 4];
+      if (he.count (a, c) + he.count (c, a) == 0 && area (a, b, c) > 0 && area (a, c, e) > 0)
+      {
+        patch = {{a, b, c}, {a, c, e}};
+        break;
+      }
+    }
+  }
+  if (patch.empty () || area (patch[0][0], patch[0][1], patch[0][2]) <= 0)
+    return false;
+  for (const auto& t : patch)
+  {
+    stats.filled_area += area (t[0], t[1], t[2]);
+    triangles.push_back (t);
+  }
+  stats.added_triangles += patch.size ();
+  return true;
+}
+
+// The patch of every boundary cycle of group `g` in the local mesh.
+HolePatch
+computePatch (Mesh& mesh, const std::vector<std::uint32_t>& global, const BoundaryGroups& groups, std::uint32_t g,
+              std::size_t max_edges)
+{
+  HolePatch patch;
+  const std::size_t old_vertices = mesh.number_of_vertices ();
+  const std::vector<Halfedge> cycles = cyclesOf (mesh, global, groups, g);
+  std::size_t closed = 0;
+  for (const Halfedge h : cycles)
+  {
+    const std::size_t edges = CGAL::halfedges_around_face (h, mesh).size ();
+    if (max_edges > 0 && edges > max_edges)
+      continue;
+    std::vector<Mesh::Face_index> faces;
+    // Liepa's search over every triangulation of the boundary (cubic in its edges) up to
+    // kCubicSearchEdges; above, the faces of the boundary's 3D Delaunay triangulation. The flag is
+    // the fairing's: a patch whose fairing failed stays, refined but not faired.
+    const bool faired = std::get<0> (CGAL::Polygon_mesh_processing::triangulate_refine_and_fair_hole (
+        mesh, h, std::back_inserter (faces), CGAL::Emptyset_iterator (),
+        CGAL::parameters::use_delaunay_triangulation (edges > kCubicSearchEdges)));
+    if (faces.empty ())
+      continue;  // every triangulation would repeat an edge, e.g. a boundary through a vertex twice
+    ++closed;
+    patch.unfaired += !faired;
+    for (const auto f : faces)
+    {
+      Triangle t;
+      std::size_t j = 0;
+      for (const auto v : CGAL::vertices_around_face (mesh.halfedge (f), mesh))
+        if (j < t.size ())
+          t[j++] = static_cast<std::uint32_t> (std::size_t (v));  // the patches are triangulated
+      patch.triangles.push_back (t);
+      patch.area += triangleArea (mesh, f);
+    }
+  }
+  for (std::size_t v = old_vertices; v < mesh.number_of_vertices (); ++v)
+  {
+    const auto& p = mesh.point (Mesh::Vertex_index (Mesh::size_type (v)));
+    patch.added_vertices.emplace_back (float (p.x ()), float (p.y ()), float (p.z ()));
+  }
+  patch.closed = !cycles.empty () && closed == cycles.size ();
+  return patch;
+}
+
+// Appends a patch to the mesh; its vertices follow the mesh's in index order.
+void
+applyPatch (const HolePatch& patch, const std::vector<std::uint32_t>& global, std::vector<Eigen::Vector3f>& vertices,
+            std::vector<Triangle>& triangles, HoleFillingStats& stats)
+{
+  const std::size_t base = vertices.size ();
+  vertices.insert (vertices.end (), patch.added_vertices.begin (), patch.added_vertices.end ());
+  for (const Triangle& t : patch.triangles)
+  {
+    Triangle out;
+    for (int j = 0; j < 3; ++j)
+      out[j] = t[j] < global.size () ? global[t[j]] : static_cast<std::uint32_t> (base + t[j] - global.size ());
+    triangles.push_back (out);
+  }
+  stats.added_vertices += patch.added_vertices.size ();
+  stats.added_triangles += patch.triangles.size ();
+  stats.unfaired += patch.unfaired;
+  stats.filled_area += patch.area;
+}
+
+// A patch of the cache made for the same surroundings, or nullptr.
+const HolePatch*
+cachedPatch (HolePatchCache* cache, const LocalSurface& surface)
+{
+  if (!cache)
+    return nullptr;
+  const auto range = cache->entries.equal_range (surface.key);
+  for (auto it = range.first; it != range.second; ++it)
+    if (it->second.layout == surface.layout && it->second.positions == surface.positions)
+    {
+      it->second.generation = cache->generation;
+      ++cache->hits;
+      return &it->second.patch;
+    }
+  return nullptr;
+}
+
+// Closes the boundary cycles of group `g` with patches appended to the mesh; true when each got
+// one. Only the triangles around the hole go into a halfedge structure, with two rings and, where
+// a vertex there is not a manifold one, with one.
+bool
+fillHole (std::uint32_t g, const std::vector<std::uint32_t>& boundary, const BoundaryGroups& groups,
+          RingCollector& rings, std::size_t max_edges, HolePatchCache* cache, std::vector<Eigen::Vector3f>& vertices,
+          std::vector<Triangle>& triangles, HoleFillingStats& stats)
+{
+  if (closeTinyHole (rings.halfEdges (), boundary, vertices, triangles, stats))
+    return true;
+  for (const int ring_count : {2, 1})
+  {
+    const LocalSurface surface (vertices, triangles, rings.collect (boundary, ring_count), boundary);
+    if (const HolePatch* hit = cachedPatch (cache, surface))
+    {
+      applyPatch (*hit, surface.global, vertices, triangles, stats);
+      return hit->closed;
+    }
+    Mesh mesh;
+    if (!toMesh (surface, boundary.size (), mesh))
+      continue;
+    HolePatchCache::Entry entry;
+    entry.patch = computePatch (mesh, surface.global, groups, g, max_edges);
+    applyPatch (entry.patch, surface.global, vertices, triangles, stats);
+    const bool closed = entry.patch.closed;
+    if (cache)
+    {
+      entry.positions = surface.positions;
+      entry.layout = surface.layout;
+      entry.generation = cache->generation;
+      cache->entries.emplace (surface.key, std::move (entry));
+    }
+    return closed;
+  }
+  return false;
+}
+
 }  // namespace
 
 bool
 fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& triangles, double max_diameter,
-                HoleFillingStats& stats)
+                HoleFillingStats& stats, std::size_t max_edges, HolePatchCache* cache)
 {
   stats = HoleFillingStats ();
   if (!(max_diameter > 0) || !std::isfinite (max_diameter))
@@ -113,56 +477,45 @@ fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& t
                max_diameter);
     return false;
   }
-  if (!hasBoundary (triangles))
-    return true;
-  Mesh mesh;
-  if (!toMesh (vertices, triangles, mesh))
+  const bool indices_valid = std::all_of (triangles.begin (), triangles.end (), [&] (const Triangle& t) {
+    return std::max ({t[0], t[1], t[2]}) < vertices.size ();
+  });
+  if (!indices_valid)
+  {
+    PCL_ERROR ("[pclx::surface::detail::fillSmallHoles] a triangle refers to a missing vertex; no hole was filled\n");
+    return false;
+  }
+  const HalfEdges he (vertices.size (), triangles);
+  BoundaryGroups groups;
+  if (!findBoundaries (vertices, he, groups))
   {
     PCL_ERROR ("[pclx::surface::detail::fillSmallHoles] the mesh is not an oriented 2-manifold; no hole was filled\n");
     return false;
   }
-  const auto loops = boundaryLoops (mesh);
-  stats.holes = loops.size ();
-  std::vector<Mesh::Face_index> added_faces;
-  for (const auto& [h, diameter] : loops)
+  stats.holes = groups.diameter.size ();
+  // The vertices of each hole up to the limit, hole by hole.
+  std::vector<std::vector<std::uint32_t>> hole_vertices (groups.diameter.size ());
+  for (std::uint32_t v = 0; v < vertices.size (); ++v)
+    if (groups.group_of[v] != BoundaryGroups::kNone && groups.diameter[groups.group_of[v]] <= max_diameter)
+      hole_vertices[groups.group_of[v]].push_back (v);
+  RingCollector rings (he, triangles);
+  if (cache)
   {
-    if (diameter > max_diameter)
-    {
+    ++cache->generation;
+    cache->hits = 0;
+  }
+  for (std::uint32_t g = 0; g < groups.diameter.size (); ++g)
+  {
+    if (groups.diameter[g] > max_diameter)
       ++stats.too_large;
-      continue;
-    }
-    std::vector<Mesh::Face_index> faces;
-    std::vector<Mesh::Vertex_index> new_vertices;
-    // The flag is the fairing's: a patch whose fairing failed stays, refined but not faired.
-    const bool faired = std::get<0> (CGAL::Polygon_mesh_processing::triangulate_refine_and_fair_hole (
-        mesh, h, std::back_inserter (faces), std::back_inserter (new_vertices)));
-    if (faces.empty ())
-    {
+    else if (fillHole (g, hole_vertices[g], groups, rings, max_edges, cache, vertices, triangles, stats))
+      ++stats.filled;
+    else
       ++stats.failed;
-      continue;
-    }
-    ++stats.filled;
-    stats.unfaired += !faired;
-    stats.added_vertices += new_vertices.size ();
-    added_faces.insert (added_faces.end (), faces.begin (), faces.end ());
   }
-  // New vertices follow the input's in index order (nothing was removed).
-  for (std::size_t v = vertices.size (); v < mesh.number_of_vertices (); ++v)
-  {
-    const auto& p = mesh.point (Mesh::Vertex_index (Mesh::size_type (v)));
-    vertices.emplace_back (float (p.x ()), float (p.y ()), float (p.z ()));
-  }
-  for (const auto f : added_faces)
-  {
-    Triangle t;
-    std::size_t j = 0;
-    for (const auto v : CGAL::vertices_around_face (mesh.halfedge (f), mesh))
-      if (j < t.size ())
-        t[j++] = std::uint32_t (v);  // the patches are triangulated
-    triangles.push_back (t);
-    stats.filled_area += triangleArea (mesh, f);
-  }
-  stats.added_triangles = added_faces.size ();
+  if (cache)
+    for (auto it = cache->entries.begin (); it != cache->entries.end ();)
+      it = it->second.generation == cache->generation ? std::next (it) : cache->entries.erase (it);
   return true;
 }
 

@@ -560,6 +560,10 @@ TEST (IncrementalDualContouring, BadInputsLeaveTheMapUnchanged)
   EXPECT_FALSE (idc.setSimplificationError (-1.0));
   EXPECT_FALSE (idc.setSimplificationError (std::numeric_limits<double>::quiet_NaN ()));
   EXPECT_EQ (idc.getSimplificationError (), 0.0);
+  EXPECT_FALSE (idc.setMaxHoleSize (-0.1));
+  EXPECT_FALSE (idc.setMaxHoleSize (std::numeric_limits<double>::infinity ()));
+  EXPECT_FALSE (idc.setMaxHoleSize (std::numeric_limits<double>::quiet_NaN ()));
+  EXPECT_DOUBLE_EQ (idc.getMaxHoleSize (), pcl::DualContouringOctree::kAutoHoleLeaves * 0.02);
 
   // Empty mesh.
   EXPECT_FALSE (idc.addFrameMesh (FrameMesh ()));
@@ -603,6 +607,104 @@ TEST (IncrementalDualContouring, BadInputsLeaveTheMapUnchanged)
   EXPECT_TRUE (idc.addFrameMesh (partly));
   EXPECT_EQ (idc.getOctree ().getStats ().nonfinite_triangles, 1u);
   EXPECT_EQ (idc.getOctree ().getStats ().degenerate_triangles, 1u);
+}
+
+// Views that never see a spot leave a hole there. Holes up to the limit close with patches that
+// meet the surface; wider openings stay open, and a limit of 0 closes nothing.
+TEST (IncrementalDualContouring, SmallHolesClosedWideOnesKept)
+{
+  const float R = 0.5f;
+  const Eigen::Vector3f centre (0.1f, -0.05f, 0.02f);
+  const TriangleMesh sphere = pclx::testing::makeSphere (R, 5, centre);
+  const double h = 0.025;
+  // Unseen: a cap of radius 0.04 m (1.6 leaves) around +x and one of 0.15 m (6 leaves) around −x,
+  // whose boundary loop's box is wider than the default limit of 10 leaves.
+  const float small_cos = std::cos (std::asin (0.04f / R)), wide_cos = std::cos (std::asin (0.15f / R));
+  std::vector<FrameMesh> frames;
+  for (const auto& v : viewpoints (3.f))
+  {
+    std::vector<int> seen;
+    for (const int f : facing (sphere, v))
+    {
+      const Eigen::Vector3f c = (sphere.vertices[sphere.faces[f][0]] + sphere.vertices[sphere.faces[f][1]] +
+                                 sphere.vertices[sphere.faces[f][2]]) / 3;
+      const float x = (c - centre).normalized ().x ();
+      if (x < small_cos && -x < wide_cos)
+        seen.push_back (f);
+    }
+    frames.push_back (toFrame (sphere, seen));
+  }
+  auto run = [&] (double max_hole, pcl::PolygonMesh& mesh) {
+    IDC idc;
+    EXPECT_TRUE (idc.setLeafSize (h));
+    if (max_hole >= 0)
+      EXPECT_TRUE (idc.setMaxHoleSize (max_hole));
+    for (const auto& f : frames)
+      EXPECT_TRUE (idc.addFrameMesh (f)) << idc.getLastError ();
+    idc.reconstruct (mesh);
+    return idc.getOctree ().getStats ();
+  };
+  pcl::PolygonMesh open, closed, all;
+  const auto s_open = run (0, open);
+  const auto s_closed = run (-1, closed);  // the default: kAutoHoleLeaves leaves
+  const auto s_all = run (1.5, all);
+  const MeshCheck c_open = check (open), c_closed = check (closed), c_all = check (all);
+  for (const auto* c : {&c_open, &c_closed, &c_all})
+    expectManifold (*c);
+  // Off: nothing closed. The default closes the small spot (and any sliver the views leave open)
+  // and keeps the wide spot open; a limit above the wide spot closes it too.
+  EXPECT_EQ (s_open.holes_filled, 0u);
+  EXPECT_GE (s_closed.holes_filled, 1u);
+  EXPECT_EQ (s_closed.holes_open, 1u);
+  EXPECT_EQ (s_all.holes_filled, s_closed.holes_filled + 1);
+  EXPECT_EQ (s_all.holes_open, 0u);
+  EXPECT_LT (c_closed.boundary_edges, c_open.boundary_edges);
+  EXPECT_GT (c_closed.boundary_edges, 0u);
+  EXPECT_EQ (c_all.boundary_edges, 0u);
+  const auto rimAt = [] (const pcl::PolygonMesh& m, float x_min) {
+    // Vertices of boundary edges beyond x_min (the small spot's side).
+    const std::vector<Eigen::Vector3f> p = points (m);
+    std::map<std::pair<int, int>, int> edges;
+    for (const auto& t : m.polygons)
+      for (int k = 0; k < 3; ++k)
+        ++edges[std::minmax (static_cast<int> (t.vertices[k]), static_cast<int> (t.vertices[(k + 1) % 3]))];
+    std::size_t n = 0;
+    for (const auto& e : edges)
+      n += e.second == 1 && p[e.first.first].x () > x_min;
+    return n;
+  };
+  EXPECT_GT (rimAt (open, 0.4f), 0u);
+  EXPECT_EQ (rimAt (closed, 0.4f), 0u);
+  // The input's triangles and vertices are kept, the patches follow them and stay near the sphere.
+  EXPECT_EQ (closed.polygons.size (), open.polygons.size () + s_closed.hole_triangles);
+  EXPECT_EQ (s_closed.triangles, closed.polygons.size ());
+  const std::vector<Eigen::Vector3f> p_open = points (open), p_closed = points (closed);
+  ASSERT_GT (p_closed.size (), p_open.size ());
+  pclx::testing::MeshDistance distance (sphere);
+  double worst = 0;
+  for (std::size_t v = 0; v < p_closed.size (); ++v)
+    if (v < p_open.size ())
+      ASSERT_EQ (p_closed[v], p_open[v]);
+    else
+      worst = std::max (worst, distance.distance (p_closed[v]));
+  EXPECT_LT (worst, 0.5 * h);
+
+  // Reconstructing after each frame reuses the patches whose surroundings did not change, and
+  // gives the mesh of a map that polygonises everything once.
+  IDC incremental;
+  ASSERT_TRUE (incremental.setLeafSize (h));
+  pcl::PolygonMesh step;
+  std::size_t reused = 0;
+  for (const auto& f : frames)
+  {
+    ASSERT_TRUE (incremental.addFrameMesh (f));
+    incremental.reconstruct (step);
+    reused += incremental.getOctree ().getStats ().hole_patches_reused;
+  }
+  incremental.reconstruct (step);
+  EXPECT_EQ (incremental.getOctree ().getStats ().hole_patches_reused, s_closed.holes_filled);
+  EXPECT_GT (reused, 0u);
+  expectIdentical (step, closed);
 }
 
 // Growth off: geometry outside the first frame's volume is dropped and counted, the map kept.

@@ -143,6 +143,11 @@ public:
     std::size_t octree_triangles = 0;  ///< last polygonisation: triangles before the edge collapses
     std::size_t mesh_collapses = 0;    ///< last polygonisation: edges collapsed (ε > 0)
     double t_collapse_ms = 0;          ///< last polygonisation: the edge collapses (ms)
+    std::size_t holes_filled = 0;      ///< last polygonisation: holes closed by patches
+    std::size_t holes_open = 0;        ///< last polygonisation: loops left open (over the limit; 0 when off)
+    std::size_t hole_triangles = 0;    ///< last polygonisation: triangles of the patches
+    std::size_t hole_patches_reused = 0;  ///< last polygonisation: patches kept from the one before
+    double t_holes_ms = 0;             ///< last polygonisation: closing the holes (ms)
     double last_reconstruct_ms = 0;  ///< last polygonisation: total (ms)
     std::size_t frames = 0;          ///< frames fused
   };
@@ -205,6 +210,26 @@ public:
     * \return ε in metres
     */
   double getSimplificationError () const { return eps_; }
+  /** \brief Set the largest hole closed in the output. The views leave small holes where no
+    * frame's surface crossed the lattice (crevices, parts seen only at grazing angles or between
+    * a frame's depth jumps); each hole whose boundary fits in a box of this diagonal becomes a
+    * patch triangulated, refined and faired to meet the surface around it. Larger openings, such
+    * as the rim of what was seen, stay open, and so do holes of more than
+    * pclx::surface::detail::kCubicSearchEdges edges.
+    * \param[in] diameter the box diagonal in metres (≥ 0, finite; 0 leaves every hole open);
+    * until set, kAutoHoleLeaves leaves
+    * \return false (with a PCL_ERROR, the old value kept) for a negative or non-finite diameter
+    * \note P. Liepa, 2003, "Filling Holes in Meshes", Eurographics Symposium on Geometry
+    * Processing, as CGAL implements it.
+    */
+  bool setMaxHoleSize (double diameter);
+  /** \brief Get the largest hole closed in the output.
+    * \return the box diagonal in metres (kAutoHoleLeaves leaves until set)
+    */
+  double getMaxHoleSize () const { return hole_auto_ ? kAutoHoleLeaves * h_ : max_hole_; }
+  /** \brief The largest hole closed until setMaxHoleSize (), in leaves: the crevices that orbits
+    * of depth frames leave open on organic objects measure up to about ten leaves. */
+  static constexpr double kAutoHoleLeaves = 10;
   /** \brief Set how votes become signs.
     * \param[in] r the rule (default SignRule::WEIGHTED)
     */
@@ -284,7 +309,8 @@ private:
   void polygonise (pcl::PolygonMesh& mesh, bool all);
   void writeMesh (pcl::PolygonMesh& mesh);
 
-  double h_ = 0.01, eps_ = 0, margin_ = 1.5;
+  double h_ = 0.01, eps_ = 0, margin_ = 1.5, max_hole_ = 0;
+  bool hole_auto_ = true;
   bool grow_ = true, volume_set_ = false, all_dirty_ = true, overlap_ = true;
   SignRule rule_ = SignRule::WEIGHTED;
   Eigen::Vector3d vol_min_ = Eigen::Vector3d::Zero (), vol_max_ = Eigen::Vector3d::Zero ();

@@ -138,6 +138,19 @@ public:
     * \return ε in metres
     */
   double getSimplificationError () const { return octree_.getSimplificationError (); }
+  /** \brief Set the largest hole closed in the output (see DualContouringOctree::setMaxHoleSize).
+    * \param[in] diameter the diagonal of the box around a hole's boundary, in metres (≥ 0; 0
+    * leaves every hole open); until set, DualContouringOctree::kAutoHoleLeaves leaves
+    * \note P. Liepa, 2003, "Filling Holes in Meshes", Eurographics Symposium on Geometry
+    * Processing, as CGAL implements it.
+    * \return false (with a PCL_ERROR and getLastError (), the old value kept) for a negative or
+    * non-finite diameter
+    */
+  bool setMaxHoleSize (double diameter) { return settled (octree_.setMaxHoleSize (diameter)); }
+  /** \brief Get the largest hole closed in the output.
+    * \return the diameter in metres
+    */
+  double getMaxHoleSize () const { return octree_.getMaxHoleSize (); }
   /** \brief Set how conflicting sign votes are resolved.
     * \param[in] r the rule (default SignRule::WEIGHTED)
     */
