@@ -2140,6 +2140,26 @@ mergeSharedPolygons (const DualContouringOctree::Impl& m, const std::vector<cons
 // cost of checking them.
 constexpr std::size_t kMaxVertexPlanes = 1024;
 
+// The output mesh as the detail algorithms take it: positions, and triangles as index triples.
+std::vector<Eigen::Vector3f>
+positionsOf (const pcl::PointCloud<pcl::PointXYZ>& cloud)
+{
+  std::vector<Eigen::Vector3f> points (cloud.size ());
+  for (std::size_t i = 0; i < cloud.size (); ++i)
+    points[i] = cloud[i].getVector3fMap ();
+  return points;
+}
+
+std::vector<pclx::surface::detail::Triangle>
+trianglesOf (const std::vector<pcl::Vertices>& polygons)
+{
+  std::vector<pclx::surface::detail::Triangle> tris (polygons.size ());
+  for (std::size_t i = 0; i < polygons.size (); ++i)
+    for (int k = 0; k < 3; ++k)
+      tris[i][k] = static_cast<std::uint32_t> (polygons[i].vertices[k]);
+  return tris;
+}
+
 // The octree's mesh (cloud and polygons, vertex i from root vertex refs[i]) simplified by edge
 // collapses that keep every vertex within eps of the crossing planes it stands for; returns
 // the number of collapses (the mesh is left as it was when the collapse refuses it).
@@ -2147,13 +2167,8 @@ std::size_t
 collapseAcrossNodes (const DualContouringOctree::Impl& m, double eps, const std::vector<std::uint64_t>& refs,
                      pcl::PointCloud<pcl::PointXYZ>& cloud, std::vector<pcl::Vertices>& polygons)
 {
-  std::vector<Eigen::Vector3f> points (cloud.size ());
-  for (std::size_t i = 0; i < cloud.size (); ++i)
-    points[i] = cloud[i].getVector3fMap ();
-  std::vector<pclx::surface::detail::Triangle> tris (polygons.size ());
-  for (std::size_t i = 0; i < polygons.size (); ++i)
-    for (int k = 0; k < 3; ++k)
-      tris[i][k] = static_cast<std::uint32_t> (polygons[i].vertices[k]);
+  std::vector<Eigen::Vector3f> points = positionsOf (cloud);
+  std::vector<pclx::surface::detail::Triangle> tris = trianglesOf (polygons);
   pclx::surface::detail::VertexPlanes vp;
   vp.begin.reserve (refs.size () + 1);
   vp.begin.push_back (0);
@@ -2245,15 +2260,8 @@ closeSmallHoles (double diameter, pclx::surface::detail::HolePatchCache& cache, 
   st.holes_filled = st.holes_open = st.hole_triangles = st.hole_patches_reused = 0;
   if (!(diameter > 0))
     return;
-  std::vector<Eigen::Vector3f> vertices;
-  vertices.reserve (cloud.size ());
-  for (const auto& p : cloud)
-    vertices.push_back (p.getVector3fMap ());
-  std::vector<pclx::surface::detail::Triangle> triangles;
-  triangles.reserve (polygons.size ());
-  for (const auto& p : polygons)
-    triangles.push_back ({static_cast<std::uint32_t> (p.vertices[0]), static_cast<std::uint32_t> (p.vertices[1]),
-                          static_cast<std::uint32_t> (p.vertices[2])});
+  std::vector<Eigen::Vector3f> vertices = positionsOf (cloud);
+  std::vector<pclx::surface::detail::Triangle> triangles = trianglesOf (polygons);
   pclx::surface::detail::HoleFillingStats hs;
   // Lattice loops are often coplanar: only the search free of geometric predicates.
   using pclx::surface::detail::kCubicSearchEdges;
