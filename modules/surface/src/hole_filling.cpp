@@ -15,7 +15,9 @@
 #include <array>
 #include <cmath>
 #include <iterator>
+#include <numeric>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 
 namespace pclx {
@@ -264,6 +266,85 @@ cyclesOf (Mesh& mesh, const std::vector<std::uint32_t>& global, const BoundaryGr
   return out;
 }
 
+// Splits each border cycle that passes a vertex twice into one cycle per pass, by exchanging the
+// successors of the two border halfedges that enter the vertex: the triangulation takes only
+// simple cycles, and the two passes are two holes that touch at the vertex.
+std::vector<Halfedge>
+splitPinchedCycles (Mesh& mesh, std::vector<Halfedge> cycles)
+{
+  for (std::size_t c = 0; c < cycles.size ();)
+  {
+    std::unordered_map<std::uint32_t, Halfedge> entering;
+    bool split = false;
+    for (const Halfedge h : CGAL::halfedges_around_face (cycles[c], mesh))
+    {
+      const auto [it, first] = entering.emplace (std::uint32_t (mesh.target (h)), h);
+      if (first)
+        continue;
+      const Halfedge other = it->second, after_other = mesh.next (other);
+      mesh.set_next (other, mesh.next (h));
+      mesh.set_next (h, after_other);
+      cycles[c] = other;
+      cycles.push_back (h);
+      split = true;
+      break;
+    }
+    c += split ? 0 : 1;  // a split cycle is walked again: it may pass another vertex twice
+  }
+  return cycles;
+}
+
+// The directed edges of the local surface and of the patches accepted so far. Around a vertex
+// that a boundary passes twice the triangulation does not see every edge, so a patch is kept only
+// when it repeats no edge and meets the surface only along its own cycle.
+class PatchEdges
+{
+public:
+  explicit PatchEdges (const Mesh& mesh)
+  {
+    for (const Halfedge h : mesh.halfedges ())
+      if (!mesh.is_border (h))
+        edges_.insert (key (mesh.source (h), mesh.target (h)));
+  }
+
+  // The directed edges of a border cycle, which its patch runs along.
+  std::unordered_set<std::uint64_t>
+  rimOf (const Mesh& mesh, Halfedge cycle) const
+  {
+    std::unordered_set<std::uint64_t> rim;
+    for (const Halfedge e : CGAL::halfedges_around_face (cycle, mesh))
+      rim.insert (key (mesh.source (e), mesh.target (e)));
+    return rim;
+  }
+
+  // Adds the patch's edges when it is valid.
+  bool
+  add (const std::unordered_set<std::uint64_t>& rim, const std::vector<std::array<Mesh::Vertex_index, 3>>& patch)
+  {
+    std::unordered_set<std::uint64_t> added;
+    for (const auto& t : patch)
+      for (int j = 0; j < 3; ++j)
+      {
+        const std::uint64_t e = key (t[j], t[(j + 1) % 3]), reverse = key (t[(j + 1) % 3], t[j]);
+        if (e >> 32 == (e & 0xFFFFFFFFu) || edges_.count (e) || !added.insert (e).second)
+          return false;
+        if (edges_.count (reverse) && !rim.count (e))
+          return false;
+      }
+    edges_.insert (added.begin (), added.end ());
+    return true;
+  }
+
+private:
+  static std::uint64_t
+  key (Mesh::Vertex_index a, Mesh::Vertex_index b)
+  {
+    return std::uint64_t (std::uint32_t (a)) << 32 | std::uint32_t (b);
+  }
+
+  std::unordered_set<std::uint64_t> edges_;
+};
+
 double
 triangleArea (const Mesh& mesh, Mesh::Face_index f)
 {
@@ -352,39 +433,59 @@ computePatch (Mesh& mesh, const std::vector<std::uint32_t>& global, const Bounda
 {
   HolePatch patch;
   const std::size_t old_vertices = mesh.number_of_vertices ();
-  const std::vector<Halfedge> cycles = cyclesOf (mesh, global, groups, g);
+  PatchEdges edges (mesh);
+  const std::vector<Halfedge> cycles = splitPinchedCycles (mesh, cyclesOf (mesh, global, groups, g));
+  std::vector<std::array<Mesh::Vertex_index, 3>> kept;
   std::size_t closed = 0;
   for (const Halfedge h : cycles)
   {
-    const std::size_t edges = CGAL::halfedges_around_face (h, mesh).size ();
-    if (max_edges > 0 && edges > max_edges)
+    const std::size_t cycle_edges = CGAL::halfedges_around_face (h, mesh).size ();
+    if (max_edges > 0 && cycle_edges > max_edges)
       continue;
+    const std::unordered_set<std::uint64_t> rim = edges.rimOf (mesh, h);
     std::vector<Mesh::Face_index> faces;
     // Liepa's search over every triangulation of the boundary (cubic in its edges) up to
     // kCubicSearchEdges; above, the faces of the boundary's 3D Delaunay triangulation. The flag is
     // the fairing's: a patch whose fairing failed stays, refined but not faired.
     const bool faired = std::get<0> (CGAL::Polygon_mesh_processing::triangulate_refine_and_fair_hole (
         mesh, h, std::back_inserter (faces), CGAL::Emptyset_iterator (),
-        CGAL::parameters::use_delaunay_triangulation (edges > kCubicSearchEdges)));
-    if (faces.empty ())
-      continue;  // every triangulation would repeat an edge, e.g. a boundary through a vertex twice
-    ++closed;
-    patch.unfaired += !faired;
+        CGAL::parameters::use_delaunay_triangulation (cycle_edges > kCubicSearchEdges)));
+    std::vector<std::array<Mesh::Vertex_index, 3>> triangles;
     for (const auto f : faces)
     {
-      Triangle t;
+      std::array<Mesh::Vertex_index, 3> t;
       std::size_t j = 0;
       for (const auto v : CGAL::vertices_around_face (mesh.halfedge (f), mesh))
         if (j < t.size ())
-          t[j++] = static_cast<std::uint32_t> (std::size_t (v));  // the patches are triangulated
-      patch.triangles.push_back (t);
-      patch.area += triangleArea (mesh, f);
+          t[j++] = v;  // the patches are triangulated
+      triangles.push_back (t);
     }
+    if (triangles.empty () || !edges.add (rim, triangles))
+      continue;  // no triangulation without a repeated edge
+    ++closed;
+    patch.unfaired += !faired;
+    for (const auto f : faces)
+      patch.area += triangleArea (mesh, f);
+    kept.insert (kept.end (), triangles.begin (), triangles.end ());
   }
-  for (std::size_t v = old_vertices; v < mesh.number_of_vertices (); ++v)
+  // The patches' own vertices (those of rejected patches dropped), numbered after the surface's.
+  std::vector<std::uint32_t> number (mesh.number_of_vertices (), BoundaryGroups::kNone);
+  std::iota (number.begin (), number.begin () + std::ptrdiff_t (old_vertices), 0u);
+  for (const auto& t : kept)
   {
-    const auto& p = mesh.point (Mesh::Vertex_index (Mesh::size_type (v)));
-    patch.added_vertices.emplace_back (float (p.x ()), float (p.y ()), float (p.z ()));
+    Triangle out;
+    for (int j = 0; j < 3; ++j)
+    {
+      std::uint32_t& n = number[std::size_t (t[j])];
+      if (n == BoundaryGroups::kNone)
+      {
+        n = static_cast<std::uint32_t> (old_vertices + patch.added_vertices.size ());
+        const auto& p = mesh.point (t[j]);
+        patch.added_vertices.emplace_back (float (p.x ()), float (p.y ()), float (p.z ()));
+      }
+      out[j] = n;
+    }
+    patch.triangles.push_back (out);
   }
   patch.closed = !cycles.empty () && closed == cycles.size ();
   return patch;

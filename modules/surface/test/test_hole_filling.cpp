@@ -71,6 +71,54 @@ boundaryEdges (const std::vector<pcl::Vertices>& polygons)
   return boundaryEdges (triangles);
 }
 
+// Directed edges used by more than one triangle: an edge of more than two triangles, or of two
+// of opposite orientations.
+std::size_t
+repeatedEdges (const std::vector<Triangle>& triangles)
+{
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> uses;
+  for (const auto& t : triangles)
+    for (int j = 0; j < 3; ++j)
+      ++uses[{t[j], t[(j + 1) % 3]}];
+  return std::count_if (uses.begin (), uses.end (), [] (const auto& e) { return e.second > 1; });
+}
+
+// The unit icosphere without two pairs of triangles on opposite sides of one vertex: each pair
+// is a triangle of the vertex's fan and its neighbour across the edge facing the vertex, so the
+// two holes touch at the vertex and their boundary passes through it twice.
+Mesh
+sphereWithPinchedHole ()
+{
+  Mesh m = sphereWithHoles ({});
+  const std::uint32_t v = m.triangles.front ()[0];
+  std::vector<std::size_t> fan;
+  for (std::size_t t = 0; t < m.triangles.size (); ++t)
+    if (std::find (m.triangles[t].begin (), m.triangles[t].end (), v) != m.triangles[t].end ())
+      fan.push_back (t);
+  // Two fan triangles that share no edge, and for each the triangle across its far edge.
+  std::vector<std::size_t> cut;
+  const auto shareEdge = [&] (std::size_t a, std::size_t b) {
+    int common = 0;
+    for (const std::uint32_t x : m.triangles[a])
+      common += std::count (m.triangles[b].begin (), m.triangles[b].end (), x);
+    return common >= 2;
+  };
+  for (const std::size_t b : fan)
+    if (b != fan.front () && !shareEdge (fan.front (), b))
+    {
+      cut = {fan.front (), b};
+      break;
+    }
+  for (const std::size_t f : std::vector<std::size_t> (cut))
+    for (std::size_t t = 0; t < m.triangles.size (); ++t)
+      if (std::find (fan.begin (), fan.end (), t) == fan.end () && shareEdge (f, t))
+        cut.push_back (t);
+  std::sort (cut.rbegin (), cut.rend ());
+  for (const std::size_t t : cut)
+    m.triangles.erase (m.triangles.begin () + std::ptrdiff_t (t));
+  return m;
+}
+
 // A scan-like sample of the unit sphere: density falling 5× along x, 5 % of it in 5 holes.
 pcl::PointCloud<pcl::PointNormal>::Ptr
 scanLikeSphere (std::size_t n)
@@ -110,6 +158,24 @@ TEST (HoleFilling, ClosesTheHolesUpToTheLimitNearTheSurface)
   EXPECT_GT (m.vertices.size (), before.vertices.size ());
   EXPECT_LT (worst, 0.01);
   EXPECT_GT (stats.filled_area, 0.0);
+}
+
+TEST (HoleFilling, ClosesAHoleWhoseBoundaryPassesAVertexTwice)
+{
+  Mesh m = sphereWithPinchedHole ();
+  const std::size_t input_triangles = m.triangles.size ();
+  ASSERT_EQ (input_triangles, sphereWithHoles ({}).triangles.size () - 4);
+  ASSERT_EQ (boundaryEdges (m.triangles), 8u);
+  HoleFillingStats stats;
+  ASSERT_TRUE (fillSmallHoles (m.vertices, m.triangles, 1.0, stats, pclx::surface::detail::kCubicSearchEdges));
+  EXPECT_EQ (stats.holes, 1u);  // the two loops share the vertex: one hole
+  EXPECT_EQ (stats.filled, 1u);
+  EXPECT_EQ (stats.failed, 0u);
+  EXPECT_EQ (boundaryEdges (m.triangles), 0u);
+  EXPECT_EQ (repeatedEdges (m.triangles), 0u);
+  EXPECT_GE (m.triangles.size (), input_triangles + 4);
+  for (std::size_t v = 0; v < m.vertices.size (); ++v)
+    EXPECT_NEAR (m.vertices[v].norm (), 1.f, 0.01f) << v;
 }
 
 TEST (HoleFilling, BadInputLeavesTheMeshUnchanged)
