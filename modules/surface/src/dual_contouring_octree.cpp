@@ -18,6 +18,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdlib>
+#include <cstring>
 #include <future>
 #include <mutex>
 #include <new>
@@ -464,6 +465,10 @@ struct DualContouringOctree::Impl
   int next_frame = 0;
   // The patches of the last reconstruct's holes: most survive a frame that changed other roots.
   pclx::surface::detail::HolePatchCache hole_patches;
+  // The last output as positions and index triples, where the next reconstruct writes its own:
+  // a reconstruct after every frame reuses these pages instead of faulting in fresh ones.
+  std::vector<Eigen::Vector3f> mesh_points;
+  std::vector<pclx::surface::detail::Triangle> mesh_triangles;
 
   Root*
   find (int bx, int by, int bz) const
@@ -2140,35 +2145,13 @@ mergeSharedPolygons (const DualContouringOctree::Impl& m, const std::vector<cons
 // cost of checking them.
 constexpr std::size_t kMaxVertexPlanes = 1024;
 
-// The output mesh as the detail algorithms take it: positions, and triangles as index triples.
-std::vector<Eigen::Vector3f>
-positionsOf (const pcl::PointCloud<pcl::PointXYZ>& cloud)
-{
-  std::vector<Eigen::Vector3f> points (cloud.size ());
-  for (std::size_t i = 0; i < cloud.size (); ++i)
-    points[i] = cloud[i].getVector3fMap ();
-  return points;
-}
-
-std::vector<pclx::surface::detail::Triangle>
-trianglesOf (const std::vector<pcl::Vertices>& polygons)
-{
-  std::vector<pclx::surface::detail::Triangle> tris (polygons.size ());
-  for (std::size_t i = 0; i < polygons.size (); ++i)
-    for (int k = 0; k < 3; ++k)
-      tris[i][k] = static_cast<std::uint32_t> (polygons[i].vertices[k]);
-  return tris;
-}
-
-// The octree's mesh (cloud and polygons, vertex i from root vertex refs[i]) simplified by edge
-// collapses that keep every vertex within eps of the crossing planes it stands for; returns
-// the number of collapses (the mesh is left as it was when the collapse refuses it).
+// The octree's mesh (vertex i from root vertex refs[i]) simplified by edge collapses that keep
+// every vertex within eps of the crossing planes it stands for; returns the number of collapses
+// (the mesh is left as it was when the collapse refuses it).
 std::size_t
 collapseAcrossNodes (const DualContouringOctree::Impl& m, double eps, const std::vector<std::uint64_t>& refs,
-                     pcl::PointCloud<pcl::PointXYZ>& cloud, std::vector<pcl::Vertices>& polygons)
+                     std::vector<Eigen::Vector3f>& points, std::vector<pclx::surface::detail::Triangle>& tris)
 {
-  std::vector<Eigen::Vector3f> points = positionsOf (cloud);
-  std::vector<pclx::surface::detail::Triangle> tris = trianglesOf (polygons);
   pclx::surface::detail::VertexPlanes vp;
   vp.begin.reserve (refs.size () + 1);
   vp.begin.push_back (0);
@@ -2185,12 +2168,6 @@ collapseAcrossNodes (const DualContouringOctree::Impl& m, double eps, const std:
     PCL_ERROR ("[pcl::DualContouringOctree::reconstruct] the mesh was left as the octree made it\n");
     return 0;
   }
-  polygons.resize (tris.size ());
-  for (std::size_t i = 0; i < tris.size (); ++i)
-    polygons[i].vertices.assign (tris[i].begin (), tris[i].end ());
-  cloud.resize (points.size ());
-  for (std::size_t i = 0; i < points.size (); ++i)
-    cloud[i].getVector3fMap () = points[i];
   return cs.collapses;
 }
 
@@ -2254,31 +2231,40 @@ namespace {
 
 // Closes the mesh's holes up to `diameter` (metres) with patches appended to it.
 void
-closeSmallHoles (double diameter, pclx::surface::detail::HolePatchCache& cache, pcl::PointCloud<pcl::PointXYZ>& cloud,
-                 std::vector<pcl::Vertices>& polygons, DualContouringOctree::Stats& st)
+closeSmallHoles (double diameter, pclx::surface::detail::HolePatchCache& cache, std::vector<Eigen::Vector3f>& points,
+                 std::vector<pclx::surface::detail::Triangle>& tris, DualContouringOctree::Stats& st)
 {
   st.holes_filled = st.holes_open = st.hole_triangles = st.hole_patches_reused = 0;
   if (!(diameter > 0))
     return;
-  std::vector<Eigen::Vector3f> vertices = positionsOf (cloud);
-  std::vector<pclx::surface::detail::Triangle> triangles = trianglesOf (polygons);
   pclx::surface::detail::HoleFillingStats hs;
   // Lattice loops are often coplanar: only the search free of geometric predicates.
   using pclx::surface::detail::kCubicSearchEdges;
-  if (!pclx::surface::detail::fillSmallHoles (vertices, triangles, diameter, hs, kCubicSearchEdges, &cache))
+  if (!pclx::surface::detail::fillSmallHoles (points, tris, diameter, hs, kCubicSearchEdges, &cache))
     return;
   st.holes_filled = hs.filled;
   st.holes_open = hs.too_large + hs.failed;
   st.hole_triangles = hs.added_triangles;
   st.hole_patches_reused = cache.hits;
-  for (std::size_t v = cloud.size (); v < vertices.size (); ++v)
-    cloud.push_back (pcl::PointXYZ (vertices[v].x (), vertices[v].y (), vertices[v].z ()));
-  for (std::size_t t = polygons.size (); t < triangles.size (); ++t)
-  {
-    pcl::Vertices poly;
-    poly.vertices.assign (triangles[t].begin (), triangles[t].end ());
-    polygons.push_back (std::move (poly));
-  }
+}
+
+// Writes positions and index triples into a PCL mesh, in the storage a mesh passed again after
+// every frame already has (its polygons' allocations, its cloud's bytes).
+void
+toPolygonMesh (const std::vector<Eigen::Vector3f>& points, const std::vector<pclx::surface::detail::Triangle>& tris,
+               pcl::PolygonMesh& mesh)
+{
+  mesh.polygons.resize (tris.size ());
+  for (std::size_t i = 0; i < tris.size (); ++i)
+    mesh.polygons[i].vertices.assign (tris[i].begin (), tris[i].end ());
+  pcl::toPCLPointCloud2 (pcl::PointCloud<pcl::PointXYZ> (), mesh.cloud);  // the fields of pcl::PointXYZ
+  pcl::PCLPointCloud2& c = mesh.cloud;
+  c.width = static_cast<std::uint32_t> (points.size ());
+  c.height = 1;
+  c.row_step = c.point_step * c.width;
+  c.data.resize (c.row_step);
+  for (std::size_t i = 0; i < points.size (); ++i)
+    std::memcpy (c.data.data () + i * c.point_step, points[i].data (), 3 * sizeof (float));
 }
 
 }  // namespace
@@ -2293,7 +2279,17 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
   for (std::size_t i = 0; i < m.roots.size (); ++i)
     base[i + 1] = base[i] + m.roots[i]->vertices.size ();
   std::vector<std::int32_t> index (base.back (), -1);
-  pcl::PointCloud<pcl::PointXYZ> cloud;
+  std::vector<Eigen::Vector3f>& points = impl_->mesh_points;
+  std::vector<pclx::surface::detail::Triangle>& tris = impl_->mesh_triangles;
+  points.clear ();
+  tris.clear ();
+  // Room for the holes' patches (about 1 % more), and a quarter more for a map that grows frame
+  // by frame once it has been written.
+  const auto fit = [] (auto& v, std::size_t n) {
+    if (v.capacity () < n + n / 64)
+      v.reserve (v.capacity () == 0 ? n + n / 64 : n + n / 4);
+  };
+  fit (points, base.back ());
   std::vector<std::uint64_t> refs;  // per output vertex, for the edge collapses (ε > 0)
   std::size_t ntris = 0, escaped = 0, collapsed = 0, missing = 0, rim = 0;
   for (const auto& r : m.roots)
@@ -2308,9 +2304,8 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
     std::int32_t& idx = index[base[ref >> 16] + (ref & 0xFFFF)];
     if (idx < 0)
     {
-      const Eigen::Vector3f& p = refPosition (m, ref);
-      idx = static_cast<std::int32_t> (cloud.size ());
-      cloud.push_back (pcl::PointXYZ (p.x (), p.y (), p.z ()));
+      idx = static_cast<std::int32_t> (points.size ());
+      points.push_back (refPosition (m, ref));
       if (eps_ > 0)
         refs.push_back (ref);
     }
@@ -2322,17 +2317,10 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
     order.push_back (r.get ());
   std::sort (order.begin (), order.end (), [] (const Root* a, const Root* b) { return a->key < b->key; });
   const std::vector<std::array<std::uint64_t, 3>> merged = mergeSharedPolygons (m, order);
-  // Fill the caller's polygons in place: a mesh passed again (every frame) reuses its storage
-  // instead of one allocation per triangle.
   ntris += merged.size ();
-  mesh.polygons.resize (ntris);
-  std::size_t ti = 0;
+  fit (tris, ntris);
   auto put = [&] (const std::array<std::uint64_t, 3>& t) {
-    auto& v = mesh.polygons[ti++].vertices;
-    v.resize (3);
-    v[0] = outIndex (t[0]);
-    v[1] = outIndex (t[1]);
-    v[2] = outIndex (t[2]);
+    tris.push_back ({outIndex (t[0]), outIndex (t[1]), outIndex (t[2])});
   };
   for (const Root* r : order)
     for (const auto& t : r->tris)
@@ -2345,15 +2333,15 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
   if (eps_ > 0)
   {
     const auto tc = Clock::now ();
-    st.mesh_collapses = collapseAcrossNodes (m, eps_, refs, cloud, mesh.polygons);
+    st.mesh_collapses = collapseAcrossNodes (m, eps_, refs, points, tris);
     st.t_collapse_ms = msSince (tc);
   }
   const auto th = Clock::now ();
-  closeSmallHoles (getMaxHoleSize (), impl_->hole_patches, cloud, mesh.polygons, st);
+  closeSmallHoles (getMaxHoleSize (), impl_->hole_patches, points, tris, st);
   st.t_holes_ms = msSince (th);
-  pcl::toPCLPointCloud2 (cloud, mesh.cloud);
-  st.vertices = cloud.size ();
-  st.triangles = mesh.polygons.size ();
+  toPolygonMesh (points, tris, mesh);
+  st.vertices = points.size ();
+  st.triangles = tris.size ();
   st.escaped_vertices = escaped;
   st.collapsed_cells = collapsed;
   st.missing_vertices = missing;
@@ -2364,6 +2352,8 @@ DualContouringOctree::writeMesh (pcl::PolygonMesh& mesh)
     cache_bytes += r->vertices.capacity () * sizeof (Vertex) + r->tris.capacity () * sizeof (r->tris[0]) +
                    r->leaves.capacity () * sizeof (Leaf) + r->edges.capacity () * sizeof (EdgeData) +
                    r->planes.capacity () * sizeof (r->planes[0]) + r->plane_begin.capacity () * sizeof (std::uint32_t);
+  cache_bytes += m.hole_patches.scratchBytes () + m.mesh_points.capacity () * sizeof (Eigen::Vector3f) +
+                 m.mesh_triangles.capacity () * sizeof (pclx::surface::detail::Triangle);
   st.memory_bytes = m.roots.size () * sizeof (Root) + cache_bytes + m.root_of.size () * 32;
 }
 

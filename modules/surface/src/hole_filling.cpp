@@ -30,36 +30,105 @@ using Kernel = CGAL::Simple_cartesian<double>;
 using Mesh = CGAL::Surface_mesh<Kernel::Point_3>;
 using Halfedge = Mesh::Halfedge_index;
 
-// The triangles' directed edges grouped by their source vertex (compressed rows): each triangle
-// gives each of its corners one outgoing edge, so a vertex's rows also list its triangles.
+}  // namespace
+
+struct HoleFillingScratch
+{
+  std::vector<std::uint32_t> begin, corner;               // HalfEdges
+  std::vector<std::uint32_t> parent, group_of;            // findBoundaries
+  std::vector<std::uint32_t> vertex_mark, triangle_mark;  // RingCollector
+};
+
+std::size_t
+HolePatchCache::scratchBytes () const
+{
+  if (!scratch)
+    return 0;
+  const HoleFillingScratch& s = *scratch;
+  std::size_t words = 0;
+  for (const auto* v : {&s.begin, &s.corner, &s.parent, &s.group_of, &s.vertex_mark, &s.triangle_mark})
+    words += v->capacity ();
+  return 4 * words;
+}
+
+namespace {
+
+// Sizes a working array for n elements: exactly the first time, and with a quarter more when it
+// grows, so that a mesh growing frame by frame does not reallocate it every time.
+void
+fitScratch (std::vector<std::uint32_t>& v, std::size_t n)
+{
+  if (v.capacity () < n)
+  {
+    const bool first = v.capacity () == 0;
+    std::vector<std::uint32_t> ().swap (v);
+    v.reserve (first ? n : n + n / 4);
+  }
+  v.resize (n);
+}
+
+// The triangles' corners grouped by their vertex (compressed rows, in the scratch's arrays): a
+// vertex's row lists its corners, each with the edge leaving the vertex and the edge entering
+// it in that triangle, so a row answers every question about its vertex's edges.
 struct HalfEdges
 {
-  std::vector<std::uint32_t> begin;  // per vertex, and one past the last
-  std::vector<std::uint32_t> target, triangle;
+  const std::vector<std::uint32_t>& begin;   // per vertex, and one past the last
+  const std::vector<std::uint32_t>& corner;  // per row entry: 3 · triangle + the vertex's place in it
+  const std::vector<Triangle>& triangles;
 
-  HalfEdges (std::size_t num_vertices, const std::vector<Triangle>& triangles) : begin (num_vertices + 1, 0)
+  HalfEdges (std::size_t num_vertices, const std::vector<Triangle>& mesh, HoleFillingScratch& s)
+    : begin (s.begin), corner (s.corner), triangles (mesh)
   {
+    fitScratch (s.begin, num_vertices + 1);
+    std::fill (s.begin.begin (), s.begin.end (), 0u);
     for (const auto& t : triangles)
       for (const std::uint32_t v : t)
-        ++begin[v + 1];
+        ++s.begin[v + 1];
     for (std::size_t v = 0; v < num_vertices; ++v)
-      begin[v + 1] += begin[v];
-    target.resize (3 * triangles.size ());
-    triangle.resize (3 * triangles.size ());
-    std::vector<std::uint32_t> fill (begin.begin (), begin.end () - 1);
+      s.begin[v + 1] += s.begin[v];
+    fitScratch (s.corner, 3 * triangles.size ());
+    // Each row is filled from its start, which moves to the next row's; then moved back.
     for (std::size_t t = 0; t < triangles.size (); ++t)
-      for (int j = 0; j < 3; ++j)
-      {
-        const std::uint32_t k = fill[triangles[t][j]]++;
-        target[k] = triangles[t][(j + 1) % 3];
-        triangle[k] = static_cast<std::uint32_t> (t);
-      }
+      for (std::uint32_t j = 0; j < 3; ++j)
+        s.corner[s.begin[triangles[t][j]]++] = static_cast<std::uint32_t> (3 * t) + j;
+    for (std::size_t v = num_vertices; v > 0; --v)
+      s.begin[v] = s.begin[v - 1];
+    s.begin[0] = 0;
+  }
+  std::uint32_t
+  triangle (std::uint32_t k) const
+  {
+    return corner[k] / 3;
+  }
+  // The vertex after the row's vertex in the corner's triangle (edge v → target).
+  std::uint32_t
+  target (std::uint32_t k) const
+  {
+    return triangles[corner[k] / 3][(corner[k] % 3 + 1) % 3];
+  }
+  // The vertex before it (edge source → v).
+  std::uint32_t
+  source (std::uint32_t k) const
+  {
+    return triangles[corner[k] / 3][(corner[k] % 3 + 2) % 3];
   }
   // How often the directed edge a → b occurs.
   int
   count (std::uint32_t a, std::uint32_t b) const
   {
-    return static_cast<int> (std::count (target.begin () + begin[a], target.begin () + begin[a + 1], b));
+    int n = 0;
+    for (std::uint32_t k = begin[a]; k < begin[a + 1]; ++k)
+      n += target (k) == b;
+    return n;
+  }
+  // How often the directed edge b → a occurs, from a's row.
+  int
+  countInto (std::uint32_t a, std::uint32_t b) const
+  {
+    int n = 0;
+    for (std::uint32_t k = begin[a]; k < begin[a + 1]; ++k)
+      n += source (k) == b;
+    return n;
   }
 };
 
@@ -68,8 +137,8 @@ struct HalfEdges
 // orientation or more than two (then no halfedge structure holds the mesh).
 struct BoundaryGroups
 {
-  std::vector<std::uint32_t> group_of;  // per vertex: its group, or kNone when not on a boundary
-  std::vector<double> diameter;         // per group
+  std::vector<std::uint32_t>& group_of;  // per vertex: its group, or kNone when not on a boundary
+  std::vector<double> diameter;          // per group
   static constexpr std::uint32_t kNone = ~std::uint32_t (0);
 };
 
@@ -82,54 +151,90 @@ findRoot (std::vector<std::uint32_t>& parent, std::uint32_t v)
 }
 
 bool
-findBoundaries (const std::vector<Eigen::Vector3f>& vertices, const HalfEdges& he, BoundaryGroups& out)
+findBoundaries (const std::vector<Eigen::Vector3f>& vertices, const HalfEdges& he, HoleFillingScratch& s,
+                BoundaryGroups& out)
 {
   const std::size_t n = vertices.size ();
-  // Each directed edge: 0 with its twin, 1 on a boundary, 2 repeated or with two twins. The
-  // rows are independent, so they are read in parallel; the few boundary edges join serially.
-  std::vector<std::uint8_t> kind (he.target.size (), 0);
+  // A directed edge a → b is on a boundary when no edge b → a exists; one that is repeated or has
+  // two twins is not a 2-manifold's. A vertex's row answers both, so the rows are read in
+  // parallel, keeping only the boundary edges; they join into groups serially.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> boundary;
   bool manifold = true;
-#pragma omp parallel for schedule(static, 4096) reduction(&& : manifold)
-  for (std::ptrdiff_t ai = 0; ai < static_cast<std::ptrdiff_t> (n); ++ai)
+#pragma omp parallel reduction(&& : manifold)
   {
-    const std::uint32_t a = static_cast<std::uint32_t> (ai);
-    for (std::uint32_t k = he.begin[a]; k < he.begin[a + 1]; ++k)
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> mine;
+#pragma omp for schedule(static, 4096) nowait
+    for (std::ptrdiff_t ai = 0; ai < static_cast<std::ptrdiff_t> (n); ++ai)
     {
-      const std::uint32_t b = he.target[k];
-      const int twins = he.count (b, a);
-      const bool repeated = std::find (he.target.begin () + k + 1, he.target.begin () + he.begin[a + 1], b) !=
-                            he.target.begin () + he.begin[a + 1];
-      kind[k] = static_cast<std::uint8_t> (repeated || twins > 1 ? 2 : (twins == 0 ? 1 : 0));
-      manifold = manifold && kind[k] != 2;
+      const std::uint32_t a = static_cast<std::uint32_t> (ai), lo = he.begin[a], hi = he.begin[a + 1];
+      // The row's edges, leaving and entering, read once into a small buffer (most vertices have a handful).
+      std::array<std::uint32_t, 32> small_leaving, small_entering;
+      std::vector<std::uint32_t> large_leaving, large_entering;
+      const std::uint32_t d = hi - lo;
+      std::uint32_t* leaving = small_leaving.data ();
+      std::uint32_t* entering = small_entering.data ();
+      if (d > small_leaving.size ())
+      {
+        large_leaving.resize (d);
+        large_entering.resize (d);
+        leaving = large_leaving.data ();
+        entering = large_entering.data ();
+      }
+      for (std::uint32_t k = 0; k < d; ++k)
+      {
+        leaving[k] = he.target (lo + k);
+        entering[k] = he.source (lo + k);
+      }
+      for (std::uint32_t k = 0; k < d; ++k)
+      {
+        const std::uint32_t b = leaving[k];
+        int twins = 0;
+        bool repeated = false;
+        for (std::uint32_t j = 0; j < d; ++j)
+        {
+          twins += entering[j] == b;
+          repeated = repeated || (j > k && leaving[j] == b);
+        }
+        manifold = manifold && !repeated && twins <= 1;
+        if (twins == 0)
+          mine.emplace_back (a, b);
+      }
     }
+#pragma omp critical(pclx_hole_boundaries)
+    boundary.insert (boundary.end (), mine.begin (), mine.end ());
   }
   if (!manifold)
     return false;
-  std::vector<std::uint32_t> parent (n, BoundaryGroups::kNone);
-  for (std::uint32_t a = 0; a < n; ++a)
-    for (std::uint32_t k = he.begin[a]; k < he.begin[a + 1]; ++k)
-      if (kind[k] == 1)
+  std::vector<std::uint32_t>& parent = s.parent;
+  fitScratch (parent, n);
+  std::fill (parent.begin (), parent.end (), BoundaryGroups::kNone);
+  std::vector<std::uint32_t> on_boundary;
+  for (const auto& [a, b] : boundary)
+  {
+    for (const std::uint32_t v : {a, b})
+      if (parent[v] == BoundaryGroups::kNone)
       {
-        const std::uint32_t b = he.target[k];
-        for (const std::uint32_t v : {a, b})
-          if (parent[v] == BoundaryGroups::kNone)
-            parent[v] = v;
-        parent[findRoot (parent, a)] = findRoot (parent, b);
+        parent[v] = v;
+        on_boundary.push_back (v);
       }
-  out.group_of.assign (n, BoundaryGroups::kNone);
+    parent[findRoot (parent, a)] = findRoot (parent, b);
+  }
+  // Groups numbered in the order of their smallest vertex, whatever order the edges came in.
+  std::sort (on_boundary.begin (), on_boundary.end ());
+  fitScratch (out.group_of, n);
+  std::fill (out.group_of.begin (), out.group_of.end (), BoundaryGroups::kNone);
   std::vector<Eigen::AlignedBox3d> boxes;
-  for (std::uint32_t v = 0; v < n; ++v)
-    if (parent[v] != BoundaryGroups::kNone)
+  for (const std::uint32_t v : on_boundary)
+  {
+    const std::uint32_t r = findRoot (parent, v);
+    if (out.group_of[r] == BoundaryGroups::kNone)
     {
-      const std::uint32_t r = findRoot (parent, v);
-      if (out.group_of[r] == BoundaryGroups::kNone)
-      {
-        out.group_of[r] = static_cast<std::uint32_t> (boxes.size ());
-        boxes.emplace_back ();
-      }
-      out.group_of[v] = out.group_of[r];
-      boxes[out.group_of[v]].extend (vertices[v].cast<double> ());
+      out.group_of[r] = static_cast<std::uint32_t> (boxes.size ());
+      boxes.emplace_back ();
     }
+    out.group_of[v] = out.group_of[r];
+    boxes[out.group_of[v]].extend (vertices[v].cast<double> ());
+  }
   out.diameter.clear ();
   for (const auto& b : boxes)
     out.diameter.push_back (b.diagonal ().norm ());
@@ -142,9 +247,14 @@ findBoundaries (const std::vector<Eigen::Vector3f>& vertices, const HalfEdges& h
 class RingCollector
 {
 public:
-  RingCollector (const HalfEdges& he, const std::vector<Triangle>& triangles)
-    : he_ (he), triangles_ (triangles), vertex_mark_ (he.begin.size () - 1, 0), triangle_mark_ (triangles.size (), 0)
-  {}
+  RingCollector (const HalfEdges& he, const std::vector<Triangle>& triangles, HoleFillingScratch& s)
+    : he_ (he), triangles_ (triangles), vertex_mark_ (s.vertex_mark), triangle_mark_ (s.triangle_mark)
+  {
+    fitScratch (vertex_mark_, he.begin.size () - 1);
+    fitScratch (triangle_mark_, triangles.size ());
+    std::fill (vertex_mark_.begin (), vertex_mark_.end (), 0u);
+    std::fill (triangle_mark_.begin (), triangle_mark_.end (), 0u);
+  }
 
   // The triangles in index order.
   std::vector<std::uint32_t>
@@ -160,7 +270,7 @@ public:
       for (const std::uint32_t v : frontier)
         for (std::uint32_t k = he_.begin[v]; k < he_.begin[v + 1]; ++k)
         {
-          const std::uint32_t t = he_.triangle[k];
+          const std::uint32_t t = he_.triangle (k);
           if (triangle_mark_[t] == stamp_)
             continue;
           triangle_mark_[t] = stamp_;
@@ -187,7 +297,8 @@ public:
 private:
   const HalfEdges& he_;
   const std::vector<Triangle>& triangles_;
-  std::vector<std::uint32_t> vertex_mark_, triangle_mark_;
+  std::vector<std::uint32_t>& vertex_mark_;
+  std::vector<std::uint32_t>& triangle_mark_;
   std::uint32_t stamp_ = 0;
 };
 
@@ -366,11 +477,11 @@ cycleOrder (const HalfEdges& he, const std::vector<std::uint32_t>& boundary)
     const std::uint32_t a = cycle.back ();
     std::uint32_t next = BoundaryGroups::kNone;
     for (std::uint32_t k = he.begin[a]; k < he.begin[a + 1]; ++k)
-      if (he.count (he.target[k], a) == 0)
+      if (he.countInto (a, he.target (k)) == 0)
       {
         if (next != BoundaryGroups::kNone)
           return {};  // two boundary edges leave a: not a simple cycle
-        next = he.target[k];
+        next = he.target (k);
       }
     if (next == BoundaryGroups::kNone)
       return {};
@@ -408,7 +519,7 @@ closeTinyHole (const HalfEdges& he, const std::vector<std::uint32_t>& boundary,
     for (const int d : {first ? 0 : 1, first ? 1 : 0})
     {
       const std::uint32_t a = r[d], b = r[d + 1], c = r[d + 2], e = r[(d + 3) % 4];
-      if (he.count (a, c) + he.count (c, a) == 0 && area (a, b, c) > 0 && area (a, c, e) > 0)
+      if (he.count (a, c) + he.countInto (a, c) == 0 && area (a, b, c) > 0 && area (a, c, e) > 0)
       {
         patch = {{a, b, c}, {a, c, e}};
         break;
@@ -586,9 +697,14 @@ fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& t
     PCL_ERROR ("[pclx::surface::detail::fillSmallHoles] a triangle refers to a missing vertex; no hole was filled\n");
     return false;
   }
-  const HalfEdges he (vertices.size (), triangles);
-  BoundaryGroups groups;
-  if (!findBoundaries (vertices, he, groups))
+  // With a cache, the working arrays of the last call are reused.
+  HoleFillingScratch local;
+  if (cache && !cache->scratch)
+    cache->scratch = std::make_shared<HoleFillingScratch> ();
+  HoleFillingScratch& scratch = cache ? *cache->scratch : local;
+  const HalfEdges he (vertices.size (), triangles, scratch);
+  BoundaryGroups groups{scratch.group_of, {}};
+  if (!findBoundaries (vertices, he, scratch, groups))
   {
     PCL_ERROR ("[pclx::surface::detail::fillSmallHoles] the mesh is not an oriented 2-manifold; no hole was filled\n");
     return false;
@@ -599,7 +715,7 @@ fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& t
   for (std::uint32_t v = 0; v < vertices.size (); ++v)
     if (groups.group_of[v] != BoundaryGroups::kNone && groups.diameter[groups.group_of[v]] <= max_diameter)
       hole_vertices[groups.group_of[v]].push_back (v);
-  RingCollector rings (he, triangles);
+  RingCollector rings (he, triangles, scratch);
   if (cache)
   {
     ++cache->generation;

@@ -112,7 +112,7 @@ public:
     std::size_t roots = 0;          ///< roots of the map
     std::size_t leaves = 0;         ///< leaves of the map
     std::size_t grid_vertices = 0;  ///< grid vertices with sign data
-    std::size_t memory_bytes = 0;   ///< memory of the map and the cached polygons
+    std::size_t memory_bytes = 0;   ///< memory of the map, the cached polygons and the last output's working arrays
     std::size_t input_triangles = 0;       ///< last frame: triangles given
     std::size_t used_triangles = 0;        ///< last frame: triangles fused
     std::size_t nonfinite_triangles = 0;   ///< last frame: triangles with NaN / Inf corners

@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <unordered_map>
 #include <vector>
 
@@ -36,6 +37,9 @@ struct HolePatch
   double area = 0;                              ///< area of the triangles
 };
 
+/** \brief Working arrays of fillSmallHoles () (defined where it is). */
+struct HoleFillingScratch;
+
 /** \brief Patches of an earlier call of fillSmallHoles (), keyed by everything the patch of a hole
   * depends on: the positions and triangles of the surface around it and which of its vertices
   * are on the hole. A mesh filled again after a local change (a reconstruction after each
@@ -54,6 +58,13 @@ struct HolePatchCache
   std::unordered_multimap<std::uint64_t, Entry> entries;  ///< by a hash of positions and layout
   std::uint64_t generation = 0;                           ///< calls so far
   std::size_t hits = 0;                                   ///< patches reused by the last call
+  /** \brief The last call's working arrays (per vertex and per triangle corner), kept with their
+    * capacity: the next call writes into pages the process already has instead of faulting in
+    * fresh ones, which on a room's mesh cost as much as the work. */
+  std::shared_ptr<HoleFillingScratch> scratch;
+  /** \brief Bytes held by the working arrays. */
+  std::size_t
+  scratchBytes () const;
 };
 
 /** \brief Boundaries up to this many edges are triangulated by searching every triangulation
