@@ -79,8 +79,9 @@ constexpr std::size_t kCubicSearchEdges = 100;
   *
   * The input triangles and vertices are kept as they are; the patches' vertices and triangles
   * are appended, oriented as the surface around them. A hole of three or four edges gets one or
-  * two triangles. Only the triangles around the holes go into a halfedge structure, so the cost
-  * follows the holes, not the mesh.
+  * two triangles; a boundary that passes a vertex twice is closed as the two holes it is, unless
+  * a patch would repeat an edge of the mesh (then it stays open). Only the triangles around the
+  * holes go into a halfedge structure, so the cost follows the holes, not the mesh.
   * \param[in,out] vertices the mesh's vertex positions
   * \param[in,out] triangles the mesh's triangles (three indices each)
   * \param[in] max_diameter the largest hole closed, in the units of the vertices (> 0)
