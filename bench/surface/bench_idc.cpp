@@ -675,7 +675,9 @@ struct Bench
           {"octree_ms_mean", (os.total_intersect_ms + os.total_merge_ms) / fused},
           {"intersect_ms_mean", os.total_intersect_ms / fused}, {"merge_ms_mean", os.total_merge_ms / fused},
           {"holes_filled", double (os.holes_filled)}, {"holes_open", double (os.holes_open)},
-          {"hole_triangles", double (os.hole_triangles)}, {"holes_ms", os.t_holes_ms}});
+          {"hole_triangles", double (os.hole_triangles)}, {"holes_ms", os.t_holes_ms},
+          {"last_vertices_ms", os.t_vertices_ms}, {"last_polygons_ms", os.t_polygons_ms},
+          {"last_output_ms", os.t_output_ms}, {"last_reconstruct_ms", os.last_reconstruct_ms}});
     if (frame_rows)
       frameRows (s, incremental ? "idc_incremental" : "idc", leaf, ms);
   }
@@ -820,6 +822,7 @@ struct Options
   bool quick = false;
   bool no_sweeps = false;           // IDC at ε = 0 and the TSDF only (profiling)
   std::vector<double> leaves;       // replaces every input's leaves and TSDF voxels when set
+  std::vector<double> eps;          // replaces the ε sweep when set
   std::string only, preview;
 };
 
@@ -961,8 +964,11 @@ runSequence (Bench& bench, const Sequence& s, const Options& opt)
                              << truth->all_samples << " samples (" << 100.0 * truth->seenFraction () << " %)\n";
   if (s.has_truth)
     bench.saveMesh (s, "truth", "", pclx::testing::toPolygonMesh (s.truth));
+  // With --no-sweeps and --eps, IDC runs at the given ε only (profiling one setting).
+  const std::vector<double> base_eps = opt.no_sweeps && !opt.eps.empty () ? opt.eps : std::vector<double>{0};
   for (double leaf : s.leaves)
-    bench.idc (s, leaf, 0, false, truth.get (), true);
+    for (double eps : base_eps)
+      bench.idc (s, leaf, eps, false, truth.get (), eps == 0);
 #ifdef PCLX_HAVE_OPEN3D
   for (double voxel : s.tsdf_voxels)
     bench.open3d (s, voxel, truth.get (), true);
@@ -972,8 +978,9 @@ runSequence (Bench& bench, const Sequence& s, const Options& opt)
   // ε in metres: how far a merged vertex may lie from the crossing planes it replaces
   // (IncrementalDualContouring::setSimplificationError), swept at every leaf of inputs with truth
   // (at the middle leaf otherwise), so that the chart shows each leaf's error against triangles.
-  const std::vector<double> eps_sweep =
-      opt.quick ? std::vector<double>{0.01} : std::vector<double>{0.0003, 0.001, 0.003, 0.01, 0.03, 0.1};
+  const std::vector<double> eps_sweep = !opt.eps.empty () ? opt.eps
+                                        : opt.quick       ? std::vector<double>{0.01}
+                                                          : std::vector<double>{0.0003, 0.001, 0.003, 0.01, 0.03, 0.1};
   const double mid = s.leaves[s.leaves.size () > 2 ? 1 : s.leaves.size () - 1];
   for (double leaf : s.leaves)
     if (leaf == mid || (truth && !opt.quick))
@@ -1001,6 +1008,8 @@ main (int argc, char** argv)
   app.add_flag ("--quick", opt.quick, "small sequences, two detail levels (< 1 min)");
   app.add_option ("--leaves", opt.leaves, "IDC leaves and TSDF voxels (m) instead of each input's own");
   app.add_flag ("--no-sweeps", opt.no_sweeps, "only IDC at ε = 0 and the TSDF (no ε sweep, incremental run or PCL peers)");
+  app.add_option ("--eps", opt.eps,
+                  "IDC's ε sweep (m) instead of 0.3 mm to 10 cm; with --no-sweeps, IDC runs at these instead of ε = 0");
   app.add_option ("--preview", opt.preview,
                   "write a few depth frames of every input as 16-bit PGM and the seen truth samples as XYZ "
                   "into this folder, and exit");

@@ -1459,39 +1459,33 @@ constexpr double kFaceMargin = 1e-3;
 // How far the topology signs of ε simplification extend observed signs into unobserved space
 // (lattice steps): a band's back side that far behind the surface does not stop a merge.
 constexpr int kFillDepth = 6;
+static_assert (kRootSide + 3 + 2 * kFillDepth <= 32, "a sign block's rows along x are 32-bit masks");
 // Resolved signs of the lattice vertices −1 … 17 of one root, plus `margin` more on each side
 // (+1 exterior, −1 interior, 0 unobserved), their weighted signed distances, and the topology
 // signs that decide a cell's components: unobserved vertices take the sign of the observed ones
 // within `fill` lattice steps (exterior when those disagree or none is that close), so that the
 // unobserved inside of a shape does not count as a surface behind its band. The margin equals
-// the fill depth, so every root sees the same topology signs on the vertices it shares.
+// the fill depth, so every root sees the same topology signs on the vertices it shares. One
+// block serves root after root, keeping its arrays.
 class SignBlock
 {
 public:
-  SignBlock (const Root& r, const RootCache& rc, DualContouringOctree::SignRule rule, int fill)
-    : margin_ (fill), side_ (kRootSide + 3 + 2 * fill)
+  explicit SignBlock (int fill) : margin_ (fill), side_ (kRootSide + 3 + 2 * fill) {}
+
+  void
+  compute (const Root& r, const RootCache& rc, DualContouringOctree::SignRule rule)
   {
     const std::size_t n = static_cast<std::size_t> (side_) * side_ * side_;
     sign_.assign (n, 0);
     topo_.assign (n, 1);
     sdf_.assign (n, 0);
-    const SignResolver sr{rc, rule};
-    const int lo = -1 - margin_, hi = kRootSide + 1 + margin_;
-    for (int z = lo; z <= hi; ++z)
-      for (int y = lo; y <= hi; ++y)
-        for (int x = lo; x <= hi; ++x)
-        {
-          const Eigen::Vector3i v = r.origin + Eigen::Vector3i (x, y, z);
-          int state = 0;
-          const int s = sr.resolve (v, &state);
-          const int i = index (x, y, z);
-          sign_[i] = static_cast<std::int8_t> (state == 4 ? 0 : s);
-          topo_[i] = static_cast<std::int8_t> (sign_[i] < 0 ? -1 : 1);
-          sdf_[i] = rc.sdfAt (v);
-          ambiguous_ += state == 2 && x >= 0 && y >= 0 && z >= 0 && x < kRootSide && y < kRootSide && z < kRootSide;
-        }
-    if (fill > 0)
-      fillUnobserved (fill);
+    ambiguous_ = 0;
+    if (rule == DualContouringOctree::SignRule::WEIGHTED)
+      readWeighted (r, rc);
+    else
+      resolveEach (r, rc, rule);
+    if (margin_ > 0)
+      fillUnobserved (margin_);
   }
 
   int
@@ -1532,52 +1526,132 @@ public:
   }
 
 private:
-  // Breadth-first layers from the observed vertices, 6-connected, `depth` steps.
+  // Every vertex through SignResolver::resolve (the rules whose unvoted vertices search their
+  // neighbourhood).
+  void
+  resolveEach (const Root& r, const RootCache& rc, DualContouringOctree::SignRule rule)
+  {
+    const SignResolver sr{rc, rule};
+    const int lo = -1 - margin_, hi = kRootSide + 1 + margin_;
+    for (int z = lo; z <= hi; ++z)
+      for (int y = lo; y <= hi; ++y)
+        for (int x = lo; x <= hi; ++x)
+        {
+          const Eigen::Vector3i v = r.origin + Eigen::Vector3i (x, y, z);
+          int state = 0;
+          const int s = sr.resolve (v, &state);
+          const int i = index (x, y, z);
+          sign_[i] = static_cast<std::int8_t> (state == 4 ? 0 : s);
+          topo_[i] = static_cast<std::int8_t> (sign_[i] < 0 ? -1 : 1);
+          sdf_[i] = rc.sdfAt (v);
+          ambiguous_ += state == 2 && x >= 0 && y >= 0 && z >= 0 && x < kRootSide && y < kRootSide && z < kRootSide;
+        }
+  }
+  // The weighted rule's signs, as SignResolver::resolve gives them, read run by run along x from
+  // the (at most three) roots a row of the block crosses instead of one lookup per vertex.
+  void
+  readWeighted (const Root& r, const RootCache& rc)
+  {
+    const int lo = -1 - margin_, hi = kRootSide + 1 + margin_;
+    for (int z = lo; z <= hi; ++z)
+      for (int y = lo; y <= hi; ++y)
+      {
+        const int gy = r.origin.y () + y, gz = r.origin.z () + z;
+        const bool own_row = y >= 0 && z >= 0 && y < kRootSide && z < kRootSide;
+        for (int x = lo; x <= hi;)
+        {
+          const int gx = r.origin.x () + x;
+          const int run = std::min (hi - x + 1, kRootSide - (gx & (kRootSide - 1)));
+          const Root* src = rc.findCell (gx, gy, gz);
+          if (src)
+          {
+            const int first = localIndex (gx, gy, gz), i0 = index (x, y, z);
+            for (int k = 0; k < run; ++k)
+            {
+              const std::int32_t d = src->sdf[first + k];
+              const bool voted = src->out_votes[first + k] || src->in_votes[first + k];
+              // Ambiguous (votes, no distance) counts as exterior; no vote leaves it unobserved.
+              const int s = d > 0 ? 1 : (d < 0 ? -1 : (voted ? 1 : 0));
+              sign_[i0 + k] = static_cast<std::int8_t> (s);
+              topo_[i0 + k] = static_cast<std::int8_t> (s < 0 ? -1 : 1);
+              sdf_[i0 + k] = d;
+              ambiguous_ += d == 0 && voted && own_row && x + k >= 0 && x + k < kRootSide;
+            }
+          }
+          x += run;
+        }
+      }
+  }
+  // Breadth-first layers from the observed vertices, 6-connected, `depth` steps: a vertex first
+  // reached in a layer takes the interior sign when only interior vertices of the layer before
+  // reach it. The block's rows along x are bit masks (a block is at most 32 vertices wide), so a
+  // layer is a few word operations per row.
   void
   fillUnobserved (int depth)
   {
-    std::vector<std::uint8_t> reached (sign_.size (), 0);
-    std::vector<int> front, next;
-    for (std::size_t i = 0; i < sign_.size (); ++i)
-      if (sign_[i])
-      {
-        reached[i] = 1;
-        front.push_back (static_cast<int> (i));
-      }
-    const int step[3] = {1, side_, side_ * side_};
-    std::vector<std::uint8_t> votes (sign_.size (), 0);  // bit 0 interior, bit 1 exterior
-    for (int d = 0; d < depth && !front.empty (); ++d)
+    const int n = side_;
+    const std::uint32_t full = n == 32 ? ~0u : (1u << n) - 1;
+    const std::size_t rows = static_cast<std::size_t> (n) * n;  // row y + n z
+    for (auto* v : {&reached_, &interior_, &front_in_, &front_out_, &vote_in_, &vote_out_})
+      v->resize (rows);
+    for (std::size_t row = 0; row < rows; ++row)
     {
-      next.clear ();
-      for (int i : front)
+      std::uint32_t r = 0, in = 0;
+      for (int x = 0; x < n; ++x)
       {
-        const int x = i % side_, y = (i / side_) % side_, z = i / (side_ * side_);
-        const int c[3] = {x, y, z};
-        for (int a = 0; a < 3; ++a)
-          for (int dir : {-1, 1})
-          {
-            if (c[a] + dir < 0 || c[a] + dir >= side_)
-              continue;
-            const int j = i + dir * step[a];
-            if (reached[j] == 1)
-              continue;
-            if (!votes[j])
-              next.push_back (j);
-            votes[j] |= topo_[i] < 0 ? 1 : 2;
-          }
+        r |= static_cast<std::uint32_t> (sign_[row * n + x] != 0) << x;
+        in |= static_cast<std::uint32_t> (topo_[row * n + x] < 0) << x;
       }
-      for (int j : next)
-      {
-        reached[j] = 1;
-        topo_[j] = static_cast<std::int8_t> (votes[j] == 1 ? -1 : 1);
-      }
-      front.swap (next);
+      reached_[row] = r;
+      interior_[row] = in;
+      front_in_[row] = r & in;
+      front_out_[row] = r & ~in;
     }
+    // The vertices next to a mask's vertices in row (y, z).
+    const auto spread = [&] (const std::vector<std::uint32_t>& m, int y, int z) {
+      const std::size_t row = y + static_cast<std::size_t> (n) * z;
+      std::uint32_t v = (m[row] << 1) | (m[row] >> 1);
+      if (y > 0)
+        v |= m[row - 1];
+      if (y + 1 < n)
+        v |= m[row + 1];
+      if (z > 0)
+        v |= m[row - n];
+      if (z + 1 < n)
+        v |= m[row + n];
+      return v & full;
+    };
+    for (int d = 0; d < depth; ++d)
+    {
+      for (int z = 0; z < n; ++z)
+        for (int y = 0; y < n; ++y)
+        {
+          const std::size_t row = y + static_cast<std::size_t> (n) * z;
+          vote_in_[row] = spread (front_in_, y, z) & ~reached_[row];
+          vote_out_[row] = spread (front_out_, y, z) & ~reached_[row];
+        }
+      bool any = false;
+      for (std::size_t row = 0; row < rows; ++row)
+      {
+        const std::uint32_t now = vote_in_[row] | vote_out_[row];
+        any |= now != 0;
+        reached_[row] |= now;
+        interior_[row] |= vote_in_[row] & ~vote_out_[row];
+        front_in_[row] = vote_in_[row] & ~vote_out_[row];
+        front_out_[row] = vote_out_[row];
+      }
+      if (!any)
+        break;
+    }
+    for (std::size_t row = 0; row < rows; ++row)
+      for (int x = 0; x < n; ++x)
+        topo_[row * n + x] = static_cast<std::int8_t> ((interior_[row] >> x & 1u) ? -1 : 1);
   }
 
   int margin_, side_;
   std::vector<std::int8_t> sign_, topo_;
   std::vector<std::int32_t> sdf_;
+  std::vector<std::uint32_t> reached_, interior_, front_in_, front_out_, vote_in_, vote_out_;  // fill rows
   std::size_t ambiguous_ = 0;
 };
 
@@ -1587,19 +1661,26 @@ private:
 class RootVertexBuilder
 {
 public:
-  RootVertexBuilder (Root& r, const RootCache& rc, DualContouringOctree::SignRule rule, double eps_leaf, double h)
-    : r_ (r), rc_ (rc), rule_ (rule), eps_ (eps_leaf), h_ (h), block_ (r, rc, rule, eps_leaf > 0 ? kFillDepth : 0)
-  {}
-
-  void
-  build ()
+  RootVertexBuilder (const RootCache& rc, DualContouringOctree::SignRule rule, double eps_leaf, double h)
+    : rc_ (rc), rule_ (rule), eps_ (eps_leaf), h_ (h), block_ (eps_leaf > 0 ? kFillDepth : 0)
   {
-    r_.vertices.clear ();
-    r_.planes.clear ();
-    r_.plane_begin.clear ();
-    r_.cell_vertex.fill (kNone);
-    r_.cell_comp.fill (0);
-    r_.escaped = r_.collapsed = r_.rim = 0;
+    if (eps_ > 0)
+      for (int l = 0; l <= DualContouringOctree::kRootLevels; ++l)
+        level_qef_[l].resize (static_cast<std::size_t> (kRootCells) >> (3 * l));
+  }
+
+  // The vertices of root r (the cache centred on it); returns its ambiguous grid vertices.
+  std::size_t
+  build (Root& r)
+  {
+    r_ = &r;
+    block_.compute (r, rc_, rule_);
+    r_->vertices.clear ();
+    r_->planes.clear ();
+    r_->plane_begin.clear ();
+    r_->cell_vertex.fill (kNone);
+    r_->cell_comp.fill (0);
+    r_->escaped = r_->collapsed = r_->rim = 0;
     cellPass ();
     int top = 0;
     if (eps_ > 0)
@@ -1607,11 +1688,7 @@ public:
     emitCollapsed (top);
     emitCells ();
     if (eps_ > 0)
-      r_.plane_begin.push_back (static_cast<std::uint32_t> (r_.planes.size ()));
-  }
-  std::size_t
-  ambiguous () const
-  {
+      r_->plane_begin.push_back (static_cast<std::uint32_t> (r_->planes.size ()));
     return block_.ambiguous ();
   }
 
@@ -1651,7 +1728,7 @@ private:
     const int c0 = t.edge_corners[e][0], c1 = t.edge_corners[e][1];
     const int axis = e / 4;
     const Eigen::Vector3d corner (c0 & 1, c0 >> 1 & 1, c0 >> 2 & 1);
-    const Eigen::Vector3i start = r_.origin + Eigen::Vector3i (x + (c0 & 1), y + (c0 >> 1 & 1), z + (c0 >> 2));
+    const Eigen::Vector3i start = r_->origin + Eigen::Vector3i (x + (c0 & 1), y + (c0 >> 1 & 1), z + (c0 >> 2));
     double frac = 0.5;
     bool plane = false;
     const EdgeData* ed = rc_.edgeAt (start, axis);
@@ -1692,8 +1769,6 @@ private:
     state_.fill (kEmpty);
     planes_.clear ();
     comp_pos_.clear ();
-    if (eps_ > 0)
-      qef_.assign (kRootCells, Qef ());
     for (int ci = 0; ci < kRootCells; ++ci)
     {
       const int x = ci % kRootSide, y = (ci / kRootSide) % kRootSide, z = ci / (kRootSide * kRootSide);
@@ -1735,18 +1810,18 @@ private:
       }
       plane_end_[ci] = static_cast<std::uint32_t> (planes_.size ());
       const bool rim = open && seen;
-      r_.rim += rim;
+      r_->rim += rim;
       comp_bits_[ci] = bits;
       ncomp_[ci] = static_cast<std::uint8_t> (n);
       std::array<Eigen::Vector3d, 4> v;
       for (int c = 0; c < n; ++c)
-        r_.escaped += q[c].solve (kFaceMargin, 1 - kFaceMargin, v[c]);
+        r_->escaped += q[c].solve (kFaceMargin, 1 - kFaceMargin, v[c]);
       separateComponentVertices (comp, n, v);
       for (int c = 0; c < n; ++c)
         comp_pos_.push_back (v[c] + Eigen::Vector3d (x, y, z));
       state_[ci] = !seen ? kEmpty : ((n == 1 && !rim) ? kSimple : kFixed);
       if (eps_ > 0 && n == 1)
-        qef_[ci] = q[0];
+        level_qef_[0][ci] = q[0];  // read only where the state says kSimple
     }
   }
   // Ju et al. 2002's topology test of the node with min corner o (root-local) and side s: one
@@ -1811,13 +1886,11 @@ private:
   collapseLevels ()
   {
     level_state_[0].assign (state_.begin (), state_.end ());
-    level_qef_[0] = qef_;
     int top = 0;
     for (int l = 1; l <= DualContouringOctree::kRootLevels; ++l)
     {
       const int side = kRootSide >> l, cside = side * 2, s = 1 << l;
       level_state_[l].assign (static_cast<std::size_t> (side) * side * side, kEmpty);
-      level_qef_[l].assign (static_cast<std::size_t> (side) * side * side, Qef ());
       bool any = false;
       for (int ni = 0; ni < side * side * side; ++ni)
       {
@@ -1859,11 +1932,11 @@ private:
   std::uint16_t
   addVertex (const Eigen::Vector3d& root_local, std::uint32_t node)
   {
-    const Eigen::Vector3d lat = root_local + r_.origin.cast<double> ();
-    r_.vertices.push_back ({(lat * h_).cast<float> (), node});
+    const Eigen::Vector3d lat = root_local + r_->origin.cast<double> ();
+    r_->vertices.push_back ({(lat * h_).cast<float> (), node});
     if (eps_ > 0)
-      r_.plane_begin.push_back (static_cast<std::uint32_t> (r_.planes.size ()));
-    return static_cast<std::uint16_t> (r_.vertices.size () - 1);
+      r_->plane_begin.push_back (static_cast<std::uint32_t> (r_->planes.size ()));
+    return static_cast<std::uint16_t> (r_->vertices.size () - 1);
   }
   // With ε > 0: the crossing planes of cell ci (of its component `comp`, or all for −1) become
   // planes of the vertex added last, in the world frame.
@@ -1879,8 +1952,8 @@ private:
       if ((comp >= 0 && pl.comp != comp) || !(len > 0))
         continue;
       const Eigen::Vector3d n = pl.n / len;
-      const Eigen::Vector3d p = (pl.p + r_.origin.cast<double> ()) * h_;
-      r_.planes.emplace_back (float (n.x ()), float (n.y ()), float (n.z ()), float (-n.dot (p)));
+      const Eigen::Vector3d p = (pl.p + r_->origin.cast<double> ()) * h_;
+      r_->planes.emplace_back (float (n.x ()), float (n.y ()), float (n.z ()), float (-n.dot (p)));
     }
   }
   // Nodes that merged and whose parent did not: one vertex for all their cells.
@@ -1898,17 +1971,17 @@ private:
         if (l < top && level_state_[l + 1][((z / 2) * (side / 2) + y / 2) * (side / 2) + x / 2] == kSimple)
           continue;
         Eigen::Vector3d v;
-        r_.escaped += level_qef_[l][ni].solve (kFaceMargin, s - kFaceMargin, v);
+        r_->escaped += level_qef_[l][ni].solve (kFaceMargin, s - kFaceMargin, v);
         const std::uint16_t vi = addVertex (v + Eigen::Vector3d (x * s, y * s, z * s), static_cast<std::uint32_t> (l << 12 | ni));
         for (int cz = z * s; cz < (z + 1) * s; ++cz)
           for (int cy = y * s; cy < (y + 1) * s; ++cy)
             for (int cx = x * s; cx < (x + 1) * s; ++cx)
             {
               const int ci = (cz * kRootSide + cy) * kRootSide + cx;
-              r_.cell_vertex[ci] = vi;
+              r_->cell_vertex[ci] = vi;
               addCellPlanes (ci, -1);
             }
-        ++r_.collapsed;
+        ++r_->collapsed;
       }
     }
   }
@@ -1918,10 +1991,10 @@ private:
   {
     for (int ci = 0; ci < kRootCells; ++ci)
     {
-      if (!ncomp_[ci] || r_.cell_vertex[ci] != kNone)
+      if (!ncomp_[ci] || r_->cell_vertex[ci] != kNone)
         continue;
-      r_.cell_vertex[ci] = static_cast<std::uint16_t> (r_.vertices.size ());
-      r_.cell_comp[ci] = comp_bits_[ci];
+      r_->cell_vertex[ci] = static_cast<std::uint16_t> (r_->vertices.size ());
+      r_->cell_comp[ci] = comp_bits_[ci];
       for (int c = 0; c < ncomp_[ci]; ++c)
       {
         addVertex (comp_pos_[first_comp_[ci] + c], static_cast<std::uint32_t> (ci));
@@ -1930,7 +2003,7 @@ private:
     }
   }
 
-  Root& r_;
+  Root* r_ = nullptr;
   const RootCache& rc_;
   DualContouringOctree::SignRule rule_;
   double eps_, h_;
@@ -1939,8 +2012,8 @@ private:
   std::array<std::uint32_t, kRootCells> comp_bits_, first_comp_, plane_begin_, plane_end_;
   std::vector<Eigen::Vector3d> comp_pos_;
   std::vector<Plane> planes_;
-  std::vector<Qef> qef_;
   std::vector<std::uint8_t> level_state_[DualContouringOctree::kRootLevels + 1];
+  // A node's QEF, read only where level_state_ says kSimple (kept, not cleared, between roots).
   std::vector<Qef> level_qef_[DualContouringOctree::kRootLevels + 1];
 };
 
@@ -1980,17 +2053,20 @@ emitPolygon (const DualContouringOctree::Impl& m, std::vector<std::array<std::ui
 class RootPolygonBuilder
 {
 public:
-  RootPolygonBuilder (Root& r, const DualContouringOctree::Impl& m, const RootCache& rc,
-                      DualContouringOctree::SignRule rule, bool collapsed_mode)
-    : r_ (r), m_ (m), collapsed_mode_ (collapsed_mode), rc_ (rc), block_ (r, rc, rule, 0)
+  RootPolygonBuilder (const DualContouringOctree::Impl& m, const RootCache& rc, DualContouringOctree::SignRule rule,
+                      bool collapsed_mode)
+    : m_ (m), collapsed_mode_ (collapsed_mode), rc_ (rc), rule_ (rule), block_ (0)
   {}
 
+  // The polygons of root r (the cache centred on it).
   void
-  build ()
+  build (Root& r)
   {
-    r_.tris.clear ();
-    r_.shared.clear ();
-    r_.missing = 0;
+    r_ = &r;
+    block_.compute (r, rc_, rule_);
+    r_->tris.clear ();
+    r_->shared.clear ();
+    r_->missing = 0;
     for (int vi = 0; vi < kRootCells; ++vi)
     {
       const Eigen::Vector3i l (vi % kRootSide, (vi / kRootSide) % kRootSide, vi / (kRootSide * kRootSide));
@@ -2003,7 +2079,7 @@ public:
         e[axis] += 1;
         const int sb = block_.at (e.x (), e.y (), e.z ());
         if (sb && sb != sa)
-          edgePolygon (r_.origin + l, axis, sa);
+          edgePolygon (r_->origin + l, axis, sa);
       }
     }
   }
@@ -2025,7 +2101,7 @@ private:
       const int li = localIndex (cc.x (), cc.y (), cc.z ());
       if (!cr || cr->cell_vertex[li] == kNone)
       {
-        ++r_.missing;
+        ++r_->missing;
         return;
       }
       const int e = axis * 4 + (-kU[k]) + 2 * (-kW[k]);
@@ -2050,15 +2126,16 @@ private:
       for (int k = 0; k < np; ++k)
         coarse |= (m_.roots[pv[k] >> 16]->vertices[pv[k] & 0xFFFF].node >> 12) > 0;
     if (coarse)
-      r_.shared.push_back ({pv, np});  // may repeat along a coarse edge: merged at output
+      r_->shared.push_back ({pv, np});  // may repeat along a coarse edge: merged at output
     else
-      emitPolygon (m_, r_.tris, pv, np);
+      emitPolygon (m_, r_->tris, pv, np);
   }
 
-  Root& r_;
+  Root* r_ = nullptr;
   const DualContouringOctree::Impl& m_;
   bool collapsed_mode_;
   const RootCache& rc_;
+  DualContouringOctree::SignRule rule_;
   SignBlock block_;
 };
 
@@ -2194,15 +2271,18 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
   const auto tv = Clock::now ();
   const double eps_leaf = eps_ / h_;
   std::size_t ambiguous = 0;
-#pragma omp parallel for schedule(dynamic, 4) reduction(+ : ambiguous)
-  for (std::ptrdiff_t ri = 0; ri < static_cast<std::ptrdiff_t> (vertex_roots.size ()); ++ri)
+  // One cache and builder per thread, re-centred root by root: their arrays are reused.
+#pragma omp parallel reduction(+ : ambiguous)
   {
-    Root& r = *vertex_roots[ri];
     RootCache rc (m);
-    rc.centreOn (r.origin / kRootSide);
-    RootVertexBuilder builder (r, rc, rule_, eps_leaf, h_);
-    builder.build ();
-    ambiguous += builder.ambiguous ();
+    RootVertexBuilder builder (rc, rule_, eps_leaf, h_);
+#pragma omp for schedule(dynamic, 4)
+    for (std::ptrdiff_t ri = 0; ri < static_cast<std::ptrdiff_t> (vertex_roots.size ()); ++ri)
+    {
+      Root& r = *vertex_roots[ri];
+      rc.centreOn (r.origin / kRootSide);
+      ambiguous += builder.build (r);
+    }
   }
   for (Root* r : dirty)
     r->dirty = false;
@@ -2210,13 +2290,17 @@ DualContouringOctree::polygonise (pcl::PolygonMesh& mesh, bool all)
   st.t_vertices_ms = msSince (tv);
 
   const auto tp = Clock::now ();
-#pragma omp parallel for schedule(dynamic, 4)
-  for (std::ptrdiff_t ri = 0; ri < static_cast<std::ptrdiff_t> (redo.size ()); ++ri)
+#pragma omp parallel
   {
-    Root& r = *redo[ri];
     RootCache rc (m);
-    rc.centreOn (r.origin / kRootSide);
-    RootPolygonBuilder (r, m, rc, rule_, eps_ > 0).build ();
+    RootPolygonBuilder builder (m, rc, rule_, eps_ > 0);
+#pragma omp for schedule(dynamic, 4)
+    for (std::ptrdiff_t ri = 0; ri < static_cast<std::ptrdiff_t> (redo.size ()); ++ri)
+    {
+      Root& r = *redo[ri];
+      rc.centreOn (r.origin / kRootSide);
+      builder.build (r);
+    }
   }
   st.ambiguous_vertices = ambiguous;
   st.t_polygons_ms = msSince (tp);
