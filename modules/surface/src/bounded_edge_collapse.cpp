@@ -137,11 +137,14 @@ public:
 private:
   static constexpr std::uint32_t kUnused = std::numeric_limits<std::uint32_t>::max ();
 
-  // A slab's queue, buffers and counts.
+  // A slab's queue, buffers and counts. `mark` holds, per vertex, the stamp of the last link
+  // test that met it.
   struct Worker
   {
     CandidateQueue queue;
-    std::vector<std::int32_t> na, nb;
+    std::vector<std::int32_t> na;
+    std::vector<std::uint32_t> mark;
+    std::uint32_t stamp = 0;
     EdgeCollapseStats stats;
   };
 
@@ -378,25 +381,28 @@ private:
       shared += face_alive_[f] && hasCorner (tris_[f], b);
     if (shared == 0 || (boundary_[a] && boundary_[b] && shared != 1))
       return false;
-    // a's list holds b and b's holds a, but neither holds itself: they never count as common.
-    neighbours (a, w.na);
-    neighbours (b, w.nb);
-    const auto& na = w.na;
-    const auto& nb = w.nb;
-    int common = 0;
-    for (std::size_t i = 0, j = 0; i < na.size () && j < nb.size ();)
+    // a's neighbours get the stamp, b's neighbours found with it count once (the stamp moves
+    // on); neither a nor b counts, as each is only the other's neighbour.
+    if (w.mark.size () != pos_.size () || w.stamp >= std::numeric_limits<std::uint32_t>::max () - 2)
     {
-      if (na[i] < nb[j])
-        ++i;
-      else if (nb[j] < na[i])
-        ++j;
-      else
-      {
-        ++common;
-        ++i;
-        ++j;
-      }
+      w.mark.assign (pos_.size (), 0);
+      w.stamp = 0;
     }
+    const std::uint32_t in_a = ++w.stamp, counted = ++w.stamp;
+    for (std::int32_t f : vf_[a])
+      if (face_alive_[f])
+        for (std::uint32_t c : tris_[f])
+          if (static_cast<std::int32_t> (c) != a)
+            w.mark[c] = in_a;
+    int common = 0;
+    for (std::int32_t f : vf_[b])
+      if (face_alive_[f])
+        for (std::uint32_t c : tris_[f])
+          if (static_cast<std::int32_t> (c) != b && w.mark[c] == in_a)
+          {
+            w.mark[c] = counted;
+            ++common;
+          }
     return common == shared;
   }
 
