@@ -97,6 +97,8 @@ public:
     addPlanes (planes);
     const std::vector<std::int32_t> cut = holdCuts ();
     std::vector<Worker> workers (kSlabs);
+    for (Worker& w : workers)
+      w.mark.assign (pos_.size (), 0);
     collapseSlabs (workers);
     collapseCuts (cut, workers[0]);
     for (const Worker& w : workers)
@@ -383,9 +385,9 @@ private:
       return false;
     // a's neighbours get the stamp, b's neighbours found with it count once (the stamp moves
     // on); neither a nor b counts, as each is only the other's neighbour.
-    if (w.mark.size () != pos_.size () || w.stamp >= std::numeric_limits<std::uint32_t>::max () - 2)
+    if (w.stamp >= std::numeric_limits<std::uint32_t>::max () - 2)
     {
-      w.mark.assign (pos_.size (), 0);
+      std::fill (w.mark.begin (), w.mark.end (), 0u);
       w.stamp = 0;
     }
     const std::uint32_t in_a = ++w.stamp, counted = ++w.stamp;

@@ -680,6 +680,13 @@ struct SignResolver
   const RootCache& map;
   DualContouringOctree::SignRule rule;
 
+  // The WEIGHTED rule's vote of a vertex with weighted distance d: +1 exterior, −1 interior,
+  // 2 ambiguous (votes that cancel), 0 no vote.
+  static int
+  weightedVote (std::int32_t d, bool any_vote)
+  {
+    return d > 0 ? 1 : (d < 0 ? -1 : (any_vote ? 2 : 0));
+  }
   // +1 exterior, −1 interior, 2 ambiguous, 0 no vote.
   int
   voted (int x, int y, int z) const
@@ -690,10 +697,7 @@ struct SignResolver
     const int i = localIndex (x, y, z);
     const int o = r->out_votes[i], n = r->in_votes[i];
     if (rule == DualContouringOctree::SignRule::WEIGHTED)
-    {
-      const std::int32_t d = r->sdf[i];
-      return d > 0 ? 1 : (d < 0 ? -1 : ((o || n) ? 2 : 0));
-    }
+      return weightedVote (r->sdf[i], o || n);
     if (o == 0 && n == 0)
       return 0;
     if (rule == DualContouringOctree::SignRule::SEED)
@@ -1569,13 +1573,13 @@ private:
             for (int k = 0; k < run; ++k)
             {
               const std::int32_t d = src->sdf[first + k];
-              const bool voted = src->out_votes[first + k] || src->in_votes[first + k];
-              // Ambiguous (votes, no distance) counts as exterior; no vote leaves it unobserved.
-              const int s = d > 0 ? 1 : (d < 0 ? -1 : (voted ? 1 : 0));
+              const int vote = SignResolver::weightedVote (d, src->out_votes[first + k] || src->in_votes[first + k]);
+              // Ambiguous counts as exterior (SignResolver::resolve); no vote leaves it unobserved.
+              const int s = vote == 2 ? 1 : vote;
               sign_[i0 + k] = static_cast<std::int8_t> (s);
               topo_[i0 + k] = static_cast<std::int8_t> (s < 0 ? -1 : 1);
               sdf_[i0 + k] = d;
-              ambiguous_ += d == 0 && voted && own_row && x + k >= 0 && x + k < kRootSide;
+              ambiguous_ += vote == 2 && own_row && x + k >= 0 && x + k < kRootSide;
             }
           }
           x += run;

@@ -100,34 +100,43 @@ struct HalfEdges
   {
     return corner[k] / 3;
   }
-  // The vertex after the row's vertex in the corner's triangle (edge v → target).
+  // The vertex `step` places after the row's vertex in the corner's triangle.
+  std::uint32_t
+  around (std::uint32_t k, std::uint32_t step) const
+  {
+    return triangles[corner[k] / 3][(corner[k] % 3 + step) % 3];
+  }
+  // The vertex after the row's vertex (edge v → target).
   std::uint32_t
   target (std::uint32_t k) const
   {
-    return triangles[corner[k] / 3][(corner[k] % 3 + 1) % 3];
+    return around (k, 1);
   }
   // The vertex before it (edge source → v).
   std::uint32_t
   source (std::uint32_t k) const
   {
-    return triangles[corner[k] / 3][(corner[k] % 3 + 2) % 3];
+    return around (k, 2);
   }
   // How often the directed edge a → b occurs.
   int
   count (std::uint32_t a, std::uint32_t b) const
   {
-    int n = 0;
-    for (std::uint32_t k = begin[a]; k < begin[a + 1]; ++k)
-      n += target (k) == b;
-    return n;
+    return countInRow (a, b, 1);
   }
   // How often the directed edge b → a occurs, from a's row.
   int
   countInto (std::uint32_t a, std::uint32_t b) const
   {
+    return countInRow (a, b, 2);
+  }
+  // How often b is `step` places after a in a's triangles.
+  int
+  countInRow (std::uint32_t a, std::uint32_t b, std::uint32_t step) const
+  {
     int n = 0;
     for (std::uint32_t k = begin[a]; k < begin[a + 1]; ++k)
-      n += source (k) == b;
+      n += around (k, step) == b;
     return n;
   }
 };
