@@ -6,6 +6,8 @@
 
 #include <Eigen/Geometry>
 
+#include <omp.h>
+
 #include <CGAL/Polygon_mesh_processing/border.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Simple_cartesian.h>
@@ -14,6 +16,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <iterator>
 #include <numeric>
 #include <unordered_map>
@@ -34,9 +37,13 @@ using Halfedge = Mesh::Halfedge_index;
 
 struct HoleFillingScratch
 {
+  std::vector<std::uint64_t> balance, hash;               // OpenVertices
+  std::vector<std::uint32_t> open;                        // OpenVertices
+  std::vector<std::uint8_t> ring;                         // OpenVertices
   std::vector<std::uint32_t> begin, corner;               // HalfEdges
   std::vector<std::uint32_t> parent, group_of;            // findBoundaries
   std::vector<std::uint32_t> vertex_mark, triangle_mark;  // RingCollector
+  std::vector<std::uint32_t> local_index;                 // RingCollector, for LocalSurface
 };
 
 std::size_t
@@ -46,51 +53,156 @@ HolePatchCache::scratchBytes () const
     return 0;
   const HoleFillingScratch& s = *scratch;
   std::size_t words = 0;
-  for (const auto* v : {&s.begin, &s.corner, &s.parent, &s.group_of, &s.vertex_mark, &s.triangle_mark})
+  for (const auto* v :
+       {&s.open, &s.begin, &s.corner, &s.parent, &s.group_of, &s.vertex_mark, &s.triangle_mark, &s.local_index})
     words += v->capacity ();
-  return 4 * words;
+  return 4 * words + sizeof (std::uint64_t) * (s.balance.capacity () + s.hash.capacity ()) + s.ring.capacity ();
 }
 
 namespace {
 
 // Sizes a working array for n elements: exactly the first time, and with a quarter more when it
 // grows, so that a mesh growing frame by frame does not reallocate it every time.
+template <typename T>
 void
-fitScratch (std::vector<std::uint32_t>& v, std::size_t n)
+fitScratch (std::vector<T>& v, std::size_t n)
 {
   if (v.capacity () < n)
   {
     const bool first = v.capacity () == 0;
-    std::vector<std::uint32_t> ().swap (v);
+    std::vector<T> ().swap (v);
     v.reserve (first ? n : n + n / 4);
   }
   v.resize (n);
 }
 
-// The triangles' corners grouped by their vertex (compressed rows, in the scratch's arrays): a
-// vertex's row lists its corners, each with the edge leaving the vertex and the edge entering
-// it in that triangle, so a row answers every question about its vertex's edges.
+// A 64-bit hash of a vertex index (splitmix64's finaliser).
+std::uint64_t
+spreadIndex (std::uint64_t x)
+{
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+// The vertices where the mesh may be open, and the triangles near them: all that the search for
+// holes reads, so that its cost follows the holes instead of the mesh.
+//
+// Each corner of a triangle adds the hash of the vertex after it and subtracts the hash of the
+// vertex before it. A vertex's sum is then the sum over its neighbours w of (uses of v → w minus
+// uses of w → v) · hash (w): zero around a closed fan, and non-zero (but for a cancellation of
+// 64-bit hashes) at both ends of a boundary edge and of an edge used more often in one direction
+// than in the other. Such vertices are open.
+struct OpenVertices
+{
+  std::vector<std::uint32_t>& vertices;       // the open vertices, in index order
+  std::vector<std::uint32_t> near_triangles;  // within two rings of an open vertex, in index order
+
+  OpenVertices (std::size_t num_vertices, const std::vector<Triangle>& triangles, HoleFillingScratch& s)
+    : vertices (s.open)
+  {
+    sumAroundVertices (num_vertices, triangles, s);
+    vertices.clear ();
+    for (std::uint32_t v = 0; v < num_vertices; ++v)
+      if (s.balance[v] != 0)
+        vertices.push_back (v);
+    if (!vertices.empty ())
+      markNearTriangles (num_vertices, triangles, s.ring);
+  }
+
+private:
+  // The sums, with the hashes computed once per vertex.
+  static void
+  sumAroundVertices (std::size_t num_vertices, const std::vector<Triangle>& triangles, HoleFillingScratch& s)
+  {
+    fitScratch (s.balance, num_vertices);
+    fitScratch (s.hash, num_vertices);
+    std::vector<std::uint64_t>& sum = s.balance;
+    const std::vector<std::uint64_t>& h = s.hash;
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t v = 0; v < static_cast<std::ptrdiff_t> (num_vertices); ++v)
+    {
+      s.hash[std::size_t (v)] = spreadIndex (std::uint64_t (v));
+      sum[std::size_t (v)] = 0;
+    }
+    for (const Triangle& t : triangles)
+    {
+      const std::uint64_t h0 = h[t[0]], h1 = h[t[1]], h2 = h[t[2]];
+      sum[t[0]] += h1 - h2;
+      sum[t[1]] += h2 - h0;
+      sum[t[2]] += h0 - h1;
+    }
+  }
+  // The triangles with a vertex in the first ring of an open vertex: every triangle a row of an
+  // open vertex or of its first ring lists, which is what the boundary search and the two rings
+  // around a hole read.
+  void
+  markNearTriangles (std::size_t num_vertices, const std::vector<Triangle>& triangles, std::vector<std::uint8_t>& ring)
+  {
+    enum : std::uint8_t { kFar = 0, kOpen = 1, kFirstRing = 2 };
+    fitScratch (ring, num_vertices);
+    std::fill (ring.begin (), ring.end (), std::uint8_t (kFar));
+    for (const std::uint32_t v : vertices)
+      ring[v] = kOpen;
+    const auto any = [&] (const Triangle& t, auto is) { return is (ring[t[0]]) || is (ring[t[1]]) || is (ring[t[2]]); };
+    const std::vector<std::uint32_t> at_open =
+        selectTriangles (triangles, [&] (const Triangle& t) { return any (t, [] (std::uint8_t r) { return r == kOpen; }); });
+    for (const std::uint32_t t : at_open)
+      for (const std::uint32_t v : triangles[t])
+        if (ring[v] == kFar)
+          ring[v] = kFirstRing;
+    near_triangles =
+        selectTriangles (triangles, [&] (const Triangle& t) { return any (t, [] (std::uint8_t r) { return r != kFar; }); });
+  }
+  // The indices of the triangles that pass `keep`, in index order (threads take contiguous
+  // blocks, joined in order).
+  template <typename Keep>
+  static std::vector<std::uint32_t>
+  selectTriangles (const std::vector<Triangle>& triangles, const Keep& keep)
+  {
+    std::vector<std::vector<std::uint32_t>> parts (static_cast<std::size_t> (omp_get_max_threads ()));
+#pragma omp parallel
+    {
+      std::vector<std::uint32_t>& mine = parts[static_cast<std::size_t> (omp_get_thread_num ())];
+#pragma omp for schedule(static)
+      for (std::ptrdiff_t t = 0; t < static_cast<std::ptrdiff_t> (triangles.size ()); ++t)
+        if (keep (triangles[std::size_t (t)]))
+          mine.push_back (static_cast<std::uint32_t> (t));
+    }
+    std::vector<std::uint32_t> out;
+    for (const auto& part : parts)
+      out.insert (out.end (), part.begin (), part.end ());
+    return out;
+  }
+};
+
+// The corners of the triangles near the open vertices, grouped by their vertex (compressed rows,
+// in the scratch's arrays): a vertex's row lists its corners, each with the edge leaving the
+// vertex and the edge entering it in that triangle, so a row answers every question about its
+// vertex's edges. The rows of the open vertices and of their first ring are complete.
 struct HalfEdges
 {
   const std::vector<std::uint32_t>& begin;   // per vertex, and one past the last
   const std::vector<std::uint32_t>& corner;  // per row entry: 3 · triangle + the vertex's place in it
   const std::vector<Triangle>& triangles;
 
-  HalfEdges (std::size_t num_vertices, const std::vector<Triangle>& mesh, HoleFillingScratch& s)
+  HalfEdges (std::size_t num_vertices, const std::vector<Triangle>& mesh, const std::vector<std::uint32_t>& subset,
+             HoleFillingScratch& s)
     : begin (s.begin), corner (s.corner), triangles (mesh)
   {
     fitScratch (s.begin, num_vertices + 1);
     std::fill (s.begin.begin (), s.begin.end (), 0u);
-    for (const auto& t : triangles)
-      for (const std::uint32_t v : t)
+    for (const std::uint32_t t : subset)
+      for (const std::uint32_t v : triangles[t])
         ++s.begin[v + 1];
     for (std::size_t v = 0; v < num_vertices; ++v)
       s.begin[v + 1] += s.begin[v];
-    fitScratch (s.corner, 3 * triangles.size ());
+    fitScratch (s.corner, 3 * subset.size ());
     // Each row is filled from its start, which moves to the next row's; then moved back.
-    for (std::size_t t = 0; t < triangles.size (); ++t)
+    for (const std::uint32_t t : subset)
       for (std::uint32_t j = 0; j < 3; ++j)
-        s.corner[s.begin[triangles[t][j]]++] = static_cast<std::uint32_t> (3 * t) + j;
+        s.corner[s.begin[triangles[t][j]]++] = 3 * t + j;
     for (std::size_t v = num_vertices; v > 0; --v)
       s.begin[v] = s.begin[v - 1];
     s.begin[0] = 0;
@@ -160,22 +272,23 @@ findRoot (std::vector<std::uint32_t>& parent, std::uint32_t v)
 }
 
 bool
-findBoundaries (const std::vector<Eigen::Vector3f>& vertices, const HalfEdges& he, HoleFillingScratch& s,
-                BoundaryGroups& out)
+findBoundaries (const std::vector<Eigen::Vector3f>& vertices, const OpenVertices& open, const HalfEdges& he,
+                HoleFillingScratch& s, BoundaryGroups& out)
 {
   const std::size_t n = vertices.size ();
   // A directed edge a → b is on a boundary when no edge b → a exists; one that is repeated or has
-  // two twins is not a 2-manifold's. A vertex's row answers both, so the rows are read in
-  // parallel, keeping only the boundary edges; they join into groups serially.
+  // two twins is not a 2-manifold's. Both ends of such an edge are open (unless it is used
+  // equally often each way), and a vertex's row answers both questions, so the open vertices'
+  // rows are read in parallel, keeping only the boundary edges; they join into groups serially.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> boundary;
   bool manifold = true;
 #pragma omp parallel reduction(&& : manifold)
   {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> mine;
-#pragma omp for schedule(static, 4096) nowait
-    for (std::ptrdiff_t ai = 0; ai < static_cast<std::ptrdiff_t> (n); ++ai)
+#pragma omp for schedule(static, 256) nowait
+    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t> (open.vertices.size ()); ++i)
     {
-      const std::uint32_t a = static_cast<std::uint32_t> (ai), lo = he.begin[a], hi = he.begin[a + 1];
+      const std::uint32_t a = open.vertices[std::size_t (i)], lo = he.begin[a], hi = he.begin[a + 1];
       // The row's edges, leaving and entering, read once into a small buffer (most vertices have a handful).
       std::array<std::uint32_t, 32> small_leaving, small_entering;
       std::vector<std::uint32_t> large_leaving, large_entering;
@@ -257,13 +370,21 @@ class RingCollector
 {
 public:
   RingCollector (const HalfEdges& he, const std::vector<Triangle>& triangles, HoleFillingScratch& s)
-    : he_ (he), triangles_ (triangles), vertex_mark_ (s.vertex_mark), triangle_mark_ (s.triangle_mark)
+    : he_ (he)
+    , triangles_ (triangles)
+    , vertex_mark_ (s.vertex_mark)
+    , triangle_mark_ (s.triangle_mark)
+    , local_index_ (s.local_index)
   {
     fitScratch (vertex_mark_, he.begin.size () - 1);
     fitScratch (triangle_mark_, triangles.size ());
+    fitScratch (local_index_, he.begin.size () - 1);
     std::fill (vertex_mark_.begin (), vertex_mark_.end (), 0u);
     std::fill (triangle_mark_.begin (), triangle_mark_.end (), 0u);
+    std::fill (local_index_.begin (), local_index_.end (), kNoIndex);
   }
+
+  static constexpr std::uint32_t kNoIndex = ~std::uint32_t (0);
 
   // The triangles in index order.
   std::vector<std::uint32_t>
@@ -303,11 +424,20 @@ public:
     return he_;
   }
 
+  // Per vertex of the mesh: kNoIndex, or its number in the local surface being numbered (which
+  // sets every entry it used back to kNoIndex).
+  std::vector<std::uint32_t>&
+  localIndex ()
+  {
+    return local_index_;
+  }
+
 private:
   const HalfEdges& he_;
   const std::vector<Triangle>& triangles_;
   std::vector<std::uint32_t>& vertex_mark_;
   std::vector<std::uint32_t>& triangle_mark_;
+  std::vector<std::uint32_t>& local_index_;
   std::uint32_t stamp_ = 0;
 };
 
@@ -321,31 +451,41 @@ struct LocalSurface
   std::vector<std::uint32_t> layout;
   std::uint64_t key = 0;
 
+  // `local_index` holds RingCollector::kNoIndex for every vertex, and does again on return.
   LocalSurface (const std::vector<Eigen::Vector3f>& vertices, const std::vector<Triangle>& triangles,
-                const std::vector<std::uint32_t>& subset, const std::vector<std::uint32_t>& hole)
+                const std::vector<std::uint32_t>& subset, const std::vector<std::uint32_t>& hole,
+                std::vector<std::uint32_t>& local_index)
   {
-    std::unordered_map<std::uint32_t, std::uint32_t> local;
     auto localOf = [&] (std::uint32_t v) {
-      const auto it = local.emplace (v, static_cast<std::uint32_t> (global.size ())).first;
-      if (it->second == global.size ())
+      std::uint32_t& i = local_index[v];
+      if (i == RingCollector::kNoIndex)
       {
+        i = static_cast<std::uint32_t> (global.size ());
         global.push_back (v);
         positions.push_back (vertices[v]);
       }
-      return it->second;
+      return i;
     };
+    layout.reserve (3 * subset.size () + hole.size ());
     for (const std::uint32_t t : subset)
       for (const std::uint32_t v : triangles[t])
         layout.push_back (localOf (v));
     for (const std::uint32_t v : hole)
       layout.push_back (localOf (v));
-    key = 1469598103934665603ull;  // FNV-1a over the layout and the positions' bits
-    auto mix = [this] (const void* data, std::size_t bytes) {
-      for (std::size_t i = 0; i < bytes; ++i)
-        key = (key ^ static_cast<const unsigned char*> (data)[i]) * 1099511628211ull;
-    };
-    mix (layout.data (), layout.size () * sizeof (std::uint32_t));
-    mix (positions.data (), positions.size () * sizeof (Eigen::Vector3f));
+    for (const std::uint32_t v : global)
+      local_index[v] = RingCollector::kNoIndex;
+    // FNV-1a's step over 32-bit words: the layout, then the positions' bits.
+    key = 1469598103934665603ull;
+    auto mix = [this] (std::uint32_t word) { key = (key ^ word) * 1099511628211ull; };
+    for (const std::uint32_t i : layout)
+      mix (i);
+    for (const Eigen::Vector3f& p : positions)
+      for (int k = 0; k < 3; ++k)
+      {
+        std::uint32_t bits;
+        std::memcpy (&bits, &p[k], sizeof bits);
+        mix (bits);
+      }
   }
   std::size_t
   numTriangles (std::size_t hole_size) const
@@ -660,7 +800,7 @@ fillHole (std::uint32_t g, const std::vector<std::uint32_t>& boundary, const Bou
     return true;
   for (const int ring_count : {2, 1})
   {
-    const LocalSurface surface (vertices, triangles, rings.collect (boundary, ring_count), boundary);
+    const LocalSurface surface (vertices, triangles, rings.collect (boundary, ring_count), boundary, rings.localIndex ());
     if (const HolePatch* hit = cachedPatch (cache, surface))
     {
       applyPatch (*hit, surface.global, vertices, triangles, stats);
@@ -711,9 +851,10 @@ fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& t
   if (cache && !cache->scratch)
     cache->scratch = std::make_shared<HoleFillingScratch> ();
   HoleFillingScratch& scratch = cache ? *cache->scratch : local;
-  const HalfEdges he (vertices.size (), triangles, scratch);
+  const OpenVertices open (vertices.size (), triangles, scratch);
+  const HalfEdges he (vertices.size (), triangles, open.near_triangles, scratch);
   BoundaryGroups groups{scratch.group_of, {}};
-  if (!findBoundaries (vertices, he, scratch, groups))
+  if (!findBoundaries (vertices, open, he, scratch, groups))
   {
     PCL_ERROR ("[pclx::surface::detail::fillSmallHoles] the mesh is not an oriented 2-manifold; no hole was filled\n");
     return false;
@@ -721,7 +862,7 @@ fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& t
   stats.holes = groups.diameter.size ();
   // The vertices of each hole up to the limit, hole by hole.
   std::vector<std::vector<std::uint32_t>> hole_vertices (groups.diameter.size ());
-  for (std::uint32_t v = 0; v < vertices.size (); ++v)
+  for (const std::uint32_t v : open.vertices)
     if (groups.group_of[v] != BoundaryGroups::kNone && groups.diameter[groups.group_of[v]] <= max_diameter)
       hole_vertices[groups.group_of[v]].push_back (v);
   RingCollector rings (he, triangles, scratch);

@@ -11,6 +11,8 @@
 
 #include <algorithm>
 #include <map>
+#include <numeric>
+#include <random>
 #include <utility>
 
 namespace {
@@ -69,6 +71,34 @@ boundaryEdges (const std::vector<pcl::Vertices>& polygons)
   for (const auto& p : polygons)
     triangles.push_back ({std::uint32_t (p.vertices[0]), std::uint32_t (p.vertices[1]), std::uint32_t (p.vertices[2])});
   return boundaryEdges (triangles);
+}
+
+// Boundary loops counted as fillSmallHoles counts holes: connected groups of the vertices on
+// edges that only one triangle uses (loops that share a vertex are one group).
+std::size_t
+boundaryGroups (const std::vector<Triangle>& triangles)
+{
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> uses;
+  for (const auto& t : triangles)
+    for (int j = 0; j < 3; ++j)
+      ++uses[{std::min (t[j], t[(j + 1) % 3]), std::max (t[j], t[(j + 1) % 3])}];
+  std::map<std::uint32_t, std::uint32_t> parent;
+  const auto root = [&] (std::uint32_t v) {
+    while (parent[v] != v)
+      v = parent[v];
+    return v;
+  };
+  for (const auto& [e, n] : uses)
+    if (n == 1)
+    {
+      parent.emplace (e.first, e.first);
+      parent.emplace (e.second, e.second);
+      parent[root (e.first)] = root (e.second);
+    }
+  std::size_t groups = 0;
+  for (const auto& [v, p] : parent)
+    groups += v == p;
+  return groups;
 }
 
 // Directed edges used by more than one triangle: an edge of more than two triangles, or of two
@@ -178,6 +208,40 @@ TEST (HoleFilling, ClosesAHoleWhoseBoundaryPassesAVertexTwice)
     EXPECT_NEAR (m.vertices[v].norm (), 1.f, 0.01f) << v;
 }
 
+TEST (HoleFilling, FindsEveryHoleWhateverTheOrderOfTheMesh)
+{
+  // Holes of many sizes at random places, some touching; then the vertices renumbered and the
+  // triangles shuffled, so that the triangles around a hole are scattered through the arrays.
+  std::mt19937 rng (7);
+  std::uniform_real_distribution<float> coord (-1.f, 1.f), radius (0.04f, 0.3f);
+  std::vector<std::pair<Eigen::Vector3f, float>> holes;
+  for (int i = 0; i < 24; ++i)
+    holes.emplace_back (Eigen::Vector3f (coord (rng), coord (rng), coord (rng)), radius (rng));
+  const Mesh ordered = sphereWithHoles (holes);
+  std::vector<std::uint32_t> number (ordered.vertices.size ());
+  std::iota (number.begin (), number.end (), 0u);
+  std::shuffle (number.begin (), number.end (), rng);
+  Mesh m;
+  m.vertices.resize (ordered.vertices.size ());
+  for (std::size_t v = 0; v < number.size (); ++v)
+    m.vertices[number[v]] = ordered.vertices[v];
+  for (const Triangle& t : ordered.triangles)
+    m.triangles.push_back ({number[t[0]], number[t[1]], number[t[2]]});
+  std::shuffle (m.triangles.begin (), m.triangles.end (), rng);
+  const std::size_t expected = boundaryGroups (m.triangles);
+  ASSERT_GT (expected, 10u);
+
+  for (Mesh input : {ordered, m})
+  {
+    HoleFillingStats stats;
+    ASSERT_TRUE (fillSmallHoles (input.vertices, input.triangles, 10.0, stats, pclx::surface::detail::kCubicSearchEdges));
+    EXPECT_EQ (stats.holes, expected);
+    EXPECT_EQ (stats.filled, expected);
+    EXPECT_EQ (boundaryEdges (input.triangles), 0u);
+    EXPECT_EQ (repeatedEdges (input.triangles), 0u);
+  }
+}
+
 TEST (HoleFilling, BadInputLeavesTheMeshUnchanged)
 {
   Mesh m = sphereWithHoles ({{Eigen::Vector3f::UnitX (), 0.15f}});
@@ -197,6 +261,13 @@ TEST (HoleFilling, BadInputLeavesTheMeshUnchanged)
   EXPECT_FALSE (fillSmallHoles (fan.vertices, fan.triangles, 10.0, stats));
   EXPECT_EQ (fan.triangles.size (), fan_before.triangles.size ());
   EXPECT_EQ (fan.vertices.size (), fan_before.vertices.size ());
+  // Four triangles on one edge, two of each orientation, at the fan's open rim.
+  Mesh balanced;
+  balanced.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  balanced.triangles = {{0u, 1u, 2u}, {1u, 0u, 3u}, {0u, 1u, 4u}, {1u, 0u, 5u}};
+  EXPECT_FALSE (fillSmallHoles (balanced.vertices, balanced.triangles, 10.0, stats));
+  EXPECT_EQ (balanced.triangles.size (), 4u);
+  EXPECT_EQ (balanced.vertices.size (), 6u);
   // A closed mesh has nothing to fill.
   Mesh closed = sphereWithHoles ({});
   ASSERT_TRUE (fillSmallHoles (closed.vertices, closed.triangles, 1.0, stats));

@@ -80,8 +80,10 @@ constexpr std::size_t kCubicSearchEdges = 100;
   * The input triangles and vertices are kept as they are; the patches' vertices and triangles
   * are appended, oriented as the surface around them. A hole of three or four edges gets one or
   * two triangles; a boundary that passes a vertex twice is closed as the two holes it is, unless
-  * a patch would repeat an edge of the mesh (then it stays open). Only the triangles around the
-  * holes go into a halfedge structure, so the cost follows the holes, not the mesh.
+  * a patch would repeat an edge of the mesh (then it stays open). The mesh is read once, for a
+  * sum per vertex that vanishes where the triangles around it close; only the triangles near
+  * the vertices where it does not are searched for holes, and only those around a hole go into a
+  * halfedge structure, so the cost beyond that one read follows the holes, not the mesh.
   * \param[in,out] vertices the mesh's vertex positions
   * \param[in,out] triangles the mesh's triangles (three indices each)
   * \param[in] max_diameter the largest hole closed, in the units of the vertices (> 0)
@@ -89,8 +91,9 @@ constexpr std::size_t kCubicSearchEdges = 100;
   * \param[in] max_edges holes with more boundary edges stay open (counted as failed); 0: no limit
   * \param[in,out] cache patches of the previous call to reuse, or nullptr
   * \return false (with a PCL_ERROR, the mesh unchanged) when the mesh is not an oriented
-  * 2-manifold (an edge with two triangles of one orientation, or more than two), a triangle
-  * refers to a missing vertex, or max_diameter is not positive
+  * 2-manifold (an edge with two triangles of one orientation, or more than two; an edge with as
+  * many triangles of each orientation, such as two and two, is found only next to a boundary),
+  * a triangle refers to a missing vertex, or max_diameter is not positive
   * \note Liepa, "Filling holes in meshes", Eurographics Symposium on Geometry Processing 2003,
   * as CGAL::Polygon_mesh_processing::triangulate_refine_and_fair_hole implements it.
   */
