@@ -2337,14 +2337,16 @@ closeSmallHoles (double diameter, pclx::surface::detail::HolePatchCache& cache, 
 }
 
 // Writes positions and index triples into a PCL mesh, in the storage a mesh passed again after
-// every frame already has (its polygons' allocations, its cloud's bytes).
+// every frame already has (its polygons' allocations, its cloud's bytes). Each polygon owns an
+// allocation, so the polygons are written in parallel.
 void
 toPolygonMesh (const std::vector<Eigen::Vector3f>& points, const std::vector<pclx::surface::detail::Triangle>& tris,
                pcl::PolygonMesh& mesh)
 {
   mesh.polygons.resize (tris.size ());
-  for (std::size_t i = 0; i < tris.size (); ++i)
-    mesh.polygons[i].vertices.assign (tris[i].begin (), tris[i].end ());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t> (tris.size ()); ++i)
+    mesh.polygons[std::size_t (i)].vertices.assign (tris[std::size_t (i)].begin (), tris[std::size_t (i)].end ());
   pcl::toPCLPointCloud2 (pcl::PointCloud<pcl::PointXYZ> (), mesh.cloud);  // the fields of pcl::PointXYZ
   pcl::PCLPointCloud2& c = mesh.cloud;
   c.width = static_cast<std::uint32_t> (points.size ());
