@@ -112,20 +112,23 @@ struct OpenVertices
   }
 
 private:
-  // The sums, with the hashes computed once per vertex.
+  // The sums. A vertex's hash depends on its index only, so the scratch keeps the hashes from
+  // call to call and computes those of new indices.
   static void
   sumAroundVertices (std::size_t num_vertices, const std::vector<Triangle>& triangles, HoleFillingScratch& s)
   {
+    const std::size_t known = s.hash.size ();
+    if (known < num_vertices)
+    {
+      s.hash.resize (num_vertices);
+#pragma omp parallel for schedule(static)
+      for (std::ptrdiff_t v = static_cast<std::ptrdiff_t> (known); v < static_cast<std::ptrdiff_t> (num_vertices); ++v)
+        s.hash[std::size_t (v)] = spreadIndex (std::uint64_t (v));
+    }
     fitScratch (s.balance, num_vertices);
-    fitScratch (s.hash, num_vertices);
+    std::fill (s.balance.begin (), s.balance.end (), std::uint64_t (0));
     std::vector<std::uint64_t>& sum = s.balance;
     const std::vector<std::uint64_t>& h = s.hash;
-#pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t v = 0; v < static_cast<std::ptrdiff_t> (num_vertices); ++v)
-    {
-      s.hash[std::size_t (v)] = spreadIndex (std::uint64_t (v));
-      sum[std::size_t (v)] = 0;
-    }
     for (const Triangle& t : triangles)
     {
       const std::uint64_t h0 = h[t[0]], h1 = h[t[1]], h2 = h[t[2]];

@@ -48,16 +48,21 @@ sphereWithHoles (const std::vector<std::pair<Eigen::Vector3f, float>>& holes)
   return m;
 }
 
+// How many triangles use each edge, whatever its direction (smaller index first).
+std::map<std::pair<std::uint32_t, std::uint32_t>, int>
+undirectedEdgeUses (const std::vector<Triangle>& triangles)
+{
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> uses;
+  for (const auto& t : triangles)
+    for (int j = 0; j < 3; ++j)
+      ++uses[{std::min (t[j], t[(j + 1) % 3]), std::max (t[j], t[(j + 1) % 3])}];
+  return uses;
+}
+
 std::size_t
 boundaryEdges (const std::vector<Triangle>& triangles)
 {
-  std::map<std::pair<int, int>, int> uses;
-  for (const auto& t : triangles)
-    for (int j = 0; j < 3; ++j)
-    {
-      const int a = int (t[j]), b = int (t[(j + 1) % 3]);
-      ++uses[{std::min (a, b), std::max (a, b)}];
-    }
+  const auto uses = undirectedEdgeUses (triangles);
   std::size_t open = 0;
   for (const auto& [e, n] : uses)
     open += n == 1;
@@ -78,10 +83,7 @@ boundaryEdges (const std::vector<pcl::Vertices>& polygons)
 std::size_t
 boundaryGroups (const std::vector<Triangle>& triangles)
 {
-  std::map<std::pair<std::uint32_t, std::uint32_t>, int> uses;
-  for (const auto& t : triangles)
-    for (int j = 0; j < 3; ++j)
-      ++uses[{std::min (t[j], t[(j + 1) % 3]), std::max (t[j], t[(j + 1) % 3])}];
+  const auto uses = undirectedEdgeUses (triangles);
   std::map<std::uint32_t, std::uint32_t> parent;
   const auto root = [&] (std::uint32_t v) {
     while (parent[v] != v)
