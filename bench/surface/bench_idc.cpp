@@ -677,7 +677,8 @@ struct Bench
           {"holes_filled", double (os.holes_filled)}, {"holes_open", double (os.holes_open)},
           {"hole_triangles", double (os.hole_triangles)}, {"holes_ms", os.t_holes_ms},
           {"last_vertices_ms", os.t_vertices_ms}, {"last_polygons_ms", os.t_polygons_ms},
-          {"last_output_ms", os.t_output_ms}, {"last_reconstruct_ms", os.last_reconstruct_ms}});
+          {"last_output_ms", os.t_output_ms}, {"collapse_ms", os.t_collapse_ms},
+          {"last_reconstruct_ms", os.last_reconstruct_ms}});
     if (frame_rows)
       frameRows (s, incremental ? "idc_incremental" : "idc", leaf, ms);
   }

@@ -26,6 +26,8 @@ constexpr std::ptrdiff_t kMinParallelEdges = 4096;
 // the vertices on the cuts are held; then the cuts collapse. The result does not depend on the
 // number of threads.
 constexpr int kSlabs = 4;
+// The adjacency is built over ranges of this many vertices in parallel.
+constexpr std::size_t kVerticesPerRange = 16384;
 
 // A candidate collapse of the edge (a, b).
 struct Candidate
@@ -200,12 +202,17 @@ private:
     std::vector<double> coord (n);
     for (std::size_t v = 0; v < n; ++v)
       coord[v] = pos_[v][axis];
-    std::vector<double> sorted = coord;
-    std::sort (sorted.begin (), sorted.end ());
+    std::vector<double> order = coord;
+    double cuts[kSlabs];
+    for (int s = 1; s < kSlabs; ++s)
+    {
+      std::nth_element (order.begin (), order.begin () + s * n / kSlabs, order.end ());
+      cuts[s] = order[s * n / kSlabs];
+    }
     slab_.assign (n, 0);
     for (std::size_t v = 0; v < n; ++v)
       for (int s = 1; s < kSlabs; ++s)
-        slab_[v] += coord[v] >= sorted[s * n / kSlabs];
+        slab_[v] += coord[v] >= cuts[s];
     held_.assign (n, 0);
     for (const auto& [a, b] : edges_)
       if (slab_[a] != slab_[b])
@@ -236,16 +243,42 @@ private:
   buildAdjacency ()
   {
     const std::size_t n = pos_.size ();
-    vf_.assign (n, {});
-    for (std::size_t f = 0; f < tris_.size (); ++f)
-      for (std::uint32_t v : tris_[f])
-        vf_[v].push_back (static_cast<std::int32_t> (f));
+    listFaces ();
     face_alive_.assign (tris_.size (), 1);
     boundary_.assign (n, 0);
     locked_.assign (n, 0);
     stamp_.assign (n, 0);
+    // Vertices in fixed ranges, each range's edges found in parallel and appended in order, so
+    // the edges keep the order of their first vertex whatever the number of threads.
+    const std::ptrdiff_t ranges = static_cast<std::ptrdiff_t> ((n + kVerticesPerRange - 1) / kVerticesPerRange);
+    std::vector<RangeEdges> found (ranges);
+#pragma omp parallel for schedule (dynamic, 1)
+    for (std::ptrdiff_t r = 0; r < ranges; ++r)
+      edgesFrom (r * kVerticesPerRange, std::min (n, (r + 1) * kVerticesPerRange), found[r]);
+    for (const RangeEdges& f : found)
+    {
+      edges_.insert (edges_.end (), f.edges.begin (), f.edges.end ());
+      boundary_edges_.insert (boundary_edges_.end (), f.boundary.begin (), f.boundary.end ());
+      for (std::int32_t v : f.locked)
+        locked_[v] = 1;
+    }
+    for (const auto& [a, b] : boundary_edges_)
+      boundary_[a] = boundary_[b] = 1;
+  }
+
+  // The edges (a, b), a < b, of the vertices a in [begin, end): each once, the boundary edges
+  // (one triangle) and the ends of edges with more than two.
+  struct RangeEdges
+  {
+    std::vector<std::pair<std::int32_t, std::int32_t>> edges, boundary;
+    std::vector<std::int32_t> locked;
+  };
+
+  void
+  edgesFrom (std::size_t begin, std::size_t end, RangeEdges& out) const
+  {
     std::vector<std::int32_t> ends;
-    for (std::size_t v = 0; v < n; ++v)
+    for (std::size_t v = begin; v < end; ++v)
     {
       const std::int32_t a = static_cast<std::int32_t> (v);
       ends.clear ();
@@ -261,15 +294,38 @@ private:
           ++j;
         const std::int32_t b = ends[k];
         if (j - k > 2)
-          locked_[a] = locked_[b] = 1;
+        {
+          out.locked.push_back (a);
+          out.locked.push_back (b);
+        }
         else if (j - k == 1)
-          boundary_edges_.emplace_back (a, b);
-        edges_.emplace_back (a, b);
+          out.boundary.emplace_back (a, b);
+        out.edges.emplace_back (a, b);
         k = j;
       }
     }
-    for (const auto& [a, b] : boundary_edges_)
-      boundary_[a] = boundary_[b] = 1;
+  }
+
+  // Each vertex's faces in increasing order: counted, placed, then copied to their lists in parallel.
+  void
+  listFaces ()
+  {
+    const std::size_t n = pos_.size ();
+    std::vector<std::uint32_t> start (n + 1, 0);
+    for (const auto& t : tris_)
+      for (std::uint32_t v : t)
+        ++start[v + 1];
+    for (std::size_t v = 0; v < n; ++v)
+      start[v + 1] += start[v];
+    std::vector<std::int32_t> faces (start[n]);
+    std::vector<std::uint32_t> next (start.begin (), start.end () - 1);
+    for (std::size_t f = 0; f < tris_.size (); ++f)
+      for (std::uint32_t v : tris_[f])
+        faces[next[v]++] = static_cast<std::int32_t> (f);
+    vf_.assign (n, {});
+#pragma omp parallel for schedule (static)
+    for (std::ptrdiff_t v = 0; v < static_cast<std::ptrdiff_t> (n); ++v)
+      vf_[v].assign (faces.begin () + start[v], faces.begin () + start[v + 1]);
   }
 
   // Each vertex's planes, contiguous, and their quadric: its own planes and, on the boundary,
@@ -292,19 +348,26 @@ private:
       extra[b].push_back (plane);
     }
     first_.assign (n + 1, 0);
-    planes_.clear ();
-    planes_.reserve (vp.planes.size () + 2 * boundary_edges_.size ());
+    for (std::size_t v = 0; v < n; ++v)
+      first_[v + 1] = first_[v] + (vp.begin[v + 1] - vp.begin[v]) + static_cast<std::uint32_t> (extra[v].size ());
+    planes_.resize (first_[n]);
     q_.assign (n, PlaneQuadric::Zero ());
     count_.assign (n, 0);
-    for (std::size_t v = 0; v < n; ++v)
+    reach_.assign (n, 0.f);
+    spread_.assign (n, 0.f);
+    axis_.assign (n, Eigen::Vector3f::Zero ());
+#pragma omp parallel for schedule (static)
+    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t> (n); ++i)
     {
+      const auto v = static_cast<std::size_t> (i);
       locked_[v] |= vp.begin[v + 1] == vp.begin[v];
-      planes_.insert (planes_.end (), vp.planes.begin () + vp.begin[v], vp.planes.begin () + vp.begin[v + 1]);
-      planes_.insert (planes_.end (), extra[v].begin (), extra[v].end ());
-      first_[v + 1] = static_cast<std::uint32_t> (planes_.size ());
+      const auto own = std::copy (vp.planes.begin () + vp.begin[v], vp.planes.begin () + vp.begin[v + 1],
+                                  planes_.begin () + first_[v]);
+      std::copy (extra[v].begin (), extra[v].end (), own);
       for (std::uint32_t k = first_[v]; k < first_[v + 1]; ++k)
         addPlane (q_[v], planes_[k].head<3> ().cast<double> (), planes_[k][3], 1.0);
       count_[v] = first_[v + 1] - first_[v];
+      summarise (static_cast<std::int32_t> (v));
     }
     // Every vertex starts as a cluster of itself.
     next_.assign (n, -1);
@@ -408,21 +471,65 @@ private:
     return common == shared;
   }
 
-  // The largest distance of x to the planes a and b answer for, or the first one over the bound.
+  // The summary of an input vertex's own planes (reach_, axis_, spread_).
+  void
+  summarise (std::int32_t v)
+  {
+    if (first_[v + 1] == first_[v])
+      return;
+    Eigen::Vector3f sum = Eigen::Vector3f::Zero ();
+    for (std::uint32_t k = first_[v]; k < first_[v + 1]; ++k)
+      sum += planes_[k].head<3> ();
+    const float len = sum.norm ();
+    axis_[v] = len > 0.5f ? Eigen::Vector3f (sum / len) : Eigen::Vector3f (planes_[first_[v]].head<3> ());
+    const Eigen::Vector3f p = pos_[v].cast<float> ();
+    for (std::uint32_t k = first_[v]; k < first_[v + 1]; ++k)
+    {
+      spread_[v] = std::max (spread_[v], (planes_[k].head<3> () - axis_[v]).norm ());
+      reach_[v] = std::max (reach_[v], std::abs (planes_[k].head<3> ().dot (p) + planes_[k][3]));
+    }
+  }
+
+  // An upper bound of the distance of x to the planes c answers for, from c's summary; `slack`
+  // covers the rounding of the float distances the summary and the exact test compute.
+  float
+  summaryBound (std::int32_t c, const Eigen::Vector3f& x, float slack) const
+  {
+    const Eigen::Vector3f delta = x - pos_[c].cast<float> ();
+    return reach_[c] + std::abs (axis_[c].dot (delta)) + spread_[c] * delta.norm () + slack;
+  }
+
+  // The largest distance of x to the planes c answers for, or the first one over `bound`.
+  float
+  clusterDistance (std::int32_t c, const Eigen::Vector3f& x, float bound) const
+  {
+    float worst = 0;
+    for (std::int32_t v = c; v >= 0; v = next_[v])
+      for (std::uint32_t k = first_[v]; k < first_[v + 1]; ++k)
+      {
+        worst = std::max (worst, std::abs (planes_[k].head<3> ().dot (x) + planes_[k][3]));
+        if (worst > bound)
+          return worst;
+      }
+    return worst;
+  }
+
+  // An upper bound of the largest distance of x to the planes a and b answer for, exact where
+  // the summaries cannot show it within the bound; over the bound exactly when that distance is.
   double
   maxDistance (std::int32_t a, std::int32_t b, const Eigen::Vector3d& x) const
   {
     const Eigen::Vector3f xf = x.cast<float> ();
     const float bound = static_cast<float> (eps_);
+    const float slack = 16 * std::numeric_limits<float>::epsilon () * (1 + xf.cwiseAbs ().sum ());
     float worst = 0;
     for (std::int32_t c : {a, b})
-      for (std::int32_t v = c; v >= 0; v = next_[v])
-        for (std::uint32_t k = first_[v]; k < first_[v + 1]; ++k)
-        {
-          worst = std::max (worst, std::abs (planes_[k].head<3> ().dot (xf) + planes_[k][3]));
-          if (worst > bound)
-            return worst;
-        }
+    {
+      const float quick = summaryBound (c, xf, slack);
+      worst = std::max (worst, quick <= bound ? quick : clusterDistance (c, xf, bound));
+      if (worst > bound)
+        return worst;
+    }
     return worst;
   }
 
@@ -451,10 +558,24 @@ private:
     return false;
   }
 
-  // Collapses b into a at x and queues a's edges again.
+  // The summary of a and b's planes for their merged vertex, whose largest distance to them is
+  // at most reach.
   void
-  collapse (Worker& w, std::int32_t a, std::int32_t b, const Eigen::Vector3d& x)
+  mergeSummaries (std::int32_t a, std::int32_t b, double reach)
   {
+    const Eigen::Vector3f sum = static_cast<float> (count_[a]) * axis_[a] + static_cast<float> (count_[b]) * axis_[b];
+    const float len = sum.norm ();
+    const Eigen::Vector3f axis = len > 0 ? Eigen::Vector3f (sum / len) : axis_[a];
+    spread_[a] = std::max (spread_[a] + (axis_[a] - axis).norm (), spread_[b] + (axis_[b] - axis).norm ());
+    axis_[a] = axis;
+    reach_[a] = static_cast<float> (reach);
+  }
+
+  // Collapses b into a at x, within reach of their planes, and queues a's edges again.
+  void
+  collapse (Worker& w, std::int32_t a, std::int32_t b, const Eigen::Vector3d& x, double reach)
+  {
+    mergeSummaries (a, b, reach);
     pos_[a] = x;
     q_[a] += q_[b];
     next_[last_[a]] = b;
@@ -520,7 +641,7 @@ private:
         ++st.rejected_foldover;
         continue;
       }
-      collapse (w, a, b, x);
+      collapse (w, a, b, x, d);
       ++st.collapses;
       st.max_distance = std::max (st.max_distance, d);
     }
@@ -544,6 +665,11 @@ private:
   std::vector<std::uint32_t> first_;
   std::vector<std::int32_t> next_, last_;
   std::vector<std::size_t> count_;
+  // Per live vertex, a summary of its planes that bounds their distances to any point without
+  // reading them: reach_ ≥ the largest distance of pos_ to them, axis_ a unit normal and spread_
+  // ≥ |n − axis_| over their normals n, so |n·x + d| ≤ reach_ + |axis_·Δ| + spread_ |Δ|, Δ = x − pos_.
+  std::vector<float> reach_, spread_;
+  std::vector<Eigen::Vector3f> axis_;
 
 };
 

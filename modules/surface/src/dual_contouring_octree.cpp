@@ -2233,15 +2233,25 @@ std::size_t
 collapseAcrossNodes (const DualContouringOctree::Impl& m, double eps, const std::vector<std::uint64_t>& refs,
                      std::vector<Eigen::Vector3f>& points, std::vector<pclx::surface::detail::Triangle>& tris)
 {
+  // Each vertex's planes copied from its root, placed by their counts first so that the copies
+  // run in parallel.
   pclx::surface::detail::VertexPlanes vp;
-  vp.begin.reserve (refs.size () + 1);
-  vp.begin.push_back (0);
-  for (const std::uint64_t ref : refs)
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t> (refs.size ());
+  vp.begin.resize (n + 1);
+  vp.begin[0] = 0;
+  for (std::ptrdiff_t k = 0; k < n; ++k)
   {
-    const auto& r = *m.roots[ref >> 16];
-    const std::size_t i = ref & 0xFFFF;
-    vp.planes.insert (vp.planes.end (), r.planes.begin () + r.plane_begin[i], r.planes.begin () + r.plane_begin[i + 1]);
-    vp.begin.push_back (static_cast<std::uint32_t> (vp.planes.size ()));
+    const auto& r = *m.roots[refs[k] >> 16];
+    const std::size_t i = refs[k] & 0xFFFF;
+    vp.begin[k + 1] = vp.begin[k] + (r.plane_begin[i + 1] - r.plane_begin[i]);
+  }
+  vp.planes.resize (vp.begin[n]);
+#pragma omp parallel for schedule (static)
+  for (std::ptrdiff_t k = 0; k < n; ++k)
+  {
+    const auto& r = *m.roots[refs[k] >> 16];
+    const std::size_t i = refs[k] & 0xFFFF;
+    std::copy (r.planes.begin () + r.plane_begin[i], r.planes.begin () + r.plane_begin[i + 1], vp.planes.begin () + vp.begin[k]);
   }
   pclx::surface::detail::EdgeCollapseStats cs;
   if (!pclx::surface::detail::collapseEdgesWithinDistance (points, tris, vp, eps, kMaxVertexPlanes, cs))

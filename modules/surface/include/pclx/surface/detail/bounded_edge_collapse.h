@@ -32,7 +32,7 @@ struct EdgeCollapseStats
   std::size_t rejected_distance = 0;  ///< candidates whose vertex would leave a plane by more than the bound
   std::size_t rejected_foldover = 0;  ///< candidates that would flip or degenerate a triangle
   std::size_t rejected_size = 0;      ///< candidates whose vertex would answer for too many planes
-  double max_distance = 0;            ///< largest distance of a collapsed vertex to its planes
+  double max_distance = 0;            ///< at least the largest distance of a collapsed vertex to its planes, at most the bound
 };
 
 /** \brief Simplifies a triangle mesh by edge collapses in the order of their quadric error, each
@@ -41,8 +41,12 @@ struct EdgeCollapseStats
   *
   * A vertex's planes are its own plus those of the vertices collapsed into it, so the bound holds
   * against the input's planes however many collapses a vertex absorbs, not only against its
-  * neighbours of the moment. The mesh keeps its topology: a collapse must pass the link condition,
-  * may not join two boundary vertices across the surface, and no triangle may flip or degenerate.
+  * neighbours of the moment. Each vertex also keeps a summary of its planes (a mean normal, how
+  * far their normals spread from it, and its largest distance to them), which bounds its distance
+  * to them at a new position: the planes themselves are read only where that bound exceeds
+  * \a max_distance, and the collapses taken are those of the exact test. The mesh keeps its
+  * topology: a collapse must pass the link condition, may not join two boundary vertices across
+  * the surface, and no triangle may flip or degenerate.
   * Boundary edges add planes perpendicular to their triangle, so a boundary moves by at most
   * \a max_distance too and a hole never opens or grows beyond the bound. Vertices without planes
   * and vertices of non-manifold edges are never moved. The mesh is cut into four slabs that
