@@ -1479,10 +1479,11 @@ public:
   void
   compute (const Root& r, const RootCache& rc, DualContouringOctree::SignRule rule)
   {
+    // Every vertex is written below, so the arrays are only sized.
     const std::size_t n = static_cast<std::size_t> (side_) * side_ * side_;
-    sign_.assign (n, 0);
-    topo_.assign (n, 1);
-    sdf_.assign (n, 0);
+    sign_.resize (n);
+    topo_.resize (n);
+    sdf_.resize (n);
     ambiguous_ = 0;
     if (rule == DualContouringOctree::SignRule::WEIGHTED)
       readWeighted (r, rc);
@@ -1557,17 +1558,27 @@ private:
   readWeighted (const Root& r, const RootCache& rc)
   {
     const int lo = -1 - margin_, hi = kRootSide + 1 + margin_;
+    if (margin_ > 0)
+      resizeRows ();
     for (int z = lo; z <= hi; ++z)
       for (int y = lo; y <= hi; ++y)
       {
         const int gy = r.origin.y () + y, gz = r.origin.z () + z;
         const bool own_row = y >= 0 && z >= 0 && y < kRootSide && z < kRootSide;
+        std::uint32_t observed = 0, interior = 0;  // the row's masks for the fill
         for (int x = lo; x <= hi;)
         {
           const int gx = r.origin.x () + x;
           const int run = std::min (hi - x + 1, kRootSide - (gx & (kRootSide - 1)));
           const Root* src = rc.findCell (gx, gy, gz);
-          if (src)
+          if (!src)
+          {
+            const int i0 = index (x, y, z);
+            std::fill_n (sign_.begin () + i0, run, std::int8_t (0));
+            std::fill_n (topo_.begin () + i0, run, std::int8_t (1));
+            std::fill_n (sdf_.begin () + i0, run, 0);
+          }
+          else
           {
             const int first = localIndex (gx, gy, gz), i0 = index (x, y, z);
             for (int k = 0; k < run; ++k)
@@ -1580,11 +1591,28 @@ private:
               topo_[i0 + k] = static_cast<std::int8_t> (s < 0 ? -1 : 1);
               sdf_[i0 + k] = d;
               ambiguous_ += vote == 2 && own_row && x + k >= 0 && x + k < kRootSide;
+              observed |= static_cast<std::uint32_t> (s != 0) << (x + k - lo);
+              interior |= static_cast<std::uint32_t> (s < 0) << (x + k - lo);
             }
           }
           x += run;
         }
+        if (margin_ > 0)
+        {
+          const std::size_t row = static_cast<std::size_t> (y - lo) + static_cast<std::size_t> (side_) * (z - lo);
+          reached_[row] = observed;
+          interior_[row] = interior;
+        }
       }
+    masks_ready_ = margin_ > 0;
+  }
+  // Sizes the fill's row masks for this block.
+  void
+  resizeRows ()
+  {
+    const std::size_t rows = static_cast<std::size_t> (side_) * side_;  // row y + n z
+    for (auto* v : {&reached_, &interior_, &observed_in_, &front_in_, &front_out_, &vote_in_, &vote_out_})
+      v->resize (rows);
   }
   // Breadth-first layers from the observed vertices, 6-connected, `depth` steps: a vertex first
   // reached in a layer takes the interior sign when only interior vertices of the layer before
@@ -1596,20 +1624,27 @@ private:
     const int n = side_;
     const std::uint32_t full = n == 32 ? ~0u : (1u << n) - 1;
     const std::size_t rows = static_cast<std::size_t> (n) * n;  // row y + n z
-    for (auto* v : {&reached_, &interior_, &front_in_, &front_out_, &vote_in_, &vote_out_})
-      v->resize (rows);
+    if (!masks_ready_)
+    {
+      resizeRows ();
+      for (std::size_t row = 0; row < rows; ++row)
+      {
+        std::uint32_t r = 0, in = 0;
+        for (int x = 0; x < n; ++x)
+        {
+          r |= static_cast<std::uint32_t> (sign_[row * n + x] != 0) << x;
+          in |= static_cast<std::uint32_t> (topo_[row * n + x] < 0) << x;
+        }
+        reached_[row] = r;
+        interior_[row] = in;
+      }
+    }
+    masks_ready_ = false;
     for (std::size_t row = 0; row < rows; ++row)
     {
-      std::uint32_t r = 0, in = 0;
-      for (int x = 0; x < n; ++x)
-      {
-        r |= static_cast<std::uint32_t> (sign_[row * n + x] != 0) << x;
-        in |= static_cast<std::uint32_t> (topo_[row * n + x] < 0) << x;
-      }
-      reached_[row] = r;
-      interior_[row] = in;
-      front_in_[row] = r & in;
-      front_out_[row] = r & ~in;
+      observed_in_[row] = interior_[row];
+      front_in_[row] = reached_[row] & interior_[row];
+      front_out_[row] = reached_[row] & ~interior_[row];
     }
     // The vertices next to a mask's vertices in row (y, z).
     const auto spread = [&] (const std::vector<std::uint32_t>& m, int y, int z) {
@@ -1647,15 +1682,19 @@ private:
       if (!any)
         break;
     }
+    // The fill only adds interior vertices: those turn from exterior to interior.
     for (std::size_t row = 0; row < rows; ++row)
-      for (int x = 0; x < n; ++x)
-        topo_[row * n + x] = static_cast<std::int8_t> ((interior_[row] >> x & 1u) ? -1 : 1);
+      for (std::uint32_t added = interior_[row] & ~observed_in_[row]; added != 0; added &= added - 1)
+        topo_[row * n + static_cast<std::size_t> (__builtin_ctz (added))] = -1;
   }
 
   int margin_, side_;
   std::vector<std::int8_t> sign_, topo_;
   std::vector<std::int32_t> sdf_;
-  std::vector<std::uint32_t> reached_, interior_, front_in_, front_out_, vote_in_, vote_out_;  // fill rows
+  // The fill's rows: observed vertices, interior ones (observed, then filled), the observed
+  // interior, each layer's fronts and votes.
+  std::vector<std::uint32_t> reached_, interior_, observed_in_, front_in_, front_out_, vote_in_, vote_out_;
+  bool masks_ready_ = false;  // reached_ and interior_ filled by readWeighted
   std::size_t ambiguous_ = 0;
 };
 
