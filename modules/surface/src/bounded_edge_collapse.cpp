@@ -1,5 +1,6 @@
 #include <pclx/surface/detail/bounded_edge_collapse.h>
 #include <pclx/surface/detail/plane_quadric.h>
+#include <pclx/surface/detail/plane_set_bound.h>
 
 #include <pcl/console/print.h>
 
@@ -353,9 +354,7 @@ private:
     planes_.resize (first_[n]);
     q_.assign (n, PlaneQuadric::Zero ());
     count_.assign (n, 0);
-    reach_.assign (n, 0.f);
-    spread_.assign (n, 0.f);
-    axis_.assign (n, Eigen::Vector3f::Zero ());
+    bound_.resize (n);
 #pragma omp parallel for schedule (static)
     for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t> (n); ++i)
     {
@@ -367,7 +366,7 @@ private:
       for (std::uint32_t k = first_[v]; k < first_[v + 1]; ++k)
         addPlane (q_[v], planes_[k].head<3> ().cast<double> (), planes_[k][3], 1.0);
       count_[v] = first_[v + 1] - first_[v];
-      summarise (static_cast<std::int32_t> (v));
+      bound_[v] = PlaneSetBound::of (planes_.data () + first_[v], planes_.data () + first_[v + 1], pos_[v].cast<float> ());
     }
     // Every vertex starts as a cluster of itself.
     next_.assign (n, -1);
@@ -471,34 +470,6 @@ private:
     return common == shared;
   }
 
-  // The summary of an input vertex's own planes (reach_, axis_, spread_).
-  void
-  summarise (std::int32_t v)
-  {
-    if (first_[v + 1] == first_[v])
-      return;
-    Eigen::Vector3f sum = Eigen::Vector3f::Zero ();
-    for (std::uint32_t k = first_[v]; k < first_[v + 1]; ++k)
-      sum += planes_[k].head<3> ();
-    const float len = sum.norm ();
-    axis_[v] = len > 0.5f ? Eigen::Vector3f (sum / len) : Eigen::Vector3f (planes_[first_[v]].head<3> ());
-    const Eigen::Vector3f p = pos_[v].cast<float> ();
-    for (std::uint32_t k = first_[v]; k < first_[v + 1]; ++k)
-    {
-      spread_[v] = std::max (spread_[v], (planes_[k].head<3> () - axis_[v]).norm ());
-      reach_[v] = std::max (reach_[v], std::abs (planes_[k].head<3> ().dot (p) + planes_[k][3]));
-    }
-  }
-
-  // An upper bound of the distance of x to the planes c answers for, from c's summary; `slack`
-  // covers the rounding of the float distances the summary and the exact test compute.
-  float
-  summaryBound (std::int32_t c, const Eigen::Vector3f& x, float slack) const
-  {
-    const Eigen::Vector3f delta = x - pos_[c].cast<float> ();
-    return reach_[c] + std::abs (axis_[c].dot (delta)) + spread_[c] * delta.norm () + slack;
-  }
-
   // The largest distance of x to the planes c answers for, or the first one over `bound`.
   float
   clusterDistance (std::int32_t c, const Eigen::Vector3f& x, float bound) const
@@ -515,17 +486,18 @@ private:
   }
 
   // An upper bound of the largest distance of x to the planes a and b answer for, exact where
-  // the summaries cannot show it within the bound; over the bound exactly when that distance is.
+  // their PlaneSetBound cannot show it within the bound; over the bound exactly when that
+  // distance is.
   double
   maxDistance (std::int32_t a, std::int32_t b, const Eigen::Vector3d& x) const
   {
     const Eigen::Vector3f xf = x.cast<float> ();
     const float bound = static_cast<float> (eps_);
-    const float slack = 16 * std::numeric_limits<float>::epsilon () * (1 + xf.cwiseAbs ().sum ());
+    const float slack = PlaneSetBound::slackAt (xf);
     float worst = 0;
     for (std::int32_t c : {a, b})
     {
-      const float quick = summaryBound (c, xf, slack);
+      const float quick = bound_[c].at (xf - pos_[c].cast<float> (), slack);
       worst = std::max (worst, quick <= bound ? quick : clusterDistance (c, xf, bound));
       if (worst > bound)
         return worst;
@@ -558,24 +530,12 @@ private:
     return false;
   }
 
-  // The summary of a and b's planes for their merged vertex, whose largest distance to them is
-  // at most reach.
-  void
-  mergeSummaries (std::int32_t a, std::int32_t b, double reach)
-  {
-    const Eigen::Vector3f sum = static_cast<float> (count_[a]) * axis_[a] + static_cast<float> (count_[b]) * axis_[b];
-    const float len = sum.norm ();
-    const Eigen::Vector3f axis = len > 0 ? Eigen::Vector3f (sum / len) : axis_[a];
-    spread_[a] = std::max (spread_[a] + (axis_[a] - axis).norm (), spread_[b] + (axis_[b] - axis).norm ());
-    axis_[a] = axis;
-    reach_[a] = static_cast<float> (reach);
-  }
-
   // Collapses b into a at x, within reach of their planes, and queues a's edges again.
   void
   collapse (Worker& w, std::int32_t a, std::int32_t b, const Eigen::Vector3d& x, double reach)
   {
-    mergeSummaries (a, b, reach);
+    bound_[a] = PlaneSetBound::merge (bound_[a], static_cast<float> (count_[a]), bound_[b], static_cast<float> (count_[b]),
+                                      static_cast<float> (reach));
     pos_[a] = x;
     q_[a] += q_[b];
     next_[last_[a]] = b;
@@ -665,11 +625,8 @@ private:
   std::vector<std::uint32_t> first_;
   std::vector<std::int32_t> next_, last_;
   std::vector<std::size_t> count_;
-  // Per live vertex, a summary of its planes that bounds their distances to any point without
-  // reading them: reach_ ≥ the largest distance of pos_ to them, axis_ a unit normal and spread_
-  // ≥ |n − axis_| over their normals n, so |n·x + d| ≤ reach_ + |axis_·Δ| + spread_ |Δ|, Δ = x − pos_.
-  std::vector<float> reach_, spread_;
-  std::vector<Eigen::Vector3f> axis_;
+  // Per live vertex, a bound on its distance to the planes it answers for, made at pos_.
+  std::vector<PlaneSetBound> bound_;
 
 };
 

@@ -1,6 +1,7 @@
 // pclx::surface::detail::collapseEdgesWithinDistance: the edge collapse that simplifies
 // incremental dual contouring's mesh beyond its octree.
 #include <pclx/surface/detail/bounded_edge_collapse.h>
+#include <pclx/surface/detail/plane_set_bound.h>
 #include <pclx/testing/shapes.h>
 
 #include <gtest/gtest.h>
@@ -18,6 +19,7 @@ namespace {
 
 using pclx::surface::detail::collapseEdgesWithinDistance;
 using pclx::surface::detail::EdgeCollapseStats;
+using pclx::surface::detail::PlaneSetBound;
 using pclx::surface::detail::Triangle;
 using pclx::surface::detail::VertexPlanes;
 
@@ -223,6 +225,80 @@ TEST (BoundedEdgeCollapse, VerticesWithoutPlanesStay)
   EXPECT_GT (st.collapses, 0u);
   for (const auto& p : fixed)
     EXPECT_TRUE (std::find (m.vertices.begin (), m.vertices.end (), p) != m.vertices.end ()) << p.transpose ();
+}
+
+// Planes near p: normals within `spread_deg` of a random direction (some flipped), offsets
+// putting p within `offset` of each.
+std::vector<Eigen::Vector4f>
+planesNear (const Eigen::Vector3f& p, float spread_deg, float offset, std::mt19937& rng)
+{
+  std::uniform_int_distribution<int> count (1, 8);
+  std::normal_distribution<float> g (0.f, 1.f);
+  std::uniform_real_distribution<float> u (-1.f, 1.f);
+  const Eigen::Vector3f base = Eigen::Vector3f (g (rng), g (rng), g (rng)).normalized ();
+  std::vector<Eigen::Vector4f> planes;
+  for (int k = count (rng); k > 0; --k)
+  {
+    const float tilt = spread_deg * static_cast<float> (M_PI) / 180.f * std::abs (u (rng));
+    const Eigen::Vector3f side = base.cross (Eigen::Vector3f (g (rng), g (rng), g (rng))).normalized ();
+    Eigen::Vector3f n = (std::cos (tilt) * base + std::sin (tilt) * side).normalized ();
+    if (u (rng) > 0.8f)
+      n = -n;
+    planes.emplace_back (n.x (), n.y (), n.z (), -n.dot (p) + offset * u (rng));
+  }
+  return planes;
+}
+
+// The largest distance of x to the planes, in float as the collapse computes it.
+float
+largestDistance (const std::vector<Eigen::Vector4f>& planes, const Eigen::Vector3f& x)
+{
+  float worst = 0;
+  for (const auto& pl : planes)
+    worst = std::max (worst, std::abs (pl.head<3> ().dot (x) + pl[3]));
+  return worst;
+}
+
+TEST (BoundedEdgeCollapse, PlaneSetBoundStaysAboveEveryDistance)
+{
+  std::mt19937 rng (11);
+  std::uniform_real_distribution<float> u (-1.f, 1.f);
+  std::uniform_real_distribution<float> spread (0.f, 120.f);
+  const auto randomMove = [&] (float scale) -> Eigen::Vector3f { return Eigen::Vector3f (u (rng), u (rng), u (rng)) * scale; };
+  for (int trial = 0; trial < 2000; ++trial)
+  {
+    // A cluster merged from up to six sets, as collapses merge vertices, far from the origin so
+    // that the rounding slack matters.
+    const Eigen::Vector3f centre = randomMove (50.f);
+    Eigen::Vector3f at = centre + randomMove (0.01f);
+    std::vector<Eigen::Vector4f> all = planesNear (at, spread (rng), 0.005f, rng);
+    PlaneSetBound b = PlaneSetBound::of (all.data (), all.data () + all.size (), at);
+    ASSERT_GE (b.reach, largestDistance (all, at) - PlaneSetBound::slackAt (at));
+    for (int merges = static_cast<int> (rng () % 6); merges > 0; --merges)
+    {
+      const Eigen::Vector3f other_at = centre + randomMove (0.01f);
+      const std::vector<Eigen::Vector4f> other = planesNear (other_at, spread (rng), 0.005f, rng);
+      const PlaneSetBound ob = PlaneSetBound::of (other.data (), other.data () + other.size (), other_at);
+      const Eigen::Vector3f x = centre + randomMove (0.01f);
+      const float slack = PlaneSetBound::slackAt (x);
+      const float reach = std::max (b.at (x - at, slack), ob.at (x - other_at, slack));
+      b = PlaneSetBound::merge (b, static_cast<float> (all.size ()), ob, static_cast<float> (other.size ()), reach);
+      all.insert (all.end (), other.begin (), other.end ());
+      at = x;
+    }
+    for (float scale : {1e-4f, 1e-2f, 0.5f})
+    {
+      const Eigen::Vector3f delta = randomMove (scale), x = at + delta;
+      ASSERT_GE (b.at (delta, PlaneSetBound::slackAt (x)), largestDistance (all, x)) << "trial " << trial;
+    }
+  }
+  // On one plane, moving within it, the bound stays at the rounding slack: the collapse can
+  // skip reading such a cluster's planes.
+  const std::vector<Eigen::Vector4f> flat (5, Eigen::Vector4f (0.f, 0.f, 1.f, -2.f));
+  const Eigen::Vector3f p (3.f, 4.f, 2.f);
+  const PlaneSetBound fb = PlaneSetBound::of (flat.data (), flat.data () + flat.size (), p);
+  EXPECT_LE (fb.at (Eigen::Vector3f (0.01f, -0.02f, 0.f), PlaneSetBound::slackAt (p)), 1e-4f);
+  EXPECT_NEAR (fb.at (Eigen::Vector3f (0.f, 0.f, 0.003f), 0.f), 0.003f, 1e-6f);
 }
 
 TEST (BoundedEdgeCollapse, BadInputLeavesTheMeshUnchanged)
