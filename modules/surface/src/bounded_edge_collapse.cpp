@@ -366,7 +366,8 @@ private:
       for (std::uint32_t k = first_[v]; k < first_[v + 1]; ++k)
         addPlane (q_[v], planes_[k].head<3> ().cast<double> (), planes_[k][3], 1.0);
       count_[v] = first_[v + 1] - first_[v];
-      bound_[v] = PlaneSetBound::of (planes_.data () + first_[v], planes_.data () + first_[v + 1], pos_[v].cast<float> ());
+      bound_[v] =
+          PlaneSetBound::of (planes_.data () + first_[v], planes_.data () + first_[v + 1], pos_[v].cast<float> ());
     }
     // Every vertex starts as a cluster of itself.
     next_.assign (n, -1);
@@ -534,8 +535,8 @@ private:
   void
   collapse (Worker& w, std::int32_t a, std::int32_t b, const Eigen::Vector3d& x, double reach)
   {
-    bound_[a] = PlaneSetBound::merge (bound_[a], static_cast<float> (count_[a]), bound_[b], static_cast<float> (count_[b]),
-                                      static_cast<float> (reach));
+    bound_[a] = PlaneSetBound::merge (bound_[a], static_cast<float> (count_[a]), bound_[b],
+                                      static_cast<float> (count_[b]), static_cast<float> (reach));
     pos_[a] = x;
     q_[a] += q_[b];
     next_[last_[a]] = b;

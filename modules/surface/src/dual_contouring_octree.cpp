@@ -2290,7 +2290,8 @@ collapseAcrossNodes (const DualContouringOctree::Impl& m, double eps, const std:
   {
     const auto& r = *m.roots[refs[k] >> 16];
     const std::size_t i = refs[k] & 0xFFFF;
-    std::copy (r.planes.begin () + r.plane_begin[i], r.planes.begin () + r.plane_begin[i + 1], vp.planes.begin () + vp.begin[k]);
+    std::copy (r.planes.begin () + r.plane_begin[i], r.planes.begin () + r.plane_begin[i + 1],
+               vp.planes.begin () + vp.begin[k]);
   }
   pclx::surface::detail::EdgeCollapseStats cs;
   if (!pclx::surface::detail::collapseEdgesWithinDistance (points, tris, vp, eps, kMaxVertexPlanes, cs))

@@ -264,7 +264,9 @@ TEST (BoundedEdgeCollapse, PlaneSetBoundStaysAboveEveryDistance)
   std::mt19937 rng (11);
   std::uniform_real_distribution<float> u (-1.f, 1.f);
   std::uniform_real_distribution<float> spread (0.f, 120.f);
-  const auto randomMove = [&] (float scale) -> Eigen::Vector3f { return Eigen::Vector3f (u (rng), u (rng), u (rng)) * scale; };
+  const auto randomMove = [&] (float scale) -> Eigen::Vector3f {
+    return Eigen::Vector3f (u (rng), u (rng), u (rng)) * scale;
+  };
   for (int trial = 0; trial < 2000; ++trial)
   {
     // A cluster merged from up to six sets, as collapses merge vertices, far from the origin so

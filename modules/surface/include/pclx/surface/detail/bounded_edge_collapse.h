@@ -32,7 +32,7 @@ struct EdgeCollapseStats
   std::size_t rejected_distance = 0;  ///< candidates whose vertex would leave a plane by more than the bound
   std::size_t rejected_foldover = 0;  ///< candidates that would flip or degenerate a triangle
   std::size_t rejected_size = 0;      ///< candidates whose vertex would answer for too many planes
-  double max_distance = 0;            ///< at least the largest distance of a collapsed vertex to its planes, at most the bound
+  double max_distance = 0;            ///< at most the bound, at least a collapsed vertex's largest plane distance
 };
 
 /** \brief Simplifies a triangle mesh by edge collapses in the order of their quadric error, each
