@@ -1479,14 +1479,15 @@ public:
   void
   compute (const Root& r, const RootCache& rc, DualContouringOctree::SignRule rule)
   {
-    // Every vertex is written below, so the arrays are only sized.
     const std::size_t n = static_cast<std::size_t> (side_) * side_ * side_;
-    sign_.resize (n);
-    topo_.resize (n);
-    sdf_.resize (n);
+    sign_.assign (n, 0);
+    topo_.assign (n, 1);
+    sdf_.assign (n, 0);
     ambiguous_ = 0;
-    if (rule == DualContouringOctree::SignRule::WEIGHTED)
-      readWeighted (r, rc);
+    if (rule == DualContouringOctree::SignRule::WEIGHTED && margin_ > 0)
+      readWeighted<true> (r, rc);
+    else if (rule == DualContouringOctree::SignRule::WEIGHTED)
+      readWeighted<false> (r, rc);
     else
       resolveEach (r, rc, rule);
     if (margin_ > 0)
@@ -1553,32 +1554,27 @@ private:
         }
   }
   // The weighted rule's signs, as SignResolver::resolve gives them, read run by run along x from
-  // the (at most three) roots a row of the block crosses instead of one lookup per vertex.
+  // the (at most three) roots a row of the block crosses instead of one lookup per vertex. With
+  // `Masks` (a fill follows) it also builds the fill's row masks.
+  template <bool Masks>
   void
   readWeighted (const Root& r, const RootCache& rc)
   {
     const int lo = -1 - margin_, hi = kRootSide + 1 + margin_;
-    if (margin_ > 0)
+    if constexpr (Masks)
       resizeRows ();
     for (int z = lo; z <= hi; ++z)
       for (int y = lo; y <= hi; ++y)
       {
         const int gy = r.origin.y () + y, gz = r.origin.z () + z;
         const bool own_row = y >= 0 && z >= 0 && y < kRootSide && z < kRootSide;
-        std::uint32_t observed = 0, interior = 0;  // the row's masks for the fill
+        [[maybe_unused]] std::uint32_t observed = 0, interior = 0;  // the row's masks for the fill
         for (int x = lo; x <= hi;)
         {
           const int gx = r.origin.x () + x;
           const int run = std::min (hi - x + 1, kRootSide - (gx & (kRootSide - 1)));
           const Root* src = rc.findCell (gx, gy, gz);
-          if (!src)
-          {
-            const int i0 = index (x, y, z);
-            std::fill_n (sign_.begin () + i0, run, std::int8_t (0));
-            std::fill_n (topo_.begin () + i0, run, std::int8_t (1));
-            std::fill_n (sdf_.begin () + i0, run, 0);
-          }
-          else
+          if (src)
           {
             const int first = localIndex (gx, gy, gz), i0 = index (x, y, z);
             for (int k = 0; k < run; ++k)
@@ -1591,20 +1587,23 @@ private:
               topo_[i0 + k] = static_cast<std::int8_t> (s < 0 ? -1 : 1);
               sdf_[i0 + k] = d;
               ambiguous_ += vote == 2 && own_row && x + k >= 0 && x + k < kRootSide;
-              observed |= static_cast<std::uint32_t> (s != 0) << (x + k - lo);
-              interior |= static_cast<std::uint32_t> (s < 0) << (x + k - lo);
+              if constexpr (Masks)
+              {
+                observed |= static_cast<std::uint32_t> (s != 0) << (x + k - lo);
+                interior |= static_cast<std::uint32_t> (s < 0) << (x + k - lo);
+              }
             }
           }
           x += run;
         }
-        if (margin_ > 0)
+        if constexpr (Masks)
         {
           const std::size_t row = static_cast<std::size_t> (y - lo) + static_cast<std::size_t> (side_) * (z - lo);
           reached_[row] = observed;
           interior_[row] = interior;
         }
       }
-    masks_ready_ = margin_ > 0;
+    masks_ready_ = Masks;
   }
   // Sizes the fill's row masks for this block.
   void
