@@ -267,14 +267,15 @@ private:
       boundary_[a] = boundary_[b] = 1;
   }
 
-  // The edges (a, b), a < b, of the vertices a in [begin, end): each once, the boundary edges
-  // (one triangle) and the ends of edges with more than two.
+  // One vertex range's edges, boundary edges and vertices of edges with more than two triangles.
   struct RangeEdges
   {
     std::vector<std::pair<std::int32_t, std::int32_t>> edges, boundary;
     std::vector<std::int32_t> locked;
   };
 
+  // The edges (a, b), a < b, of the vertices a in [begin, end): each once, the boundary edges
+  // (one triangle) and the ends of edges with more than two.
   void
   edgesFrom (std::size_t begin, std::size_t end, RangeEdges& out) const
   {
