@@ -1491,7 +1491,7 @@ public:
     else
       resolveEach (r, rc, rule);
     if (margin_ > 0)
-      fillUnobserved (margin_);
+      fillUnobserved (margin_, rule == DualContouringOctree::SignRule::WEIGHTED);
   }
 
   int
@@ -1603,7 +1603,6 @@ private:
           interior_[row] = interior;
         }
       }
-    masks_ready_ = Masks;
   }
   // Sizes the fill's row masks for this block.
   void
@@ -1616,14 +1615,15 @@ private:
   // Breadth-first layers from the observed vertices, 6-connected, `depth` steps: a vertex first
   // reached in a layer takes the interior sign when only interior vertices of the layer before
   // reach it. The block's rows along x are bit masks (a block is at most 32 vertices wide), so a
-  // layer is a few word operations per row.
+  // layer is a few word operations per row. `masks_read`: readWeighted<true> built the observed
+  // and interior rows already.
   void
-  fillUnobserved (int depth)
+  fillUnobserved (int depth, bool masks_read)
   {
     const int n = side_;
     const std::uint32_t full = n == 32 ? ~0u : (1u << n) - 1;
     const std::size_t rows = static_cast<std::size_t> (n) * n;  // row y + n z
-    if (!masks_ready_)
+    if (!masks_read)
     {
       resizeRows ();
       for (std::size_t row = 0; row < rows; ++row)
@@ -1638,7 +1638,6 @@ private:
         interior_[row] = in;
       }
     }
-    masks_ready_ = false;
     for (std::size_t row = 0; row < rows; ++row)
     {
       observed_in_[row] = interior_[row];
@@ -1693,7 +1692,6 @@ private:
   // The fill's rows: observed vertices, interior ones (observed, then filled), the observed
   // interior, each layer's fronts and votes.
   std::vector<std::uint32_t> reached_, interior_, observed_in_, front_in_, front_out_, vote_in_, vote_out_;
-  bool masks_ready_ = false;  // reached_ and interior_ filled by readWeighted
   std::size_t ambiguous_ = 0;
 };
 
