@@ -42,8 +42,12 @@ struct HoleFillingScratch
   std::vector<std::uint8_t> ring;                         // OpenVertices
   std::vector<std::uint32_t> begin, corner;               // HalfEdges
   std::vector<std::uint32_t> parent, group_of;            // findBoundaries
-  std::vector<std::uint32_t> vertex_mark, triangle_mark;  // RingCollector
-  std::vector<std::uint32_t> local_index;                 // RingCollector, for LocalSurface
+  // RingCollector's marks and LocalSurface's numbering, one set per thread of the search.
+  struct RingMarks
+  {
+    std::vector<std::uint32_t> vertex_mark, triangle_mark, local_index;
+  };
+  std::vector<RingMarks> rings;
 };
 
 std::size_t
@@ -53,9 +57,10 @@ HolePatchCache::scratchBytes () const
     return 0;
   const HoleFillingScratch& s = *scratch;
   std::size_t words = 0;
-  for (const auto* v :
-       {&s.open, &s.begin, &s.corner, &s.parent, &s.group_of, &s.vertex_mark, &s.triangle_mark, &s.local_index})
+  for (const auto* v : {&s.open, &s.begin, &s.corner, &s.parent, &s.group_of})
     words += v->capacity ();
+  for (const auto& r : s.rings)
+    words += r.vertex_mark.capacity () + r.triangle_mark.capacity () + r.local_index.capacity ();
   return 4 * words + sizeof (std::uint64_t) * (s.balance.capacity () + s.hash.capacity ()) + s.ring.capacity ();
 }
 
@@ -372,7 +377,7 @@ findBoundaries (const std::vector<Eigen::Vector3f>& vertices, const OpenVertices
 class RingCollector
 {
 public:
-  RingCollector (const HalfEdges& he, const std::vector<Triangle>& triangles, HoleFillingScratch& s)
+  RingCollector (const HalfEdges& he, const std::vector<Triangle>& triangles, HoleFillingScratch::RingMarks& s)
     : he_ (he)
     , triangles_ (triangles)
     , vertex_mark_ (s.vertex_mark)
@@ -644,23 +649,26 @@ cycleOrder (const HalfEdges& he, const std::vector<std::uint32_t>& boundary)
   return cycle.size () == boundary.size () ? cycle : std::vector<std::uint32_t>{};
 }
 
+// The area of triangle t.
+double
+areaOf (const std::vector<Eigen::Vector3f>& vertices, const Triangle& t)
+{
+  return double ((vertices[t[1]] - vertices[t[0]]).cross (vertices[t[2]] - vertices[t[0]]).norm ()) / 2;
+}
+
 // A hole of three or four edges (one missing triangle or dual quad) closes with one or two
-// triangles along the shorter free diagonal: the density around it, nothing to fair. False
-// when the hole is not such a cycle or every way to close it would repeat an edge or have no area.
-bool
-closeTinyHole (const HalfEdges& he, const std::vector<std::uint32_t>& boundary,
-               const std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& triangles,
-               HoleFillingStats& stats)
+// triangles along the shorter free diagonal: the density around it, nothing to fair. Empty when
+// the hole is not such a cycle or every way to close it would repeat an edge or have no area.
+std::vector<Triangle>
+tinyHolePatch (const HalfEdges& he, const std::vector<std::uint32_t>& boundary,
+               const std::vector<Eigen::Vector3f>& vertices)
 {
   if (boundary.size () != 3 && boundary.size () != 4)
-    return false;
+    return {};
   std::vector<std::uint32_t> r = cycleOrder (he, boundary);
   if (r.empty ())
-    return false;
+    return {};
   std::reverse (r.begin () + 1, r.end ());  // the patch runs against the boundary's edges
-  auto area = [&] (std::uint32_t a, std::uint32_t b, std::uint32_t c) {
-    return double ((vertices[b] - vertices[a]).cross (vertices[c] - vertices[a]).norm ()) / 2;
-  };
   std::vector<Triangle> patch;
   if (r.size () == 3)
     patch.push_back ({r[0], r[1], r[2]});
@@ -671,22 +679,17 @@ closeTinyHole (const HalfEdges& he, const std::vector<std::uint32_t>& boundary,
     for (const int d : {first ? 0 : 1, first ? 1 : 0})
     {
       const std::uint32_t a = r[d], b = r[d + 1], c = r[d + 2], e = r[(d + 3) % 4];
-      if (he.count (a, c) + he.countInto (a, c) == 0 && area (a, b, c) > 0 && area (a, c, e) > 0)
+      if (he.count (a, c) + he.countInto (a, c) == 0 && areaOf (vertices, {a, b, c}) > 0 &&
+          areaOf (vertices, {a, c, e}) > 0)
       {
         patch = {{a, b, c}, {a, c, e}};
         break;
       }
     }
   }
-  if (patch.empty () || area (patch[0][0], patch[0][1], patch[0][2]) <= 0)
-    return false;
-  for (const auto& t : patch)
-  {
-    stats.filled_area += area (t[0], t[1], t[2]);
-    triangles.push_back (t);
-  }
-  stats.added_triangles += patch.size ();
-  return true;
+  if (patch.empty () || areaOf (vertices, patch[0]) <= 0)
+    return {};
+  return patch;
 }
 
 // The patch of every boundary cycle of group `g` in the local mesh.
@@ -774,58 +777,117 @@ applyPatch (const HolePatch& patch, const std::vector<std::uint32_t>& global, st
   stats.filled_area += patch.area;
 }
 
-// A patch of the cache made for the same surroundings, or nullptr.
-const HolePatch*
-cachedPatch (HolePatchCache* cache, const LocalSurface& surface)
+// The cache's entry made for the same surroundings, or nullptr.
+HolePatchCache::Entry*
+cachedEntry (HolePatchCache* cache, const LocalSurface& surface)
 {
   if (!cache)
     return nullptr;
   const auto range = cache->entries.equal_range (surface.key);
   for (auto it = range.first; it != range.second; ++it)
     if (it->second.layout == surface.layout && it->second.positions == surface.positions)
-    {
-      it->second.generation = cache->generation;
-      ++cache->hits;
-      return &it->second.patch;
-    }
+      return &it->second;
   return nullptr;
 }
 
-// Closes the boundary cycles of group `g` with patches appended to the mesh; true when each got
-// one. Only the triangles around the hole go into a halfedge structure, with two rings and, where
-// a vertex there is not a manifold one, with one.
-bool
-fillHole (std::uint32_t g, const std::vector<std::uint32_t>& boundary, const BoundaryGroups& groups,
-          RingCollector& rings, std::size_t max_edges, HolePatchCache* cache, std::vector<Eigen::Vector3f>& vertices,
-          std::vector<Triangle>& triangles, HoleFillingStats& stats)
+// What the search found for one hole. It reads the mesh as it came in (the triangles and vertices
+// before any patch), so the holes are searched in parallel and their patches appended in hole
+// order afterwards, as if one after the other.
+struct HoleOutcome
 {
-  if (closeTinyHole (rings.halfEdges (), boundary, vertices, triangles, stats))
-    return true;
+  enum class Kind : std::uint8_t
+  {
+    kTooLarge,
+    kFailed,
+    kTiny,      // closed by `tiny`, in the mesh's indices
+    kCached,    // closed by the cache's `cached` patch
+    kComputed,  // closed by `computed`, a new patch for the cache
+  };
+  Kind kind = Kind::kFailed;
+  std::vector<Triangle> tiny;
+  HolePatchCache::Entry* cached = nullptr;
+  HolePatchCache::Entry computed;
+  std::uint64_t key = 0;              // the cache key of `computed`
+  std::vector<std::uint32_t> global;  // the patch's surroundings in the mesh (kCached, kComputed)
+};
+
+// The patch of group `g`: only the triangles around the hole go into a halfedge structure, with
+// two rings and, where a vertex there is not a manifold one, with one.
+HoleOutcome
+findHolePatch (std::uint32_t g, const std::vector<std::uint32_t>& boundary, const BoundaryGroups& groups,
+               RingCollector& rings, std::size_t max_edges, HolePatchCache* cache,
+               const std::vector<Eigen::Vector3f>& vertices, const std::vector<Triangle>& triangles)
+{
+  HoleOutcome out;
+  out.tiny = tinyHolePatch (rings.halfEdges (), boundary, vertices);
+  if (!out.tiny.empty ())
+  {
+    out.kind = HoleOutcome::Kind::kTiny;
+    return out;
+  }
   for (const int ring_count : {2, 1})
   {
-    const LocalSurface surface (vertices, triangles, rings.collect (boundary, ring_count), boundary, rings.localIndex ());
-    if (const HolePatch* hit = cachedPatch (cache, surface))
+    LocalSurface surface (vertices, triangles, rings.collect (boundary, ring_count), boundary, rings.localIndex ());
+    if (HolePatchCache::Entry* hit = cachedEntry (cache, surface))
     {
-      applyPatch (*hit, surface.global, vertices, triangles, stats);
-      return hit->closed;
+      out.kind = HoleOutcome::Kind::kCached;
+      out.cached = hit;
+      out.global = std::move (surface.global);
+      return out;
     }
     Mesh mesh;
     if (!toMesh (surface, boundary.size (), mesh))
       continue;
-    HolePatchCache::Entry entry;
-    entry.patch = computePatch (mesh, surface.global, groups, g, max_edges);
-    applyPatch (entry.patch, surface.global, vertices, triangles, stats);
-    const bool closed = entry.patch.closed;
+    out.kind = HoleOutcome::Kind::kComputed;
+    out.computed.patch = computePatch (mesh, surface.global, groups, g, max_edges);
+    out.computed.positions = std::move (surface.positions);
+    out.computed.layout = std::move (surface.layout);
+    out.key = surface.key;
+    out.global = std::move (surface.global);
+    return out;
+  }
+  return out;
+}
+
+// Appends a hole's patch to the mesh and counts it; a new patch goes into the cache.
+void
+applyOutcome (HoleOutcome& o, HolePatchCache* cache, std::vector<Eigen::Vector3f>& vertices,
+              std::vector<Triangle>& triangles, HoleFillingStats& stats)
+{
+  bool closed = false;
+  switch (o.kind)
+  {
+  case HoleOutcome::Kind::kTooLarge:
+    ++stats.too_large;
+    return;
+  case HoleOutcome::Kind::kFailed:
+    break;
+  case HoleOutcome::Kind::kTiny:
+    for (const Triangle& t : o.tiny)
+    {
+      stats.filled_area += areaOf (vertices, t);
+      triangles.push_back (t);
+    }
+    stats.added_triangles += o.tiny.size ();
+    closed = true;
+    break;
+  case HoleOutcome::Kind::kCached:
+    o.cached->generation = cache->generation;
+    ++cache->hits;
+    applyPatch (o.cached->patch, o.global, vertices, triangles, stats);
+    closed = o.cached->patch.closed;
+    break;
+  case HoleOutcome::Kind::kComputed:
+    applyPatch (o.computed.patch, o.global, vertices, triangles, stats);
+    closed = o.computed.patch.closed;
     if (cache)
     {
-      entry.positions = surface.positions;
-      entry.layout = surface.layout;
-      entry.generation = cache->generation;
-      cache->entries.emplace (surface.key, std::move (entry));
+      o.computed.generation = cache->generation;
+      cache->entries.emplace (o.key, std::move (o.computed));
     }
-    return closed;
+    break;
   }
-  return false;
+  ++(closed ? stats.filled : stats.failed);
 }
 
 }  // namespace
@@ -868,21 +930,30 @@ fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& t
   for (const std::uint32_t v : open.vertices)
     if (groups.group_of[v] != BoundaryGroups::kNone && groups.diameter[groups.group_of[v]] <= max_diameter)
       hole_vertices[groups.group_of[v]].push_back (v);
-  RingCollector rings (he, triangles, scratch);
   if (cache)
   {
     ++cache->generation;
     cache->hits = 0;
   }
-  for (std::uint32_t g = 0; g < groups.diameter.size (); ++g)
+  std::vector<HoleOutcome> outcomes (groups.diameter.size ());
+  const std::ptrdiff_t holes = static_cast<std::ptrdiff_t> (outcomes.size ());
+  const int threads = holes > 1 ? omp_get_max_threads () : 1;
+  scratch.rings.resize (static_cast<std::size_t> (std::max (threads, 1)));
+#pragma omp parallel num_threads (threads)
   {
-    if (groups.diameter[g] > max_diameter)
-      ++stats.too_large;
-    else if (fillHole (g, hole_vertices[g], groups, rings, max_edges, cache, vertices, triangles, stats))
-      ++stats.filled;
-    else
-      ++stats.failed;
+    RingCollector rings (he, triangles, scratch.rings[static_cast<std::size_t> (omp_get_thread_num ())]);
+#pragma omp for schedule(dynamic, 4)
+    for (std::ptrdiff_t g = 0; g < holes; ++g)
+    {
+      if (groups.diameter[g] > max_diameter)
+        outcomes[g].kind = HoleOutcome::Kind::kTooLarge;
+      else
+        outcomes[g] = findHolePatch (static_cast<std::uint32_t> (g), hole_vertices[g], groups, rings, max_edges, cache,
+                                     vertices, triangles);
+    }
   }
+  for (HoleOutcome& o : outcomes)
+    applyOutcome (o, cache, vertices, triangles, stats);
   if (cache)
     for (auto it = cache->entries.begin (); it != cache->entries.end ();)
       it = it->second.generation == cache->generation ? std::next (it) : cache->entries.erase (it);

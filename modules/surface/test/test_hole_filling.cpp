@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
 #include <algorithm>
 #include <map>
 #include <numeric>
@@ -241,6 +243,54 @@ TEST (HoleFilling, FindsEveryHoleWhateverTheOrderOfTheMesh)
     EXPECT_EQ (stats.filled, expected);
     EXPECT_EQ (boundaryEdges (input.triangles), 0u);
     EXPECT_EQ (repeatedEdges (input.triangles), 0u);
+  }
+}
+
+TEST (HoleFilling, SamePatchesOnAnyThreadCountAndFromTheCache)
+{
+  // Round holes of many sizes, one too large for the limit, and single missing triangles (closed
+  // without a search): the holes are searched in parallel, and their patches must be appended
+  // in hole order, each made from the mesh as it came in.
+  std::mt19937 rng (11);
+  std::uniform_real_distribution<float> coord (-1.f, 1.f), radius (0.04f, 0.25f);
+  std::vector<std::pair<Eigen::Vector3f, float>> holes{{Eigen::Vector3f::UnitZ (), 0.7f}};
+  for (int i = 0; i < 30; ++i)
+    holes.emplace_back (Eigen::Vector3f (coord (rng), coord (rng), coord (rng)), radius (rng));
+  Mesh input = sphereWithHoles (holes);
+  for (int i = 0; i < 12; ++i)
+    input.triangles.erase (input.triangles.begin () + std::ptrdiff_t (rng () % input.triangles.size ()));
+  const int saved = omp_get_max_threads ();
+  const auto fill = [&] (int threads, pclx::surface::detail::HolePatchCache* cache, HoleFillingStats& stats) {
+    omp_set_num_threads (threads);
+    Mesh m = input;
+    EXPECT_TRUE (fillSmallHoles (m.vertices, m.triangles, 1.0, stats, pclx::surface::detail::kCubicSearchEdges, cache));
+    omp_set_num_threads (saved);
+    return m;
+  };
+  HoleFillingStats one_stats, two_stats, first_stats, again_stats;
+  const Mesh one = fill (1, nullptr, one_stats);
+  const Mesh two = fill (2, nullptr, two_stats);
+  pclx::surface::detail::HolePatchCache cache;
+  const Mesh first = fill (2, &cache, first_stats);
+  const Mesh again = fill (2, &cache, again_stats);
+  ASSERT_GT (one_stats.filled, 20u);
+  EXPECT_EQ (one_stats.too_large, 1u);
+  // The second call with the cache searched nothing: every searched hole's patch came from it.
+  EXPECT_GT (cache.hits, 10u);
+  EXPECT_EQ (cache.hits, cache.entries.size ());
+  for (const Mesh* m : {&two, &first, &again})
+  {
+    EXPECT_EQ (m->triangles, one.triangles);
+    EXPECT_EQ (m->vertices, one.vertices);
+  }
+  for (const HoleFillingStats* s : {&two_stats, &first_stats, &again_stats})
+  {
+    EXPECT_EQ (s->holes, one_stats.holes);
+    EXPECT_EQ (s->filled, one_stats.filled);
+    EXPECT_EQ (s->failed, one_stats.failed);
+    EXPECT_EQ (s->added_vertices, one_stats.added_vertices);
+    EXPECT_EQ (s->added_triangles, one_stats.added_triangles);
+    EXPECT_EQ (s->filled_area, one_stats.filled_area);
   }
 }
 

@@ -83,7 +83,9 @@ constexpr std::size_t kCubicSearchEdges = 100;
   * a patch would repeat an edge of the mesh (then it stays open). The mesh is read once, for a
   * sum per vertex that vanishes where the triangles around it close; only the triangles near
   * the vertices where it does not are searched for holes, and only those around a hole go into a
-  * halfedge structure, so the cost beyond that one read follows the holes, not the mesh.
+  * halfedge structure, so the cost beyond that one read follows the holes, not the mesh. The
+  * holes are searched on OpenMP's threads, each from the mesh as it came in, and their patches
+  * appended in hole order: the result does not depend on the thread count.
   * \param[in,out] vertices the mesh's vertex positions
   * \param[in,out] triangles the mesh's triangles (three indices each)
   * \param[in] max_diameter the largest hole closed, in the units of the vertices (> 0)
