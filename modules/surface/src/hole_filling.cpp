@@ -799,9 +799,9 @@ struct HoleOutcome
   {
     kTooLarge,
     kFailed,
-    kTiny,      // closed by `tiny`, in the mesh's indices
-    kCached,    // closed by the cache's `cached` patch
-    kComputed,  // closed by `computed`, a new patch for the cache
+    kTiny,      // `tiny` closes it (in the mesh's indices)
+    kCached,    // the cache's patch `cached`
+    kComputed,  // `computed`, a new patch for the cache
   };
   Kind kind = Kind::kFailed;
   std::vector<Triangle> tiny;
