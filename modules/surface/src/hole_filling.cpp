@@ -938,7 +938,7 @@ fillSmallHoles (std::vector<Eigen::Vector3f>& vertices, std::vector<Triangle>& t
   std::vector<HoleOutcome> outcomes (groups.diameter.size ());
   const std::ptrdiff_t holes = static_cast<std::ptrdiff_t> (outcomes.size ());
   const int threads = holes > 1 ? omp_get_max_threads () : 1;
-  scratch.rings.resize (static_cast<std::size_t> (std::max (threads, 1)));
+  scratch.rings.resize (static_cast<std::size_t> (threads));
 #pragma omp parallel num_threads (threads)
   {
     RingCollector rings (he, triangles, scratch.rings[static_cast<std::size_t> (omp_get_thread_num ())]);
