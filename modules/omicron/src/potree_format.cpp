@@ -229,27 +229,6 @@ writeMetadata (const std::string& path, const Metadata& meta)
     fail ("PotreeWriter: cannot write '" + path + "'");
 }
 
-double
-spacingForNodes (const std::vector<NodeRecord>& records, double edge)
-{
-  std::vector<std::pair<double, std::uint64_t>> spacing;  // (edge / sqrt (n), n)
-  std::uint64_t total = 0;
-  for (const NodeRecord& r : records)
-    if (r.num_points > 0)
-    {
-      spacing.emplace_back (edge / std::sqrt (static_cast<double> (r.num_points)), r.num_points);
-      total += r.num_points;
-    }
-  if (spacing.empty ())
-    return edge / 128.0;
-  std::sort (spacing.begin (), spacing.end ());
-  std::uint64_t seen = 0;
-  for (const auto& s : spacing)
-    if ((seen += s.second) * 2 >= total)
-      return s.first;
-  return spacing.back ().first;
-}
-
 Metadata
 readMetadata (const std::string& path)
 {

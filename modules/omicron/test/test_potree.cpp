@@ -15,6 +15,8 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <map>
+#include <set>
 
 namespace fs = std::filesystem;
 using omitest::Shape;
@@ -62,99 +64,148 @@ slurp (const fs::path& p)
   return std::vector<std::uint8_t> ((std::istreambuf_iterator<char> (in)), std::istreambuf_iterator<char> ());
 }
 
-// The points node `n` stores (additive LOD: its own minus those its parent took), appended.
-template <typename PointT> void
-keptPoints (const pclx::omicron::detail::Node<PointT>& n, float ratio, std::vector<PointT>& out)
+// What the output should hold, from the specification alone: records are whole subtrees of
+// at most `limit` points (or leaves), else a node and its children's records; in depth-first
+// order, a point goes to the first level l below its record's level whose cell of edge
+// root / (128 · 2^l) no earlier point took at l (one set of cells per level, over the whole
+// cloud), else to its record.
+template <typename PointT>
+struct ExpectedOutput
 {
-  const std::uint32_t taken = n.code.level () > 0 ? pclx::omicron::detail::parentSampleCount (n.num_points, ratio) : 0;
-  for (std::uint32_t j = 0, t = 0; j < n.num_points; ++j)
-    if (t < taken && j == pclx::omicron::detail::parentSampleIndex (t, taken, n.num_points))
-      ++t;
-    else
-      out.push_back (n.points[j]);
-}
+  std::map<std::uint64_t, std::vector<PointT>> records;  // by code bits, each in depth-first order
+  std::map<std::uint64_t, bool> whole;                    // a whole subtree (leaf record)
 
-template <typename PointT> void
-subtreeKeptPoints (const pclx::omicron::detail::Node<PointT>& n, float ratio, std::vector<PointT>& out)
-{
-  keptPoints (n, ratio, out);
-  for (int c = 0; c < n.num_children; ++c)
-    subtreeKeptPoints (n.children[c], ratio, out);
-}
-
-// The subtree of `n` as Potree stores it: each node holds its kept points, a node whose
-// subtree keeps none is not written, and a subtree keeping at most `limit` points (> 0) is one
-// leaf with them in depth-first order. Checks every written node's count, child mask, type
-// and points (within the scale); returns the points the subtree stores, counts written nodes.
-template <typename PointT> std::size_t
-expectAdditiveSubtree (const pclx::omicron::detail::Node<PointT>& n, float ratio, std::uint32_t limit,
-                       const pcl::PotreeReader& reader, std::size_t& written)
-{
-  std::vector<PointT> expected;
-  subtreeKeptPoints (n, ratio, expected);
-  const bool merged = limit > 0 && expected.size () <= limit;
-  std::size_t below = 0;
-  std::uint8_t mask = 0;
-  if (merged)
-    below = expected.size ();
-  else
+  ExpectedOutput (const pcl::ObliqueCutOctree<PointT>& octree, std::uint32_t limit)
   {
-    expected.clear ();
-    keptPoints (n, ratio, expected);
+    origin_ = octree.getRootOrigin ();
+    edge_ = octree.getRootEdge ();
+    visit (*octree.getRoot (), limit, {});
+    // Records whose subtree stores nothing are left out.
+    std::set<std::uint64_t> stored;
+    for (const auto& [bits, points] : records)
+      if (!points.empty ())
+        for (std::uint64_t b = bits; b != 0 && stored.insert (b).second; b >>= 3)
+        {
+        }
+    for (auto it = records.begin (); it != records.end ();)
+      it = stored.count (it->first) ? std::next (it) : records.erase (it);
+  }
+
+private:
+  static std::size_t
+  total (const pclx::omicron::detail::Node<PointT>& n)
+  {
+    std::size_t k = n.isLeaf () ? n.num_points : 0;
     for (int c = 0; c < n.num_children; ++c)
-      if (const std::size_t k = expectAdditiveSubtree (n.children[c], ratio, limit, reader, written))
+      k += total (n.children[c]);
+    return k;
+  }
+  void
+  visit (const pclx::omicron::detail::Node<PointT>& n, std::uint32_t limit, std::vector<std::uint64_t> path)
+  {
+    if (total (n) == 0)
+      return;
+    path.push_back (n.code.bits ());
+    if (n.isLeaf () || (limit > 0 && total (n) <= limit))
+    {
+      whole[n.code.bits ()] = true;
+      records[n.code.bits ()];
+      take (n, path);
+      return;
+    }
+    whole[n.code.bits ()] = false;
+    records[n.code.bits ()];
+    for (int c = 0; c < n.num_children; ++c)
+      visit (n.children[c], limit, path);
+  }
+  // The points of the whole subtree `n`; path[l] is its ancestor record at level l.
+  void
+  take (const pclx::omicron::detail::Node<PointT>& n, const std::vector<std::uint64_t>& path)
+  {
+    if (!n.isLeaf ())
+    {
+      for (int c = 0; c < n.num_children; ++c)
+        take (n.children[c], path);
+      return;
+    }
+    const int record_level = static_cast<int> (path.size ()) - 1;
+    for (std::uint32_t i = 0; i < n.num_points; ++i)
+    {
+      const PointT& p = n.points[i];
+      int level = record_level;
+      for (int l = 0; l < record_level; ++l)
       {
-        below += k;
-        mask |= static_cast<std::uint8_t> (1u << n.children[c].code.childIndex ());
+        const int depth = std::min (l + 7, 21);
+        const double cells = std::ldexp (1.0, depth);
+        std::uint64_t key = 0;
+        for (double v : {double (p.x) - origin_.x (), double (p.y) - origin_.y (), double (p.z) - origin_.z ()})
+        {
+          const double c = std::clamp (std::floor (v / edge_ * cells), 0.0, cells - 1);
+          key = key * 2097152u + static_cast<std::uint64_t> (c);
+        }
+        if (taken_[l].insert (key).second)
+        {
+          level = l;
+          break;
+        }
       }
-    below += expected.size ();
+      records[path[level]].push_back (p);
+    }
   }
-  const long i = reader.find (n.code);
-  if (below == 0)
-  {
-    EXPECT_LT (i, 0) << "node " << n.code << " stores nothing but was written";
-    return 0;
-  }
-  ++written;
-  EXPECT_GE (i, 0) << "node " << n.code << " missing";
-  if (i < 0)
-    return below;
-  const auto& info = reader.getNodes ()[i];
-  EXPECT_EQ (info.num_points, expected.size ()) << info.name;
-  EXPECT_EQ (info.child_mask, mask) << info.name;
-  EXPECT_EQ (info.type, mask ? pclx::omicron::detail::potree::kNormal : pclx::omicron::detail::potree::kLeaf) << info.name;
-  pcl::PointCloud<pcl::PointXYZRGB> pts;
-  reader.readNode (static_cast<std::size_t> (i), pts);
-  if (pts.size () != expected.size ())
-  {
-    ADD_FAILURE () << info.name << " read " << pts.size () << " points";
-    return below;
-  }
-  const double tol = 0.5 * reader.getMetadata ().scale.x () + 1e-6;
-  for (std::size_t k = 0; k < expected.size (); ++k)
-  {
-    const PointT& p = expected[k];
-    const bool same = std::abs (pts[k].x - p.x) <= tol && std::abs (pts[k].y - p.y) <= tol &&
-                      std::abs (pts[k].z - p.z) <= tol;
-    EXPECT_TRUE (same) << info.name << " point " << k;
-    if constexpr (pcl::traits::has_color_v<PointT>)
-      EXPECT_TRUE (pts[k].r == p.r && pts[k].g == p.g && pts[k].b == p.b) << info.name << " colour " << k;
-    if (!same)
-      break;
-  }
-  return below;
-}
+  Eigen::Vector3d origin_;
+  double edge_ = 1;
+  std::map<int, std::set<std::uint64_t>> taken_;
+};
 
-// The whole written octree against the in-memory one; every kept point is stored once.
+// The written octree against ExpectedOutput: every record's count, child mask, type and
+// points (within the scale), and each kept point stored once.
 template <typename PointT> void
 expectSameHierarchy (const pcl::ObliqueCutOctree<PointT>& octree, const pcl::PotreeReader& reader, std::uint32_t limit)
 {
-  std::size_t written = 0;
-  const std::size_t stored =
-      expectAdditiveSubtree (*octree.getRoot (), octree.getParentPointRatio (), limit, reader, written);
+  const ExpectedOutput<PointT> expected (octree, limit);
+  std::size_t stored = 0;
+  EXPECT_EQ (reader.getNodes ().size (), expected.records.size ());
+  const double tol = 0.5 * reader.getMetadata ().scale.x () + 1e-6;
+  for (const auto& [bits, points] : expected.records)
+  {
+    const pcl::MortonCode code (bits);
+    stored += points.size ();
+    const long i = reader.find (code);
+    EXPECT_GE (i, 0) << "node " << code << " missing";
+    if (i < 0)
+      continue;
+    const auto& info = reader.getNodes ()[i];
+    std::uint8_t mask = 0;
+    for (int c = 0; c < 8; ++c)
+      if (expected.records.count (code.child (c).bits ()))
+        mask |= static_cast<std::uint8_t> (1u << c);
+    EXPECT_EQ (info.num_points, points.size ()) << info.name;
+    EXPECT_EQ (info.child_mask, mask) << info.name;
+    EXPECT_EQ (info.type, mask ? pclx::omicron::detail::potree::kNormal : pclx::omicron::detail::potree::kLeaf)
+        << info.name;
+    if (expected.whole.at (bits))
+      EXPECT_EQ (mask, 0) << info.name;
+    pcl::PointCloud<pcl::PointXYZRGB> pts;
+    reader.readNode (static_cast<std::size_t> (i), pts);
+    if (pts.size () != points.size ())
+    {
+      ADD_FAILURE () << info.name << " read " << pts.size () << " points";
+      continue;
+    }
+    for (std::size_t k = 0; k < points.size (); ++k)
+    {
+      const PointT& p = points[k];
+      const bool same = std::abs (pts[k].x - p.x) <= tol && std::abs (pts[k].y - p.y) <= tol &&
+                        std::abs (pts[k].z - p.z) <= tol;
+      EXPECT_TRUE (same) << info.name << " point " << k;
+      if constexpr (pcl::traits::has_color_v<PointT>)
+        EXPECT_TRUE (pts[k].r == p.r && pts[k].g == p.g && pts[k].b == p.b) << info.name << " colour " << k;
+      if (!same)
+        break;
+    }
+  }
   EXPECT_EQ (stored, octree.getStatistics ().kept_points);
   EXPECT_EQ (reader.getStoredPoints (), stored);
-  EXPECT_EQ (written, reader.getNodes ().size ());
 }
 }  // namespace
 
@@ -221,17 +272,17 @@ TEST (PotreeWriter, WrittenOctreeReadsBackAsTheInMemoryHierarchy)
 
 TEST (PotreeWriter, BytesFollowPotreeConverterLayout)
 {
-  // Two points near each of two opposite corners, depth 1, ratio 0.5: the root takes one
-  // point of each leaf and each leaf keeps the other (additive: 4 points stored in all).
+  // Two points close together near each of two opposite corners, depth 1: each pair shares a
+  // cell of the root's grid (128 per edge), so the root takes the first point of each pair
+  // and each leaf keeps the other (additive: 4 points stored in all).
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
-  cloud->push_back (pcl::PointXYZ (0.f, 0.f, 0.f));
-  cloud->push_back (pcl::PointXYZ (2.f, 3.f, 4.f));
-  cloud->push_back (pcl::PointXYZ (0.5f, 0.5f, 0.5f));
-  cloud->push_back (pcl::PointXYZ (2.5f, 2.5f, 3.5f));
+  cloud->push_back (pcl::PointXYZ (0.01f, 0.01f, 0.01f));
+  cloud->push_back (pcl::PointXYZ (2.01f, 3.01f, 3.99f));
+  cloud->push_back (pcl::PointXYZ (0.011f, 0.011f, 0.011f));
+  cloud->push_back (pcl::PointXYZ (2.011f, 3.011f, 3.989f));
   pcl::ObliqueCutOctree<pcl::PointXYZ> o;
   o.setInputCloud (cloud);
   o.setMaxDepth (1);
-  o.setParentPointRatio (0.5f);
   ASSERT_TRUE (o.build ());
   TempDir dir;
   pcl::PotreeWriter<pcl::PointXYZ> w;
@@ -256,18 +307,19 @@ TEST (PotreeWriter, BytesFollowPotreeConverterLayout)
   EXPECT_EQ (u32 (46), 1u);
   const auto oct = slurp (dir.path / "octree.bin");
   ASSERT_EQ (oct.size (), 48u);
-  // int32 (x − offset) / 0.001 with offset = the cube's min corner (0, 0, 0). The root and r7
-  // together hold both points near (2, 3, 4), each once.
-  const auto at = [&] (std::uint64_t offset) {
+  // int32 (x − offset) / 0.001 with offset = the cube's min corner: the root holds the first
+  // point of each pair, in Morton order, and r7 the second near (2, 3, 4).
+  const Eigen::Vector3d origin = o.getRootOrigin ();
+  const auto expect = [&] (std::uint64_t offset, const pcl::PointXYZ& p) {
     std::int32_t q[3];
     std::memcpy (q, oct.data () + offset, 12);
-    return std::array<std::int32_t, 3>{q[0], q[1], q[2]};
+    for (int a = 0; a < 3; ++a)
+      EXPECT_EQ (q[a], std::llround ((double (p.data[a]) - origin[a]) / 0.001)) << "offset " << offset << " axis " << a;
   };
-  const std::array<std::int32_t, 3> a{2000, 3000, 4000}, b{2500, 2500, 3500};
-  const auto leaf7 = at (u64 (44 + 6));
-  EXPECT_TRUE (leaf7 == a || leaf7 == b);
-  const auto other = leaf7 == a ? b : a;
-  EXPECT_TRUE (at (0) == other || at (12) == other);
+  expect (0, (*cloud)[0]);
+  expect (12, (*cloud)[1]);
+  expect (u64 (22 + 6), (*cloud)[2]);
+  expect (u64 (44 + 6), (*cloud)[3]);
   // metadata.json: the fields potree's loader reads.
   std::ifstream in (dir.path / "metadata.json");
   const std::string js ((std::istreambuf_iterator<char> (in)), std::istreambuf_iterator<char> ());
@@ -295,7 +347,6 @@ TEST (PotreeWriter, SameFilesForAnyThreadCountAndAsStreamed)
       ASSERT_TRUE (w.write (o, dir.path.string ()));
     else
     {
-      w.setParentPointRatio (o.getParentPointRatio ());
       ASSERT_TRUE (w.open (dir.path.string (), o.getRootOrigin (), o.getRootEdge ()));
       ASSERT_TRUE (w.appendSubtree (*o.getRoot ()));
       ASSERT_TRUE (w.close (o.getStatistics ().kept_points));
@@ -318,37 +369,68 @@ TEST (PotreeWriter, RoundingIsLlround)
     EXPECT_EQ (roundHalfAway (x), std::llround (x)) << x;
 }
 
-TEST (PotreeWriter, SpacingHalvedPerLevelIsTheNodesPointSpacing)
+// What a loader shows at level l (the nodes down to l) covers the cloud at that level's
+// spacing, as PotreeConverter's output does: every input point lies within a cell diagonal
+// of edge / (128 · 2^l) of a point stored at level l or above; `spacing` is edge / 128.
+TEST (PotreeWriter, EveryLevelCoversTheCloudAtItsSpacing)
 {
-  // A 200 × 200 lattice of step 0.01 on a plane. Loaders size points by metadata spacing
-  // / 2^level: with every node written most points are in depth-6 leaves, so spacing / 64
-  // should be the lattice step; with everything in one leaf, spacing itself should.
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud (new pcl::PointCloud<pcl::PointXYZ>);
-  for (int i = 0; i < 200; ++i)
-    for (int j = 0; j < 200; ++j)
-      cloud->push_back (pcl::PointXYZ (0.01f * i, 0.01f * j, 0.5f));
+  for (int i = 0; i < 400; ++i)
+    for (int j = 0; j < 400; ++j)
+      cloud->push_back (pcl::PointXYZ (0.005f * i, 0.005f * j, 0.3f + 0.001f * i + 0.0005f * j));
   pcl::ObliqueCutOctree<pcl::PointXYZ> o;
   o.setInputCloud (cloud);
-  o.setMaxDepth (6);
   ASSERT_TRUE (o.build ());
-  const auto spacing = [&] (std::uint32_t limit, std::size_t& nodes) {
-    TempDir dir;
-    pcl::PotreeWriter<pcl::PointXYZ> w;
-    w.setLeafPointLimit (limit);
-    w.write (o, dir.path.string ());
-    pcl::PotreeReader r;
-    r.open (dir.path.string ());
-    nodes = r.getNodes ().size ();
-    return r.getMetadata ().spacing;
-  };
-  std::size_t nodes = 0;
-  const double every = spacing (0, nodes);
-  EXPECT_GT (nodes, 1000u);
-  EXPECT_GT (every / 64, 0.006);
-  EXPECT_LT (every / 64, 0.012);
-  const double one = spacing (50000, nodes);
-  EXPECT_EQ (nodes, 1u);
-  EXPECT_NEAR (one, 0.01, 2e-4);
+  TempDir dir;
+  pcl::PotreeWriter<pcl::PointXYZ> w;
+  w.setLeafPointLimit (5000);
+  ASSERT_TRUE (w.write (o, dir.path.string ()));
+  pcl::PotreeReader r;
+  ASSERT_TRUE (r.open (dir.path.string ()));
+  const double edge = o.getRootEdge (), scale = r.getMetadata ().scale.x ();
+  EXPECT_NEAR (r.getMetadata ().spacing, edge / 128, 1e-12);
+  int depth = 0;
+  for (const auto& n : r.getNodes ())
+    depth = std::max (depth, n.code.level ());
+  ASSERT_GE (depth, 2) << "the test needs inner nodes on several levels";
+  std::vector<pcl::PointCloud<pcl::PointXYZRGB>> stored (depth + 1);
+  for (std::size_t i = 0; i < r.getNodes ().size (); ++i)
+  {
+    pcl::PointCloud<pcl::PointXYZRGB> pts;
+    r.readNode (i, pts);
+    stored[r.getNodes ()[i].code.level ()] += pts;
+  }
+  EXPECT_GT (stored[0].size (), 1000u) << "the root shows the cloud at its spacing";
+  for (int l = 0; l <= depth; ++l)
+  {
+    const double reach = std::sqrt (3.0) * edge / (128.0 * std::ldexp (1.0, l)) + scale;
+    std::map<std::array<long, 3>, std::vector<Eigen::Vector3f>> grid;
+    const auto cell = [&] (const Eigen::Vector3f& p) {
+      return std::array<long, 3>{long (std::floor (p.x () / reach)), long (std::floor (p.y () / reach)),
+                                 long (std::floor (p.z () / reach))};
+    };
+    for (int k = 0; k <= l; ++k)
+      for (const auto& q : stored[k])
+        grid[cell (q.getVector3fMap ())].push_back (q.getVector3fMap ());
+    std::size_t uncovered = 0;
+    for (const auto& p : *cloud)
+    {
+      const auto c = cell (p.getVector3fMap ());
+      bool near = false;
+      for (long dx = -1; dx <= 1 && !near; ++dx)
+        for (long dy = -1; dy <= 1 && !near; ++dy)
+          for (long dz = -1; dz <= 1 && !near; ++dz)
+            if (const auto it = grid.find ({c[0] + dx, c[1] + dy, c[2] + dz}); it != grid.end ())
+              for (const auto& q : it->second)
+                if ((q - p.getVector3fMap ()).norm () <= reach)
+                {
+                  near = true;
+                  break;
+                }
+      uncovered += near ? 0 : 1;
+    }
+    EXPECT_EQ (uncovered, 0u) << "level " << l;
+  }
 }
 
 TEST (PotreeWriter, UnwritableFolderIsAClearError)
@@ -373,14 +455,9 @@ TEST (PotreeWriter, UnwritableFolderIsAClearError)
   EXPECT_FALSE (unbuilt.isOpen ());
   // Streaming calls out of order are refused too.
   EXPECT_FALSE (unbuilt.close (0));
-  EXPECT_FALSE (unbuilt.appendNode (*o.getRoot ()));
+  EXPECT_FALSE (unbuilt.appendSubtree (*o.getRoot ()));
   EXPECT_FALSE (unbuilt.open ((dir.path / "y").string (), Eigen::Vector3d::Zero (), 0.0));
   EXPECT_FALSE (unbuilt.isOpen ());
-  // A parent ratio outside (0, 1] is refused and the writer keeps its own.
-  w.setParentPointRatio (0.f);
-  w.setParentPointRatio (1.5f);
-  w.setParentPointRatio (std::numeric_limits<float>::quiet_NaN ());
-  EXPECT_FLOAT_EQ (w.getParentPointRatio (), 0.2f);
 }
 
 TEST (PotreeReader, CorruptFilesAreClearErrors)

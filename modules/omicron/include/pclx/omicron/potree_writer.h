@@ -5,6 +5,7 @@
 
 #include <pcl/point_cloud.h>
 
+#include <array>
 #include <cstdio>
 #include <limits>
 #include <map>
@@ -33,14 +34,16 @@ class ObliqueCutOctree;
   * Positions are stored as int32 (x - offset) / scale with offset = the root cube's min
   * corner; colour (PointT with rgb) as uint16 x 3 (8-bit value x 257, LAS style).
   *
-  * Potree's LOD is additive: a node is drawn together with its ancestors. OMiCroN's parents
-  * hold copies of points sampled from their children, so a node is written without the
-  * points its parent took (PotreeConverter 2 likewise moves sampled points up): every input
-  * point is stored exactly once. Inner nodes left empty are written with no points, as
-  * PotreeConverter does; subtrees left empty are dropped.
+  * Potree's LOD is additive: a node is drawn together with its ancestors, so each input point
+  * is stored exactly once, in the coarsest node that samples it. A node at level l keeps one
+  * point per cell of a grid of 128 · 2^l cells per root edge (the first point, in Morton
+  * order, that no coarser node took), the spacing PotreeConverter 2's indexer gives its inner
+  * nodes; OMiCroN's own parent samples, sized by the parent ratio for its front, are not
+  * written. A node is never empty when its subtree stores a point (its grid took the first
+  * point of that point's cell); subtrees that store nothing are dropped.
   *
-  * Node size: a subtree that stores at most getLeafPointLimit () points is written as one
-  * leaf holding all of them, as PotreeConverter sizes its nodes. Potree loads a node at a
+  * Node size: a subtree of at most getLeafPointLimit () points is written as one leaf holding
+  * all of them that no coarser node took, as PotreeConverter sizes its nodes. Potree loads a node at a
   * time, so OMiCroN's deep leaves of a few points each would otherwise make a request each.
   *
   * Errors (unwritable folder, failed write, inconsistent hierarchy) make the call return
@@ -82,17 +85,8 @@ public:
   /** \brief Write the rgb attribute.
     * \param[in] on default: when PointT has colour */
   void setWriteColors (bool on) { colors_ = on; }
-  /** \brief Set the parent point ratio of the octree whose nodes are appended, which tells
-    * which points each parent took from its children (the writer leaves them out).
-    * \param[in] ratio the octree's ratio, in (0, 1]; write () takes it from the octree.
-    * Default 0.2, the octree's default (out of range: PCL_ERROR, value kept)
-    */
-  void setParentPointRatio (float ratio);
-  /** \brief The parent point ratio the appended nodes are read with.
-    * \return the parent point ratio the appended nodes are read with */
-  float getParentPointRatio () const { return parent_ratio_; }
-  /** \brief Set the node size: a subtree storing at most this many points is written as one
-    * leaf holding all of them, as PotreeConverter sizes its nodes.
+  /** \brief Set the node size: a subtree of at most this many points is written as one leaf
+    * holding all of them that no coarser node took, as PotreeConverter sizes its nodes.
     * \param[in] points the limit; 0 writes every node of the octree
     */
   void setLeafPointLimit (std::uint32_t points) { leaf_limit_ = points; }
@@ -119,14 +113,8 @@ public:
     * \return false (PCL_ERROR, getLastError ()) when already open or the folder cannot be written
     */
   bool open (const std::string& directory, const Eigen::Vector3d& origin, double edge);
-  /** \brief Append one node of an octree: its points minus those its parent took (all of them
-    * at the root). May be called from several threads.
-    * \param[in] node the node (its children are not written)
-    * \return false (PCL_ERROR, getLastError ()) when not open or the write fails
-    */
-  bool appendNode (const Node& node);
-  /** \brief Append a subtree: one leaf when it stores at most getLeafPointLimit () points, else
-    * its root as appendNode (const Node&) and each child's subtree the same way.
+  /** \brief Append a subtree: one leaf when it holds at most getLeafPointLimit () points, else
+    * its root (the points its grid samples) and each child's subtree the same way.
     * \param[in] node the subtree's root; nodes flagged pclx::omicron::detail::kSpilled stand for what
     * appendSpilled () received
     * \return false (PCL_ERROR, getLastError ()) on a failed write or an inconsistent hierarchy
@@ -135,9 +123,10 @@ public:
   /** \brief Append the subtree of a node an out-of-core build is about to drop.
     * \param[in] node a node with its complete children
     * \return false (PCL_ERROR, getLastError ()) on a failed write
-    * \note Writes the children's subtrees, or, when the whole subtree fits one leaf, keeps it
-    * aside (octree.pending.bin) until appendSubtree () reaches `node`, since an ancestor may take
-    * it into a larger leaf. close () fails if a kept subtree was never reached.
+    * \note Writes the subtree's nodes and keeps aside (octree.pending.bin) the points that
+    * coarser levels sample, until appendSubtree () reaches `node`; when the whole subtree fits
+    * one leaf it keeps all of it aside, since an ancestor may take it into a larger leaf.
+    * close () fails if a kept subtree was never reached.
     */
   bool appendSpilled (const Node& node);
   /** \brief Append exactly the given points as the node `code` (hierarchies of another origin).
@@ -173,6 +162,8 @@ public:
   std::string getLastError () const;
 
 private:
+  // Points per piece of a record written in pieces, and per piece of the pending file.
+  static constexpr std::size_t kPiecePoints = std::size_t (1) << 14;
   // Encoded points with their bounds.
   struct Encoded
   {
@@ -181,63 +172,86 @@ private:
     Eigen::Vector3d lo = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ());
     Eigen::Vector3d hi = Eigen::Vector3d::Constant (-std::numeric_limits<double>::max ());
   };
-  // A subtree appendSpilled () kept aside (in the pending file) or wrote out.
+  // A subtree appendSpilled () received, and where its points wait in the pending file.
   struct Spilled
   {
-    std::uint64_t points = 0;  // stored by the whole subtree
-    bool pending = false, written = false;
+    std::uint64_t points = 0;  // in the whole subtree
+    bool whole = false;        // all of it kept aside (it fits one leaf): its points, then their levels
+    bool written = false;      // read back by appendSubtree ()
     std::uint64_t offset = 0;  // in the pending file
-    Eigen::Vector3d lo = Eigen::Vector3d::Zero (), hi = Eigen::Vector3d::Zero ();
+    // Not whole: the points each level above the node samples from it, level by level.
+    std::array<std::uint64_t, MortonCode::kMaxDepth + 1> level_points{};
   };
-  std::uint32_t storedPoints (const Node& node) const;
+  // One record of a subtree's write: a node with the points its level samples, or a whole
+  // subtree as one leaf with every point no coarser record took.
+  struct WriteTask
+  {
+    const Node* node;
+    bool subtree;
+    std::uint64_t points;  // in the node's subtree
+    std::uint64_t first;   // the subtree's first in-memory point in the depth-first order
+  };
+  // A run of points with their levels (none: all of them belong to the record).
+  struct Run
+  {
+    const PointT* points;
+    const std::uint8_t* levels;
+    std::size_t n;
+  };
+  // Points in the subtree (the leaves', and what spilled nodes stand for).
   std::uint64_t subtreePoints (const Node& node) const;
-  // Appends points [0, n) except the `taken` picks of pclx::omicron::detail::parentSampleIndex.
-  void encode (const PointT* points, std::uint32_t n, std::uint32_t taken, Encoded& out) const;
-  // Appends the points `node` stores (all but those its parent took).
-  void encodeNode (const Node& node, Encoded& out) const;
-  // Appends the stored points of the subtree in depth-first order.
-  void encodeSubtree (const Node& node, Encoded& out);
+  // Points in the subtree's in-memory leaves.
+  static std::uint64_t memoryPoints (const Node& node);
+  // Calls f (const WriteTask&) for each record of the subtree of `node`, in octree.bin's
+  // order: a subtree of at most the leaf limit is one record, else the node and then each
+  // child's subtree the same way; empty subtrees and the nodes appendSpilled () wrote out
+  // are left out. `first` counts the in-memory points before `node` in depth-first order.
+  template <typename F> void forEachRecord (const Node& node, std::uint64_t& first, F&& f);
+  // The level (LevelSampler) of each in-memory point of the records' subtree, in depth-first
+  // order, capped at the level of the record that holds the point whole; with no records,
+  // at `cap`.
+  void computeLevels (const Node& root, const std::vector<WriteTask>& tasks, int cap, int threads,
+                      std::vector<std::uint8_t>& levels) const;
+  // Calls f (const Run&) for the task's points in depth-first order: its in-memory leaves
+  // and the points spilled subtrees kept aside for it.
+  template <typename F> void forEachRun (const WriteTask& task, const std::vector<std::uint8_t>& levels, F&& f);
+  // Appends the points of `run` the task keeps.
+  void encodeRun (const WriteTask& task, const Run& run, Encoded& out) const;
+  // Appends all of the task's points.
+  void encodeTask (const WriteTask& task, const std::vector<std::uint8_t>& levels, Encoded& out);
+  // Writes the tasks one at a time, each in pieces (bounded buffers, for budgeted builds).
+  void writeTasksStreamed (const std::vector<WriteTask>& tasks, const std::vector<std::uint8_t>& levels);
+  // Encodes the tasks on `threads` threads, a window of them at a time, and records each
+  // window in order (the same octree.bin as appendSubtree ()).
+  void writeTasks (const std::vector<WriteTask>& tasks, const std::vector<std::uint8_t>& levels, int threads);
+  // Keeps the points of the spilled subtree `node` that coarser records take, or all of it.
+  void keepAside (const Node& node, const std::vector<std::uint8_t>& levels, bool whole, Spilled& sp);
+  // Reads `n` items of `size` bytes at `offset` of the pending file.
+  void readPending (std::uint64_t offset, std::size_t size, std::size_t n, void* out);
   void record (MortonCode code, const Encoded& data);
   void closePending ();
   void abandon ();
   // The operations behind the public ones; they throw on errors, which guarded () turns
   // into false + PCL_ERROR at the public boundary.
   void openImpl (const std::string& directory, const Eigen::Vector3d& origin, double edge);
-  void appendNodeImpl (const Node& node);
   void appendNodeImpl (MortonCode code, const PointT* points, std::uint32_t n);
   void appendSubtreeImpl (const Node& node);
   void appendSpilledImpl (const Node& node);
   void closeImpl (std::uint64_t points);
-  // One record of a subtree's write: a node alone, or a whole subtree as one leaf.
-  struct WriteTask
-  {
-    const Node* node;
-    bool subtree;
-    std::uint64_t points;  // what the record stores
-  };
-  // Calls f (const WriteTask&) for each record of the subtree of `node`, in octree.bin's
-  // order: a subtree storing at most the leaf limit is one record, else the node and then
-  // each child's subtree the same way; subtrees storing nothing are left out.
-  template <typename F> void forEachRecord (const Node& node, F&& f);
-  // Appends the task's points to `out`.
-  void encodeTask (const WriteTask& task, Encoded& out);
-  // Encodes the tasks on `threads` threads, a window of them at a time, and records each
-  // window in order (the same octree.bin as appendSubtree ()).
-  void writeTasks (const std::vector<WriteTask>& tasks, int threads);
   template <typename F> bool guarded (const char* method, F&& f);
   bool fail (const char* method, const std::string& why);
 
   pclx::omicron::detail::potree::Metadata meta_;
   double scale_ = 0;
-  float parent_ratio_ = 0.2f;
   std::uint32_t leaf_limit_ = kDefaultLeafPointLimit;
   bool colors_;
   std::string directory_;
   std::FILE* file_ = nullptr;
-  std::FILE* pending_ = nullptr;  // octree.pending.bin: subtrees appendSpilled () kept aside
+  std::FILE* pending_ = nullptr;  // octree.pending.bin: points appendSpilled () kept aside
   std::uint64_t pending_bytes_ = 0;
   std::map<std::uint64_t, Spilled> spilled_;  // by MortonCode::bits ()
   mutable std::mutex mutex_;
+  std::mutex record_mutex_;  // held while a record's bytes are appended (before mutex_)
   std::uint64_t offset_ = 0;
   std::vector<pclx::omicron::detail::potree::NodeRecord> records_;
   Eigen::Vector3d lo_, hi_;

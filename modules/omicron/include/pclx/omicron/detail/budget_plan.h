@@ -9,6 +9,8 @@
 //                                                       + codes (8 B)
 //   fix phase   sizeof(PointT) · n + below + bpp · n   sorted points, the nodes and samples
 //                                                       below the spill level, write buffers
+//                                                       and each point's Potree level (bpp
+//                                                       counts that byte)
 // with `below` an upper bound from the counts alone: a node holds at most the points of its
 // subtree and at most ratio · (its children's points) + (its children) (parentSampleCount
 // (n) <= ratio · n + 1); under the count grid a level has at most min (n, 8^depth) nodes. The
@@ -68,7 +70,7 @@ struct PlanParameters
   bool collapse = false;
   std::size_t budget = 0;      // bytes
   std::size_t point_bytes = 16;          // sizeof (PointT)
-  std::size_t encoded_bytes = 12;        // Potree bytes per point
+  std::size_t encoded_bytes = 13;        // Potree bytes per point, and its level of detail
   std::size_t scratch_node_bytes = 104;  // a node below the spill level: Node + 2 cut nodes
   std::size_t retained_node_bytes = 136; // a retained node: Node + 2 cut nodes + 2 front entries
   std::size_t record_bytes = 32;         // Potree record while building

@@ -81,16 +81,6 @@ MortonCode codeFromName (const std::string& name);
 void writeHierarchy (const std::string& path, const std::vector<NodeRecord>& records, Metadata& meta);
 void writeMetadata (const std::string& path, const Metadata& meta);
 
-/** \brief Potree's `spacing` for nodes of these sizes: loaders take it as the root's point
-  * spacing and halve it per level to size points.
-  * \param[in] records the written nodes (their point counts)
-  * \param[in] edge the root cube's edge
-  * \return the point-weighted median of edge / sqrt (n) over the nodes (a node of n points on a
-  * surface at level l has spacing edge / (2^l sqrt (n))); edge / 128, PotreeConverter's, when no
-  * node stores a point
-  */
-double spacingForNodes (const std::vector<NodeRecord>& records, double edge);
-
 // Throws std::runtime_error with the reason on anything malformed (caught by PotreeReader).
 Metadata readMetadata (const std::string& path);
 

@@ -225,13 +225,15 @@ struct pcl::ObliqueCutOctree<PointT>::Budgeted
         return false;
     return true;
   }
-  // Encode buffers in flight: a call writes one record at a time, at most the larger of the
-  // leaf point limit and its largest node.
+  // Write buffers in flight: a call holds the level of each point it samples (one byte) and
+  // writes one record at a time, in pieces of at most the larger of a leaf's points and the
+  // writer's piece, beside a piece read back from the pending file.
   std::size_t
-  accountWrite (std::size_t largest_node, std::size_t subtree_points)
+  accountWrite (std::size_t largest_node, std::size_t subtree_points, std::size_t sampled_points)
   {
-    const std::size_t wb = bpp * std::min<std::size_t> (subtree_points, std::max<std::size_t> (
-                                                                           largest_node, writer.getLeafPointLimit ()));
+    constexpr std::size_t kPiece = std::size_t (1) << 14;
+    const std::size_t wb = sampled_points + kPiece * (sizeof (PointT) + 1) +
+                           bpp * std::min<std::size_t> (subtree_points, std::max (largest_node, kPiece));
     const std::size_t now = write_now.fetch_add (wb) + wb;
     std::size_t peak = write_peak.load ();
     while (now > peak && !write_peak.compare_exchange_weak (peak, now))
@@ -266,7 +268,7 @@ struct pcl::ObliqueCutOctree<PointT>::Budgeted
         for (int c = n->num_children - 1; c >= 0; --c)
           stack.push_back (n->children + c);
       }
-      const std::size_t wb = accountWrite (largest, points);
+      const std::size_t wb = accountWrite (largest, points, points);
       if (!writer.appendSpilled (spilled))
         error = writer.getLastError ();
       write_now.fetch_sub (wb);
@@ -472,7 +474,7 @@ pcl::ObliqueCutOctree<PointT>::countAndPlan (Budgeted& b)
     pp.collapse = params_.leaf_collapse;
     pp.budget = b.budget;
     pp.point_bytes = b.pb;
-    pp.encoded_bytes = pcl::traits::has_color_v<PointT> ? 18 : 12;
+    pp.encoded_bytes = (pcl::traits::has_color_v<PointT> ? 18 : 12) + 1;  // and its level of detail
     // A node with a group header of its own (a group of one), the most a node can take.
     pp.scratch_node_bytes = pclx::omicron::detail::NodeArena<PointT>::groupBytes (1) +
                             2 * sizeof (pclx::omicron::detail::CutNode<PointT>);
@@ -593,7 +595,6 @@ template <typename PointT> bool
 pcl::ObliqueCutOctree<PointT>::openPotreeOutput (Budgeted& b)
 {
   // The Potree output; its records are reserved once (plan.node_bound) so they never move.
-  b.writer.setParentPointRatio (params_.parent_ratio);
   if (!b.writer.open (b.dir, b.origin, b.edge))
     return failBudgeted (b, b.writer.getLastError ());
   b.writer.reserveNodes (b.plan.node_bound);
@@ -694,20 +695,22 @@ pcl::ObliqueCutOctree<PointT>::writeRetainedTree (Budgeted& b)
   using Ledger = typename Budgeted::Ledger;
   // The retained tree goes to the same folder (a spilled node stands for what the sink wrote
   // or kept aside), then hierarchy.bin and metadata.json.
-  std::size_t largest = 0;
+  std::size_t largest = 0, retained_points = 0;
   std::vector<const Node*> stack{cut_->getRoot ()};
   while (!stack.empty ())
   {
     const Node* n = stack.back ();
     stack.pop_back ();
     largest = std::max<std::size_t> (largest, n->num_points);
+    if (n->isLeaf () && !(n->flags & pclx::omicron::detail::kSpilled))
+      retained_points += n->num_points;
     for (std::uint8_t j = 0; j < n->num_children; ++j)
       stack.push_back (n->children + j);
   }
-  // A merged leaf may also hold points the sink kept aside, so the retained points do not
-  // bound a record here: only the largest node and the leaf limit do.
+  // A record may also hold points the sink kept aside, so the retained points do not bound
+  // it: its pieces do. The levels are those of the retained leaves.
   b.write_peak = 0;
-  const std::size_t wb = b.accountWrite (largest, std::numeric_limits<std::size_t>::max ());
+  const std::size_t wb = b.accountWrite (largest, std::numeric_limits<std::size_t>::max (), retained_points);
   if (!b.writer.appendSubtree (*cut_->getRoot ()))
     return failBudgeted (b, b.writer.getLastError ());
   b.write_now.fetch_sub (wb);

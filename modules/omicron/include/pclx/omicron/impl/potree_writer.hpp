@@ -1,4 +1,5 @@
 #pragma once
+#include <pclx/omicron/detail/level_sampler.h>
 #include <pclx/omicron/detail/worker_pool.h>
 #include <pclx/omicron/oblique_cut_octree.h>
 #include <pclx/omicron/potree_writer.h>
@@ -6,13 +7,16 @@
 #include <pcl/console/print.h>
 #include <pcl/point_types.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <exception>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <stdexcept>
+#include <unordered_map>
 
 template <typename PointT>
 pcl::PotreeWriter<PointT>::PotreeWriter () : colors_ (pcl::traits::has_color_v<PointT>)
@@ -99,46 +103,49 @@ pcl::PotreeWriter<PointT>::openImpl (const std::string& directory, const Eigen::
   meta_.offset = origin;
   meta_.box_min = origin;
   meta_.box_max = origin + Eigen::Vector3d::Constant (edge);
-  meta_.spacing = edge / 128.0;  // PotreeConverter's root spacing, until close () measures ours
+  // The root's grid (LevelSampler): PotreeConverter's root spacing.
+  meta_.spacing = edge / double (1 << pclx::omicron::detail::kSampleGridDepth);
   meta_.rgb = colors_;
   lo_ = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ());
   hi_ = -lo_;
 }
 
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::setParentPointRatio (float ratio)
+pcl::PotreeWriter<PointT>::encodeRun (const WriteTask& task, const Run& run, Encoded& out) const
 {
-  if (!(ratio > 0.f && ratio <= 1.f))
+  // A node alone keeps the points its level samples; a subtree as one leaf keeps every point
+  // no coarser record took (pclx::omicron::detail::kNoSampleLevel included). The counts are
+  // plain loops over the level bytes (vectorised): an inner node scans its whole subtree.
+  const auto level = static_cast<std::uint8_t> (task.node->level);
+  const std::uint8_t* lv = run.levels;
+  const auto keep = [&] (std::size_t i) { return !lv || (task.subtree ? lv[i] >= level : lv[i] == level); };
+  std::size_t kept = run.n;
+  if (lv)
   {
-    PCL_ERROR ("[pcl::PotreeWriter::setParentPointRatio] the ratio must be in (0, 1] (got %g); keeping %g\n", ratio,
-               parent_ratio_);
-    return;
+    kept = 0;
+    if (task.subtree)
+      for (std::size_t i = 0; i < run.n; ++i)
+        kept += lv[i] >= level;
+    else
+      for (std::size_t i = 0; i < run.n; ++i)
+        kept += lv[i] == level;
   }
-  parent_ratio_ = ratio;
-}
-
-template <typename PointT> void
-pcl::PotreeWriter<PointT>::encode (const PointT* points, std::uint32_t n, std::uint32_t taken, Encoded& out) const
-{
+  if (kept == 0)
+    return;
   const std::size_t bpp = meta_.bytesPerPoint ();
   const std::size_t first = out.bytes.size ();
-  out.bytes.resize (first + bpp * (n - taken));
-  out.points += n - taken;
+  out.bytes.resize (first + bpp * kept);
+  out.points += kept;
   const double inv = 1.0 / meta_.scale.x ();
   std::uint8_t* dst = out.bytes.data () + first;
   // Bounds in float, widened once: the same values as a double min / max per point.
   Eigen::Array3f lo = Eigen::Array3f::Constant (std::numeric_limits<float>::max ()), hi = -lo;
-  std::uint32_t t = 0;
-  std::uint32_t next = taken > 0 ? pclx::omicron::detail::parentSampleIndex (0, taken, n) : n;
-  for (std::uint32_t i = 0; i < n; ++i)
+  for (std::size_t i = 0, done = 0; done < kept; ++i)
   {
-    if (i == next)
-    {
-      ++t;
-      next = t < taken ? pclx::omicron::detail::parentSampleIndex (t, taken, n) : n;
+    if (!keep (i))
       continue;
-    }
-    const PointT& p = points[i];
+    ++done;
+    const PointT& p = run.points[i];
     const Eigen::Array3f v = p.getArray3fMap ();
     lo = lo.min (v);
     hi = hi.max (v);
@@ -156,16 +163,14 @@ pcl::PotreeWriter<PointT>::encode (const PointT* points, std::uint32_t n, std::u
       }
     dst += bpp;
   }
-  if (n > taken)
-  {
-    out.lo = out.lo.cwiseMin (lo.cast<double> ().matrix ());
-    out.hi = out.hi.cwiseMax (hi.cast<double> ().matrix ());
-  }
+  out.lo = out.lo.cwiseMin (lo.cast<double> ().matrix ());
+  out.hi = out.hi.cwiseMax (hi.cast<double> ().matrix ());
 }
 
 template <typename PointT> void
 pcl::PotreeWriter<PointT>::record (MortonCode code, const Encoded& data)
 {
+  std::lock_guard<std::mutex> whole (record_mutex_);
   std::lock_guard<std::mutex> g (mutex_);
   if (!file_)
     throw std::runtime_error ("appendNode before open");
@@ -180,29 +185,24 @@ pcl::PotreeWriter<PointT>::record (MortonCode code, const Encoded& data)
 template <typename PointT> void
 pcl::PotreeWriter<PointT>::appendNodeImpl (MortonCode code, const PointT* points, std::uint32_t n)
 {
+  Node node;
+  node.code = code;
   Encoded e;
-  encode (points, n, 0, e);  // outside the lock: workers encode in parallel
+  encodeRun (WriteTask{&node, true, n, 0}, Run{points, nullptr, n}, e);  // outside the lock: workers encode in parallel
   record (code, e);
 }
 
-template <typename PointT> std::uint32_t
-pcl::PotreeWriter<PointT>::storedPoints (const Node& node) const
+template <typename PointT> std::uint64_t
+pcl::PotreeWriter<PointT>::memoryPoints (const Node& node)
 {
-  return node.num_points - (node.level > 0 ? pclx::omicron::detail::parentSampleCount (node.num_points, parent_ratio_) : 0);
-}
-
-template <typename PointT> void
-pcl::PotreeWriter<PointT>::encodeNode (const Node& node, Encoded& out) const
-{
-  encode (node.points, node.num_points, node.num_points - storedPoints (node), out);
-}
-
-template <typename PointT> void
-pcl::PotreeWriter<PointT>::appendNodeImpl (const Node& node)
-{
-  Encoded e;
-  encodeNode (node, e);
-  record (node.code, e);
+  if (node.flags & pclx::omicron::detail::kSpilled)
+    return 0;
+  if (node.isLeaf ())
+    return node.num_points;
+  std::uint64_t n = 0;
+  for (std::uint8_t c = 0; c < node.num_children; ++c)
+    n += memoryPoints (node.children[c]);
+  return n;
 }
 
 template <typename PointT> std::uint64_t
@@ -216,75 +216,281 @@ pcl::PotreeWriter<PointT>::subtreePoints (const Node& node) const
       throw std::runtime_error ("a spilled node that appendSpilled never received");
     return it->second.points;
   }
-  std::uint64_t n = storedPoints (node);
+  if (node.isLeaf ())
+    return node.num_points;
+  std::uint64_t n = 0;
   for (std::uint8_t c = 0; c < node.num_children; ++c)
     n += subtreePoints (node.children[c]);
   return n;
 }
 
-template <typename PointT> void
-pcl::PotreeWriter<PointT>::encodeSubtree (const Node& node, Encoded& out)
+template <typename PointT> template <typename F> void
+pcl::PotreeWriter<PointT>::forEachRecord (const Node& node, std::uint64_t& first, F&& f)
 {
-  if (!(node.flags & pclx::omicron::detail::kSpilled))
+  const std::uint64_t total = subtreePoints (node), in_memory = memoryPoints (node);
+  bool written_out = false;
+  if (node.flags & pclx::omicron::detail::kSpilled)
   {
-    encodeNode (node, out);
-    for (std::uint8_t c = 0; c < node.num_children; ++c)
-      encodeSubtree (node.children[c], out);
+    std::lock_guard<std::mutex> g (mutex_);
+    written_out = !spilled_.at (node.code.bits ()).whole;
+  }
+  if (total == 0 || written_out)
+  {
+    first += in_memory;
     return;
   }
-  // A subtree appendSpilled () kept aside: its bytes, already in depth-first order.
-  std::lock_guard<std::mutex> g (mutex_);
-  const auto it = spilled_.find (node.code.bits ());
-  if (it != spilled_.end () && it->second.points == 0)
+  if (node.isLeaf () || (leaf_limit_ > 0 && total <= leaf_limit_))
+  {
+    f (WriteTask{&node, true, total, first});
+    first += in_memory;
     return;
-  if (it == spilled_.end () || !it->second.pending || !pending_)
-    throw std::runtime_error ("a spilled subtree within the leaf limit was not kept aside");
-  Spilled& sp = it->second;
-  sp.written = true;
-  const std::size_t first = out.bytes.size (), size = sp.points * meta_.bytesPerPoint ();
-  out.bytes.resize (first + size);
-  if (std::fflush (pending_) != 0 || fseeko (pending_, static_cast<off_t> (sp.offset), SEEK_SET) != 0 ||
-      std::fread (out.bytes.data () + first, 1, size, pending_) != size || fseeko (pending_, 0, SEEK_END) != 0)
+  }
+  f (WriteTask{&node, false, total, first});
+  for (std::uint8_t c = 0; c < node.num_children; ++c)
+    forEachRecord (node.children[c], first, f);
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::computeLevels (const Node& root, const std::vector<WriteTask>& tasks, int cap,
+                                          int threads, std::vector<std::uint8_t>& levels) const
+{
+  using pclx::omicron::detail::kSampleGridDepth;
+  levels.resize (memoryPoints (root));
+  // Jobs that hold whole sampling units (octree cells at kSampleGridDepth, or coarser
+  // leaves): the records that are whole subtrees down to that depth, and the nodes at that
+  // depth still split into records. Without records (a subtree kept aside whole), or below
+  // that depth, the subtree is one job. A point's levels are capped at its record's: the
+  // levels below belong to that record whole, and must not take cells from another record's
+  // points.
+  struct Job
+  {
+    const Node* node;
+    std::uint64_t first;
+  };
+  std::vector<Job> jobs;
+  std::unordered_map<const Node*, int> caps;
+  for (const WriteTask& t : tasks)
+  {
+    if (t.subtree)
+      caps.emplace (t.node, t.node->level);
+    if ((t.subtree && t.node->level <= kSampleGridDepth) || (!t.subtree && t.node->level == kSampleGridDepth))
+      jobs.push_back ({t.node, t.first});
+  }
+  if (tasks.empty () || root.level > kSampleGridDepth)
+    jobs.assign (1, Job{&root, 0});
+  const auto sample = [&] (const Job& job, pclx::omicron::detail::LevelSampler& sampler) {
+    std::uint64_t at = job.first;
+    sampler.reset (job.node->level);
+    const auto walk = [&] (const Node& n, int cap, auto&& self) -> void {
+      if (n.flags & pclx::omicron::detail::kSpilled)
+        return;
+      if (n.level == kSampleGridDepth || (n.isLeaf () && n.level < kSampleGridDepth))
+        sampler.reset (n.level);  // a new unit
+      if (const auto it = caps.find (&n); it != caps.end ())
+        cap = it->second;
+      if (n.isLeaf ())
+      {
+        for (std::uint32_t i = 0; i < n.num_points; ++i)
+          levels[at++] = sampler.take (n.points[i].getVector3fMap (), cap);
+        return;
+      }
+      for (std::uint8_t c = 0; c < n.num_children; ++c)
+        self (n.children[c], cap, self);
+    };
+    walk (*job.node, tasks.empty () ? cap : MortonCode::kMaxDepth, walk);
+  };
+  const Eigen::Vector3d origin = meta_.box_min;
+  const double edge = meta_.box_max.x () - meta_.box_min.x ();
+  if (threads <= 1 || jobs.size () < 2)
+  {
+    pclx::omicron::detail::LevelSampler sampler (origin, edge);
+    for (const Job& job : jobs)
+      sample (job, sampler);
+    return;
+  }
+  pclx::omicron::detail::WorkerPool pool (threads);
+  std::vector<std::unique_ptr<pclx::omicron::detail::LevelSampler>> samplers;
+  for (int t = 0; t < threads; ++t)
+    samplers.emplace_back (new pclx::omicron::detail::LevelSampler (origin, edge));
+  pool.parallelFor (jobs.size (), [&] (std::size_t k, int thread) { sample (jobs[k], *samplers[thread]); });
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::readPending (std::uint64_t offset, std::size_t size, std::size_t n, void* out)
+{
+  std::lock_guard<std::mutex> g (mutex_);
+  if (!pending_ || std::fflush (pending_) != 0 || fseeko (pending_, static_cast<off_t> (offset), SEEK_SET) != 0 ||
+      std::fread (out, size, n, pending_) != n || fseeko (pending_, 0, SEEK_END) != 0)
     throw std::runtime_error ("reading back '" + directory_ + "/octree.pending.bin' failed");
-  out.points += sp.points;
-  out.lo = out.lo.cwiseMin (sp.lo);
-  out.hi = out.hi.cwiseMax (sp.hi);
 }
 
 template <typename PointT> template <typename F> void
-pcl::PotreeWriter<PointT>::forEachRecord (const Node& node, F&& f)
+pcl::PotreeWriter<PointT>::forEachRun (const WriteTask& task, const std::vector<std::uint8_t>& levels, F&& f)
 {
-  const std::uint64_t total = subtreePoints (node);
-  if (total == 0)
-    return;
-  if (leaf_limit_ > 0 && total <= leaf_limit_)
-  {
-    f (WriteTask{&node, true, total});
-    return;
-  }
-  f (WriteTask{&node, false, storedPoints (node)});
-  for (std::uint8_t c = 0; c < node.num_children; ++c)
-    forEachRecord (node.children[c], f);
+  std::uint64_t at = task.first;
+  std::vector<PointT> buffer;
+  std::vector<std::uint8_t> buffer_levels;
+  const auto walk = [&] (const Node& n, auto&& self) -> void {
+    if (n.flags & pclx::omicron::detail::kSpilled)
+    {
+      Spilled sp;
+      {
+        std::lock_guard<std::mutex> g (mutex_);
+        sp = spilled_.at (n.code.bits ());
+      }
+      if (sp.points == 0)
+        return;
+      if (!sp.whole && (task.subtree || task.node->level >= n.level))
+        throw std::runtime_error ("a spilled subtree larger than a leaf inside a record of its own level or below");
+      // Kept aside whole: its points, then their levels. Else the points of this level alone.
+      std::uint64_t offset = sp.offset, count = sp.points;
+      if (!sp.whole)
+      {
+        for (int l = 0; l < task.node->level; ++l)
+          offset += sp.level_points[l] * sizeof (PointT);
+        count = sp.level_points[task.node->level];
+      }
+      for (std::uint64_t done = 0; done < count;)
+      {
+        const std::size_t k = static_cast<std::size_t> (std::min<std::uint64_t> (kPiecePoints, count - done));
+        buffer.resize (k);
+        readPending (offset + done * sizeof (PointT), sizeof (PointT), k, buffer.data ());
+        if (sp.whole)
+        {
+          buffer_levels.resize (k);
+          readPending (sp.offset + sp.points * sizeof (PointT) + done, 1, k, buffer_levels.data ());
+        }
+        f (Run{buffer.data (), sp.whole ? buffer_levels.data () : nullptr, k});
+        done += k;
+      }
+      std::lock_guard<std::mutex> g (mutex_);
+      spilled_.at (n.code.bits ()).written = true;
+      return;
+    }
+    if (n.isLeaf ())
+    {
+      f (Run{n.points, levels.data () + at, n.num_points});
+      at += n.num_points;
+      return;
+    }
+    for (std::uint8_t c = 0; c < n.num_children; ++c)
+      self (n.children[c], self);
+  };
+  walk (*task.node, walk);
 }
 
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::encodeTask (const WriteTask& task, Encoded& out)
+pcl::PotreeWriter<PointT>::encodeTask (const WriteTask& task, const std::vector<std::uint8_t>& levels, Encoded& out)
 {
-  if (task.subtree)
-    encodeSubtree (*task.node, out);
-  else
-    encodeNode (*task.node, out);
+  forEachRun (task, levels, [&] (const Run& run) { encodeRun (task, run, out); });
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::writeTasksStreamed (const std::vector<WriteTask>& tasks,
+                                               const std::vector<std::uint8_t>& levels)
+{
+  // One record at a time, encoded run by run (a spilled subtree's runs are pieces of the
+  // pending file) and appended piece by piece: the buffers stay at a piece, whatever the
+  // record. Records appended from other threads wait: a record's bytes are contiguous.
+  for (const WriteTask& task : tasks)
+  {
+    std::lock_guard<std::mutex> whole (record_mutex_);
+    Encoded total, e;
+    std::uint64_t start = 0;
+    const auto flush = [&] {
+      std::lock_guard<std::mutex> g (mutex_);
+      if (!file_)
+        throw std::runtime_error ("appendSubtree before open");
+      if (!e.bytes.empty () && std::fwrite (e.bytes.data (), 1, e.bytes.size (), file_) != e.bytes.size ())
+        throw std::runtime_error ("writing '" + directory_ + "/octree.bin' failed (disk full?)");
+      total.points += e.points;
+      total.lo = total.lo.cwiseMin (e.lo);
+      total.hi = total.hi.cwiseMax (e.hi);
+      offset_ += e.bytes.size ();
+      e = Encoded ();
+    };
+    {
+      std::lock_guard<std::mutex> g (mutex_);
+      start = offset_;
+    }
+    forEachRun (task, levels, [&] (const Run& run) {
+      encodeRun (task, run, e);
+      if (e.points >= kPiecePoints)
+        flush ();
+    });
+    flush ();
+    std::lock_guard<std::mutex> g (mutex_);
+    records_.push_back ({task.node->code, static_cast<std::uint32_t> (total.points), start, offset_ - start});
+    lo_ = lo_.cwiseMin (total.lo);
+    hi_ = hi_.cwiseMax (total.hi);
+  }
 }
 
 template <typename PointT> void
 pcl::PotreeWriter<PointT>::appendSubtreeImpl (const Node& node)
 {
-  // One record encoded at a time (what a budgeted build accounts for).
-  forEachRecord (node, [this] (const WriteTask& task) {
-    Encoded e;
-    encodeTask (task, e);
-    record (task.node->code, e);
-  });
+  std::vector<WriteTask> tasks;
+  std::uint64_t first = 0;
+  forEachRecord (node, first, [&tasks] (const WriteTask& task) { tasks.push_back (task); });
+  std::vector<std::uint8_t> levels;
+  computeLevels (node, tasks, node.level, 1, levels);
+  writeTasksStreamed (tasks, levels);
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::keepAside (const Node& node, const std::vector<std::uint8_t>& levels, bool whole,
+                                      Spilled& sp)
+{
+  // Whole: every point, then every level. Else, level by level above the node, the points
+  // that level samples, in depth-first order.
+  std::vector<PointT> piece;
+  piece.reserve (kPiecePoints);
+  std::lock_guard<std::mutex> g (mutex_);
+  const std::string path = directory_ + "/octree.pending.bin";
+  if (!file_)
+    throw std::runtime_error ("appendSpilled before open");
+  if (!pending_ && !(pending_ = std::fopen (path.c_str (), "w+b")))
+    throw std::runtime_error ("cannot write '" + path + "': " + std::strerror (errno));
+  sp.offset = pending_bytes_;
+  const auto put = [&] (const void* data, std::size_t bytes) {
+    if (bytes > 0 && std::fwrite (data, 1, bytes, pending_) != bytes)
+      throw std::runtime_error ("writing '" + path + "' failed (disk full?)");
+    pending_bytes_ += bytes;
+  };
+  const auto flush = [&] {
+    put (piece.data (), piece.size () * sizeof (PointT));
+    piece.clear ();
+  };
+  const auto collect = [&] (int level) {
+    std::uint64_t at = 0, count = 0;
+    const auto walk = [&] (const Node& n, auto&& self) -> void {
+      if (!n.isLeaf ())
+      {
+        for (std::uint8_t c = 0; c < n.num_children; ++c)
+          self (n.children[c], self);
+        return;
+      }
+      for (std::uint32_t i = 0; i < n.num_points; ++i, ++at)
+        if (level < 0 || levels[at] == level)
+        {
+          piece.push_back (n.points[i]);
+          ++count;
+          if (piece.size () == kPiecePoints)
+            flush ();
+        }
+    };
+    walk (node, walk);
+    flush ();
+    return count;
+  };
+  if (whole)
+  {
+    collect (-1);
+    put (levels.data (), levels.size ());
+    return;
+  }
+  for (int l = 0; l < node.level; ++l)
+    sp.level_points[l] = collect (l);
 }
 
 template <typename PointT> void
@@ -292,31 +498,23 @@ pcl::PotreeWriter<PointT>::appendSpilledImpl (const Node& node)
 {
   Spilled sp;
   sp.points = subtreePoints (node);
-  if (leaf_limit_ == 0 || sp.points > leaf_limit_ || sp.points == 0)
+  sp.whole = leaf_limit_ > 0 && sp.points <= leaf_limit_ && sp.points > 0;
+  if (sp.points > 0)
   {
-    {
-      std::lock_guard<std::mutex> g (mutex_);
-      spilled_[node.code.bits ()] = sp;
-    }
-    for (std::uint8_t c = 0; c < node.num_children; ++c)
-      appendSubtreeImpl (node.children[c]);
-    return;
+    // At kSampleGridDepth or above the subtree holds whole sampling units, so the levels are
+    // those of the in-memory build. A subtree kept aside whole ends in a record at the node's
+    // level or above, which caps its levels.
+    std::vector<WriteTask> tasks;
+    std::uint64_t first = 0;
+    if (!sp.whole)
+      forEachRecord (node, first, [&tasks] (const WriteTask& task) { tasks.push_back (task); });
+    std::vector<std::uint8_t> levels;
+    computeLevels (node, tasks, node.level, 1, levels);
+    if (!sp.whole)
+      writeTasksStreamed (tasks, levels);
+    keepAside (node, levels, sp.whole, sp);
   }
-  Encoded e;
-  encodeSubtree (node, e);
   std::lock_guard<std::mutex> g (mutex_);
-  if (!file_)
-    throw std::runtime_error ("appendSpilled before open");
-  const std::string path = directory_ + "/octree.pending.bin";
-  if (!pending_ && !(pending_ = std::fopen (path.c_str (), "w+b")))
-    throw std::runtime_error ("cannot write '" + path + "': " + std::strerror (errno));
-  if (!e.bytes.empty () && std::fwrite (e.bytes.data (), 1, e.bytes.size (), pending_) != e.bytes.size ())
-    throw std::runtime_error ("writing '" + path + "' failed (disk full?)");
-  sp.pending = true;
-  sp.offset = pending_bytes_;
-  sp.lo = e.lo;
-  sp.hi = e.hi;
-  pending_bytes_ += e.bytes.size ();
   spilled_[node.code.bits ()] = sp;
 }
 
@@ -371,14 +569,14 @@ pcl::PotreeWriter<PointT>::closeImpl (std::uint64_t points)
   const bool closed = std::fclose (file_) == 0;
   file_ = nullptr;
   closePending ();
-  for (const auto& sp : spilled_)
-    if (sp.second.pending && !sp.second.written)
+  for (const auto& [code, sp] : spilled_)
+    if (!sp.written && (sp.whole || std::any_of (sp.level_points.begin (), sp.level_points.end (),
+                                                 [] (std::uint64_t n) { return n > 0; })))
       throw std::runtime_error ("a subtree appendSpilled () kept aside was never written (close before "
                               "appendSubtree reached its node)");
   if (!flushed || !closed)
     throw std::runtime_error ("writing '" + directory_ + "/octree.bin' failed (disk full?)");
   meta_.points = points;
-  meta_.spacing = pclx::omicron::detail::potree::spacingForNodes (records_, meta_.box_max.x () - meta_.box_min.x ());
   if (lo_.x () <= hi_.x ())
   {
     meta_.position_min = lo_;
@@ -392,12 +590,6 @@ template <typename PointT> bool
 pcl::PotreeWriter<PointT>::open (const std::string& directory, const Eigen::Vector3d& origin, double edge)
 {
   return guarded ("open", [&] { openImpl (directory, origin, edge); });
-}
-
-template <typename PointT> bool
-pcl::PotreeWriter<PointT>::appendNode (const Node& node)
-{
-  return guarded ("appendNode", [&] { appendNodeImpl (node); });
 }
 
 template <typename PointT> bool
@@ -425,10 +617,12 @@ pcl::PotreeWriter<PointT>::close (std::uint64_t points)
 }
 
 template <typename PointT> void
-pcl::PotreeWriter<PointT>::writeTasks (const std::vector<WriteTask>& tasks, int threads)
+pcl::PotreeWriter<PointT>::writeTasks (const std::vector<WriteTask>& tasks, const std::vector<std::uint8_t>& levels,
+                                       int threads)
 {
   // A window's encoded bytes are held until they are recorded: about 1M points keeps them a
-  // small share of the points' own memory while each thread gets many nodes.
+  // small share of the points' own memory while each thread gets many nodes. A node alone
+  // stores a sample of its subtree; only whole subtrees count towards the window.
   constexpr std::uint64_t kWindowPoints = std::uint64_t (1) << 20;
   pclx::omicron::detail::WorkerPool pool (threads);
   std::vector<Encoded> encoded;
@@ -436,15 +630,15 @@ pcl::PotreeWriter<PointT>::writeTasks (const std::vector<WriteTask>& tasks, int 
   {
     std::size_t j = i;
     std::uint64_t points = 0;
-    while (j < tasks.size () && (j == i || points + tasks[j].points <= kWindowPoints))
-      points += tasks[j++].points;
+    while (j < tasks.size () && (j == i || points + (tasks[j].subtree ? tasks[j].points : 0) <= kWindowPoints))
+      points += tasks[j].subtree ? tasks[j++].points : (++j, 0);
     encoded.assign (j - i, Encoded ());
     std::exception_ptr error;
     std::mutex error_mutex;
     pool.parallelFor (j - i, [&] (std::size_t k, int) {
       try
       {
-        encodeTask (tasks[i + k], encoded[k]);
+        encodeTask (tasks[i + k], levels, encoded[k]);
       }
       catch (...)
       {
@@ -469,13 +663,15 @@ pcl::PotreeWriter<PointT>::write (const ObliqueCutOctree<PointT>& octree, const 
   if (octree.getSpillLevel () >= 0)
     return fail ("write", "a budgeted build keeps only its upper tree; it already wrote the whole hierarchy to "
                           "getOutputDirectory ()");
-  setParentPointRatio (octree.getParentPointRatio ());
   if (!open (directory, octree.getRootOrigin (), octree.getRootEdge ()))
     return false;
   if (guarded ("write", [&] {
         std::vector<WriteTask> tasks;
-        forEachRecord (*root, [&tasks] (const WriteTask& task) { tasks.push_back (task); });
-        writeTasks (tasks, octree.getThreads ());
+        std::uint64_t first = 0;
+        forEachRecord (*root, first, [&tasks] (const WriteTask& task) { tasks.push_back (task); });
+        std::vector<std::uint8_t> levels;
+        computeLevels (*root, tasks, 0, octree.getThreads (), levels);
+        writeTasks (tasks, levels, octree.getThreads ());
         closeImpl (octree.getStatistics ().kept_points);
       }))
     return true;

@@ -1,0 +1,139 @@
+#include <pclx/omicron/detail/level_sampler.h>
+
+#include <algorithm>
+
+namespace pclx {
+namespace omicron {
+namespace detail {
+
+using pcl::MortonCode;
+
+LevelSampler::LevelSampler (const Eigen::Vector3d& origin, double edge)
+  : origin_ (origin), scale_ (static_cast<double> (std::uint64_t (1) << MortonCode::kMaxDepth) / edge), shift_ (MortonCode::kMaxDepth + 1), mask_ (MortonCode::kMaxDepth + 1),
+    word_ (MortonCode::kMaxDepth + 1, -1), taken_ (MortonCode::kMaxDepth + 1)
+{
+  for (int l = 0; l <= MortonCode::kMaxDepth; ++l)
+    shift_[l] = 3 * (MortonCode::kMaxDepth - std::min (l + kSampleGridDepth, MortonCode::kMaxDepth));
+  reset (0);
+}
+
+void
+LevelSampler::reset (int unit_depth)
+{
+  std::fill (words_.begin (), words_.end (), 0);
+  for (int l = 0; l < used_levels_; ++l)
+    if (word_[l] < 0)
+      taken_[l].clear ();
+  used_levels_ = 0;
+  std::size_t words = 0;
+  for (int l = 0; l <= MortonCode::kMaxDepth; ++l)
+  {
+    const int depth = std::min (l + kSampleGridDepth, MortonCode::kMaxDepth);
+    const int bits = 3 * std::max (0, depth - unit_depth);
+    word_[l] = -1;
+    if (bits <= kBitmapBits)
+    {
+      mask_[l] = (std::uint64_t (1) << bits) - 1;
+      word_[l] = static_cast<std::ptrdiff_t> (words);
+      words += std::max<std::size_t> (1, (std::size_t (1) << bits) / 64);
+    }
+  }
+  words_.resize (words);
+}
+
+std::uint8_t
+LevelSampler::take (const Eigen::Vector3f& p, int cap)
+{
+  constexpr int kDeepest = MortonCode::kMaxDepth;
+  const std::uint64_t code = MortonCode::fromCell (MortonCode::toCell (p.x (), origin_.x (), scale_, kDeepest),
+                                                   MortonCode::toCell (p.y (), origin_.y (), scale_, kDeepest),
+                                                   MortonCode::toCell (p.z (), origin_.z (), scale_, kDeepest), kDeepest)
+                                 .bits ();
+  cap = std::min (cap, MortonCode::kMaxDepth + 1);
+  used_levels_ = std::max (used_levels_, cap);
+  // The taken cells along a point's levels are a prefix (whoever took a cell found every
+  // coarser cell around it taken), so the level is the first zero of the taken bits. They are
+  // read for all levels without branching: the loads do not wait for each other.
+  std::uint32_t taken = 0;
+  for (int l = 0; l < cap; ++l)
+  {
+    const std::uint64_t cell = code >> shift_[l];
+    bool t;
+    if (word_[l] >= 0)
+    {
+      const std::uint64_t i = cell & mask_[l];
+      t = ((words_[static_cast<std::size_t> (word_[l]) + (i >> 6)] >> (i & 63)) & 1) != 0;
+    }
+    else
+      t = taken_[l].contains (cell);
+    taken |= static_cast<std::uint32_t> (t) << l;
+  }
+  const int lo = __builtin_ctz (~taken);
+  if (lo >= cap)
+    return kNoSampleLevel;
+  const std::uint64_t cell = code >> shift_[lo];
+  if (word_[lo] < 0)
+    taken_[lo].insert (cell);
+  else
+  {
+    const std::uint64_t i = cell & mask_[lo];
+    words_[static_cast<std::size_t> (word_[lo]) + (i >> 6)] |= std::uint64_t (1) << (i & 63);
+  }
+  return static_cast<std::uint8_t> (lo);
+}
+
+bool
+LevelSampler::CellSet::contains (std::uint64_t key) const
+{
+  if (slots_.empty ())
+    return false;
+  const std::size_t mask = slots_.size () - 1;
+  for (std::size_t i = static_cast<std::size_t> ((key * 0x9E3779B97F4A7C15ULL) >> (64 - bits_)); slots_[i] != 0;
+       i = (i + 1) & mask)
+    if (slots_[i] == key)
+      return true;
+  return false;
+}
+
+bool
+LevelSampler::CellSet::insert (std::uint64_t key)
+{
+  if (2 * (used_.size () + 1) > slots_.size ())
+    grow ();
+  const std::size_t mask = slots_.size () - 1;
+  std::size_t i = static_cast<std::size_t> ((key * 0x9E3779B97F4A7C15ULL) >> (64 - bits_));
+  while (slots_[i] != 0)
+  {
+    if (slots_[i] == key)
+      return false;
+    i = (i + 1) & mask;
+  }
+  slots_[i] = key;
+  used_.push_back (static_cast<std::uint32_t> (i));
+  return true;
+}
+
+void
+LevelSampler::CellSet::clear ()
+{
+  for (std::uint32_t i : used_)
+    slots_[i] = 0;
+  used_.clear ();
+}
+
+void
+LevelSampler::CellSet::grow ()
+{
+  std::vector<std::uint64_t> old;
+  old.swap (slots_);
+  bits_ = std::max (bits_ + 1, 6);
+  slots_.assign (std::size_t (1) << bits_, 0);
+  used_.clear ();
+  for (std::uint64_t key : old)
+    if (key != 0)
+      insert (key);
+}
+
+}  // namespace detail
+}  // namespace omicron
+}  // namespace pclx
