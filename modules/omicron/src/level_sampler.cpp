@@ -9,11 +9,12 @@ namespace detail {
 using pcl::MortonCode;
 
 LevelSampler::LevelSampler (const Eigen::Vector3d& origin, double edge)
-  : origin_ (origin), scale_ (static_cast<double> (std::uint64_t (1) << MortonCode::kMaxDepth) / edge), shift_ (MortonCode::kMaxDepth + 1), mask_ (MortonCode::kMaxDepth + 1),
-    word_ (MortonCode::kMaxDepth + 1, -1), taken_ (MortonCode::kMaxDepth + 1)
+  : origin_ (origin), scale_ (static_cast<double> (std::uint64_t (1) << MortonCode::kMaxDepth) / edge),
+    shift_ (MortonCode::kMaxDepth + 1), mask_ (MortonCode::kMaxDepth + 1), word_ (MortonCode::kMaxDepth + 1, -1),
+    axis_bits_ (MortonCode::kMaxDepth + 1, 0), taken_ (MortonCode::kMaxDepth + 1)
 {
   for (int l = 0; l <= MortonCode::kMaxDepth; ++l)
-    shift_[l] = 3 * (MortonCode::kMaxDepth - std::min (l + kSampleGridDepth, MortonCode::kMaxDepth));
+    shift_[l] = MortonCode::kMaxDepth - std::min (l + kSampleGridDepth, MortonCode::kMaxDepth);
   reset (0);
 }
 
@@ -29,13 +30,14 @@ LevelSampler::reset (int unit_depth)
   for (int l = 0; l <= MortonCode::kMaxDepth; ++l)
   {
     const int depth = std::min (l + kSampleGridDepth, MortonCode::kMaxDepth);
-    const int bits = 3 * std::max (0, depth - unit_depth);
+    const int bits = std::max (0, depth - unit_depth);  // per axis
     word_[l] = -1;
-    if (bits <= kBitmapBits)
+    if (3 * bits <= kBitmapBits)
     {
+      axis_bits_[l] = bits;
       mask_[l] = (std::uint64_t (1) << bits) - 1;
       word_[l] = static_cast<std::ptrdiff_t> (words);
-      words += std::max<std::size_t> (1, (std::size_t (1) << bits) / 64);
+      words += std::max<std::size_t> (1, (std::size_t (1) << (3 * bits)) / 64);
     }
   }
   words_.resize (words);
@@ -44,11 +46,21 @@ LevelSampler::reset (int unit_depth)
 std::uint8_t
 LevelSampler::take (const Eigen::Vector3f& p, int cap)
 {
+  // A cell by its grid coordinates at the level: its index within the unit (bitmap levels), or
+  // a key of the three coordinates.
   constexpr int kDeepest = MortonCode::kMaxDepth;
-  const std::uint64_t code = MortonCode::fromCell (MortonCode::toCell (p.x (), origin_.x (), scale_, kDeepest),
-                                                   MortonCode::toCell (p.y (), origin_.y (), scale_, kDeepest),
-                                                   MortonCode::toCell (p.z (), origin_.z (), scale_, kDeepest), kDeepest)
-                                 .bits ();
+  const std::uint64_t x = MortonCode::toCell (p.x (), origin_.x (), scale_, kDeepest),
+                      y = MortonCode::toCell (p.y (), origin_.y (), scale_, kDeepest),
+                      z = MortonCode::toCell (p.z (), origin_.z (), scale_, kDeepest);
+  const auto index = [&] (int l) {
+    const int s = shift_[l], b = axis_bits_[l];
+    const std::uint64_t m = mask_[l];
+    return ((((x >> s) & m) << b | ((y >> s) & m)) << b) | ((z >> s) & m);
+  };
+  const auto key = [&] (int l) {
+    const int s = shift_[l];
+    return ((x >> s) << 42) | ((y >> s) << 21) | (z >> s) | (std::uint64_t (1) << 63);  // never 0
+  };
   cap = std::min (cap, MortonCode::kMaxDepth + 1);
   used_levels_ = std::max (used_levels_, cap);
   // The taken cells along a point's levels are a prefix (whoever took a cell found every
@@ -57,26 +69,24 @@ LevelSampler::take (const Eigen::Vector3f& p, int cap)
   std::uint32_t taken = 0;
   for (int l = 0; l < cap; ++l)
   {
-    const std::uint64_t cell = code >> shift_[l];
     bool t;
     if (word_[l] >= 0)
     {
-      const std::uint64_t i = cell & mask_[l];
+      const std::uint64_t i = index (l);
       t = ((words_[static_cast<std::size_t> (word_[l]) + (i >> 6)] >> (i & 63)) & 1) != 0;
     }
     else
-      t = taken_[l].contains (cell);
+      t = taken_[l].contains (key (l));
     taken |= static_cast<std::uint32_t> (t) << l;
   }
   const int lo = __builtin_ctz (~taken);
   if (lo >= cap)
     return kNoSampleLevel;
-  const std::uint64_t cell = code >> shift_[lo];
   if (word_[lo] < 0)
-    taken_[lo].insert (cell);
+    taken_[lo].insert (key (lo));
   else
   {
-    const std::uint64_t i = cell & mask_[lo];
+    const std::uint64_t i = index (lo);
     words_[static_cast<std::size_t> (word_[lo]) + (i >> 6)] |= std::uint64_t (1) << (i & 63);
   }
   return static_cast<std::uint8_t> (lo);
