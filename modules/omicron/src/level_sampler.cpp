@@ -10,8 +10,8 @@ using pcl::MortonCode;
 
 LevelSampler::LevelSampler (const Eigen::Vector3d& origin, double edge)
   : origin_ (origin), scale_ (static_cast<double> (std::uint64_t (1) << MortonCode::kMaxDepth) / edge),
-    shift_ (MortonCode::kMaxDepth + 1), mask_ (MortonCode::kMaxDepth + 1), word_ (MortonCode::kMaxDepth + 1, -1),
-    axis_bits_ (MortonCode::kMaxDepth + 1, 0), taken_ (MortonCode::kMaxDepth + 1)
+    shift_ (MortonCode::kMaxDepth + 1), word_ (MortonCode::kMaxDepth + 1, -1), axis_bits_ (MortonCode::kMaxDepth + 1, 0),
+    index_shift_ (MortonCode::kMaxDepth + 1, 0), taken_ (MortonCode::kMaxDepth + 1)
 {
   for (int l = 0; l <= MortonCode::kMaxDepth; ++l)
     shift_[l] = MortonCode::kMaxDepth - std::min (l + kSampleGridDepth, MortonCode::kMaxDepth);
@@ -26,7 +26,10 @@ LevelSampler::reset (int unit_depth)
     if (word_[l] < 0)
       taken_[l].clear ();
   used_levels_ = 0;
+  // Levels with few cells in the unit (coarse to fine) get a bitmap, indexed by the Morton
+  // index of the cell within the unit: a prefix of the finest such level's index.
   std::size_t words = 0;
+  finest_ = -1;
   for (int l = 0; l <= MortonCode::kMaxDepth; ++l)
   {
     const int depth = std::min (l + kSampleGridDepth, MortonCode::kMaxDepth);
@@ -35,61 +38,61 @@ LevelSampler::reset (int unit_depth)
     if (3 * bits <= kBitmapBits)
     {
       axis_bits_[l] = bits;
-      mask_[l] = (std::uint64_t (1) << bits) - 1;
       word_[l] = static_cast<std::ptrdiff_t> (words);
       words += std::max<std::size_t> (1, (std::size_t (1) << (3 * bits)) / 64);
+      finest_ = l;
     }
   }
+  for (int l = 0; l <= finest_; ++l)
+    index_shift_[l] = 3 * (axis_bits_[finest_] - axis_bits_[l]);
   words_.resize (words);
 }
 
 std::uint8_t
 LevelSampler::take (const Eigen::Vector3f& p, int cap)
 {
-  // A cell by its grid coordinates at the level: its index within the unit (bitmap levels), or
-  // a key of the three coordinates.
   constexpr int kDeepest = MortonCode::kMaxDepth;
   const std::uint64_t x = MortonCode::toCell (p.x (), origin_.x (), scale_, kDeepest),
                       y = MortonCode::toCell (p.y (), origin_.y (), scale_, kDeepest),
                       z = MortonCode::toCell (p.z (), origin_.z (), scale_, kDeepest);
-  const auto index = [&] (int l) {
-    const int s = shift_[l], b = axis_bits_[l];
-    const std::uint64_t m = mask_[l];
-    return ((((x >> s) & m) << b | ((y >> s) & m)) << b) | ((z >> s) & m);
-  };
+  std::uint64_t index = 0;  // the cell's Morton index within the unit at the finest bitmap level
+  if (finest_ >= 0)
+  {
+    const int s = shift_[finest_];
+    const std::uint64_t m = (std::uint64_t (1) << axis_bits_[finest_]) - 1;
+    index = (MortonCode::spread (static_cast<std::uint32_t> ((x >> s) & m)) << 2) |
+            (MortonCode::spread (static_cast<std::uint32_t> ((y >> s) & m)) << 1) |
+            MortonCode::spread (static_cast<std::uint32_t> ((z >> s) & m));
+  }
   const auto key = [&] (int l) {
     const int s = shift_[l];
     return ((x >> s) << 42) | ((y >> s) << 21) | (z >> s) | (std::uint64_t (1) << 63);  // never 0
   };
-  cap = std::min (cap, MortonCode::kMaxDepth + 1);
+  const auto taken = [&] (int l) {
+    if (word_[l] < 0)
+      return taken_[l].contains (key (l));
+    const std::uint64_t i = index >> index_shift_[l];
+    return ((words_[static_cast<std::size_t> (word_[l]) + (i >> 6)] >> (i & 63)) & 1) != 0;
+  };
+  cap = std::min (cap, kDeepest + 1);
+  if (cap <= 0)
+    return kNoSampleLevel;
   used_levels_ = std::max (used_levels_, cap);
   // The taken cells along a point's levels are a prefix (whoever took a cell found every
-  // coarser cell around it taken), so the level is the first zero of the taken bits. They are
-  // read for all levels without branching: the loads do not wait for each other.
-  std::uint32_t taken = 0;
-  for (int l = 0; l < cap; ++l)
-  {
-    bool t;
-    if (word_[l] >= 0)
-    {
-      const std::uint64_t i = index (l);
-      t = ((words_[static_cast<std::size_t> (word_[l]) + (i >> 6)] >> (i & 63)) & 1) != 0;
-    }
-    else
-      t = taken_[l].contains (key (l));
-    taken |= static_cast<std::uint32_t> (t) << l;
-  }
-  const int lo = __builtin_ctz (~taken);
-  if (lo >= cap)
+  // coarser cell around it taken): when the finest is taken, so are all.
+  if (taken (cap - 1))
     return kNoSampleLevel;
-  if (word_[lo] < 0)
-    taken_[lo].insert (key (lo));
+  int l = 0;
+  while (l < cap - 1 && taken (l))
+    ++l;
+  if (word_[l] < 0)
+    taken_[l].insert (key (l));
   else
   {
-    const std::uint64_t i = index (lo);
-    words_[static_cast<std::size_t> (word_[lo]) + (i >> 6)] |= std::uint64_t (1) << (i & 63);
+    const std::uint64_t i = index >> index_shift_[l];
+    words_[static_cast<std::size_t> (word_[l]) + (i >> 6)] |= std::uint64_t (1) << (i & 63);
   }
-  return static_cast<std::uint8_t> (lo);
+  return static_cast<std::uint8_t> (l);
 }
 
 bool

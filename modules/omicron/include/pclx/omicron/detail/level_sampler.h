@@ -73,13 +73,14 @@ private:
   Eigen::Vector3d origin_;
   double scale_;         // deepest cells per unit length
   int used_levels_ = 0;  // levels touched since the last reset
-  // Per level: the shift from a deepest grid coordinate to the level's, and for levels with
-  // few cells in the unit the mask of a coordinate within the unit, its bits, and the first
-  // word of the level's bitmap in words_ (else -1: the level's cells go to taken_).
+  // Per level: the shift from a deepest grid coordinate to the level's; for levels with few
+  // cells in the unit, the first word of the level's bitmap in words_ (else -1: the level's
+  // cells go to taken_), its bits per axis, and the shift from the finest such level's index.
   std::vector<int> shift_;
-  std::vector<std::uint64_t> mask_;
   std::vector<std::ptrdiff_t> word_;
   std::vector<int> axis_bits_;
+  std::vector<int> index_shift_;
+  int finest_ = -1;  // the finest level with a bitmap
   std::vector<std::uint64_t> words_;
   std::vector<CellSet> taken_;                     // per level with many cells: taken cell codes
 };
