@@ -198,15 +198,20 @@ private:
     const std::uint8_t* levels;
     std::size_t n;
   };
-  // Points in the subtree (the leaves', and what spilled nodes stand for).
-  std::uint64_t subtreePoints (const Node& node) const;
-  // Points in the subtree's in-memory leaves.
-  static std::uint64_t memoryPoints (const Node& node);
-  // Calls f (const WriteTask&) for each record of the subtree of `node`, in octree.bin's
-  // order: a subtree of at most the leaf limit is one record, else the node and then each
-  // child's subtree the same way; empty subtrees and the nodes appendSpilled () wrote out
-  // are left out. `first` counts the in-memory points before `node` in depth-first order.
-  template <typename F> void forEachRecord (const Node& node, std::uint64_t& first, F&& f);
+  // Points in a subtree: all (the leaves', and what spilled nodes stand for), and those of
+  // its in-memory leaves.
+  struct PointCounts
+  {
+    std::uint64_t total = 0, in_memory = 0;
+  };
+  PointCounts countPoints (const Node& node) const;
+  // The records of the subtree of `node`, in octree.bin's order: a subtree of at most the
+  // leaf limit is one record, else the node and then each child's subtree the same way;
+  // empty subtrees and the nodes appendSpilled () wrote out are left out.
+  std::vector<WriteTask> records (const Node& node) const;
+  // records (), appending to `tasks`; `first` counts the in-memory points before `node` in
+  // depth-first order.
+  void addRecords (const Node& node, std::uint64_t& first, std::vector<WriteTask>& tasks) const;
   // The level (LevelSampler) of each in-memory point of the records' subtree, in depth-first
   // order, capped at the level of the record that holds the point whole; with no records,
   // at `cap`.

@@ -192,21 +192,8 @@ pcl::PotreeWriter<PointT>::appendNodeImpl (MortonCode code, const PointT* points
   record (code, e);
 }
 
-template <typename PointT> std::uint64_t
-pcl::PotreeWriter<PointT>::memoryPoints (const Node& node)
-{
-  if (node.flags & pclx::omicron::detail::kSpilled)
-    return 0;
-  if (node.isLeaf ())
-    return node.num_points;
-  std::uint64_t n = 0;
-  for (std::uint8_t c = 0; c < node.num_children; ++c)
-    n += memoryPoints (node.children[c]);
-  return n;
-}
-
-template <typename PointT> std::uint64_t
-pcl::PotreeWriter<PointT>::subtreePoints (const Node& node) const
+template <typename PointT> typename pcl::PotreeWriter<PointT>::PointCounts
+pcl::PotreeWriter<PointT>::countPoints (const Node& node) const
 {
   if (node.flags & pclx::omicron::detail::kSpilled)
   {
@@ -214,40 +201,53 @@ pcl::PotreeWriter<PointT>::subtreePoints (const Node& node) const
     const auto it = spilled_.find (node.code.bits ());
     if (it == spilled_.end ())
       throw std::runtime_error ("a spilled node that appendSpilled never received");
-    return it->second.points;
+    return {it->second.points, 0};
   }
   if (node.isLeaf ())
-    return node.num_points;
-  std::uint64_t n = 0;
+    return {node.num_points, node.num_points};
+  PointCounts n;
   for (std::uint8_t c = 0; c < node.num_children; ++c)
-    n += subtreePoints (node.children[c]);
+  {
+    const PointCounts k = countPoints (node.children[c]);
+    n.total += k.total;
+    n.in_memory += k.in_memory;
+  }
   return n;
 }
 
-template <typename PointT> template <typename F> void
-pcl::PotreeWriter<PointT>::forEachRecord (const Node& node, std::uint64_t& first, F&& f)
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::addRecords (const Node& node, std::uint64_t& first, std::vector<WriteTask>& tasks) const
 {
-  const std::uint64_t total = subtreePoints (node), in_memory = memoryPoints (node);
+  const PointCounts n = countPoints (node);
   bool written_out = false;
   if (node.flags & pclx::omicron::detail::kSpilled)
   {
     std::lock_guard<std::mutex> g (mutex_);
     written_out = !spilled_.at (node.code.bits ()).whole;
   }
-  if (total == 0 || written_out)
+  if (n.total == 0 || written_out)
   {
-    first += in_memory;
+    first += n.in_memory;
     return;
   }
-  if (node.isLeaf () || (leaf_limit_ > 0 && total <= leaf_limit_))
+  if (node.isLeaf () || (leaf_limit_ > 0 && n.total <= leaf_limit_))
   {
-    f (WriteTask{&node, true, total, first});
-    first += in_memory;
+    tasks.push_back (WriteTask{&node, true, n.total, first});
+    first += n.in_memory;
     return;
   }
-  f (WriteTask{&node, false, total, first});
+  tasks.push_back (WriteTask{&node, false, n.total, first});
   for (std::uint8_t c = 0; c < node.num_children; ++c)
-    forEachRecord (node.children[c], first, f);
+    addRecords (node.children[c], first, tasks);
+}
+
+template <typename PointT> std::vector<typename pcl::PotreeWriter<PointT>::WriteTask>
+pcl::PotreeWriter<PointT>::records (const Node& node) const
+{
+  std::vector<WriteTask> tasks;
+  std::uint64_t first = 0;
+  addRecords (node, first, tasks);
+  return tasks;
 }
 
 template <typename PointT> void
@@ -255,7 +255,7 @@ pcl::PotreeWriter<PointT>::computeLevels (const Node& root, const std::vector<Wr
                                           int threads, std::vector<std::uint8_t>& levels) const
 {
   using pclx::omicron::detail::kSampleGridDepth;
-  levels.resize (memoryPoints (root));
+  levels.resize (countPoints (root).in_memory);
   // Jobs that hold whole sampling units (octree cells at kSampleGridDepth, or coarser
   // leaves): the records that are whole subtrees down to that depth, and the nodes at that
   // depth still split into records. Without records (a subtree kept aside whole), or below
@@ -429,9 +429,7 @@ pcl::PotreeWriter<PointT>::writeTasksStreamed (const std::vector<WriteTask>& tas
 template <typename PointT> void
 pcl::PotreeWriter<PointT>::appendSubtreeImpl (const Node& node)
 {
-  std::vector<WriteTask> tasks;
-  std::uint64_t first = 0;
-  forEachRecord (node, first, [&tasks] (const WriteTask& task) { tasks.push_back (task); });
+  const std::vector<WriteTask> tasks = records (node);
   std::vector<std::uint8_t> levels;
   computeLevels (node, tasks, node.level, 1, levels);
   writeTasksStreamed (tasks, levels);
@@ -497,17 +495,14 @@ template <typename PointT> void
 pcl::PotreeWriter<PointT>::appendSpilledImpl (const Node& node)
 {
   Spilled sp;
-  sp.points = subtreePoints (node);
+  sp.points = countPoints (node).total;
   sp.whole = leaf_limit_ > 0 && sp.points <= leaf_limit_ && sp.points > 0;
   if (sp.points > 0)
   {
     // At kSampleGridDepth or above the subtree holds whole sampling units, so the levels are
     // those of the in-memory build. A subtree kept aside whole ends in a record at the node's
     // level or above, which caps its levels.
-    std::vector<WriteTask> tasks;
-    std::uint64_t first = 0;
-    if (!sp.whole)
-      forEachRecord (node, first, [&tasks] (const WriteTask& task) { tasks.push_back (task); });
+    const std::vector<WriteTask> tasks = sp.whole ? std::vector<WriteTask> () : records (node);
     std::vector<std::uint8_t> levels;
     computeLevels (node, tasks, node.level, 1, levels);
     if (!sp.whole)
@@ -666,9 +661,7 @@ pcl::PotreeWriter<PointT>::write (const ObliqueCutOctree<PointT>& octree, const 
   if (!open (directory, octree.getRootOrigin (), octree.getRootEdge ()))
     return false;
   if (guarded ("write", [&] {
-        std::vector<WriteTask> tasks;
-        std::uint64_t first = 0;
-        forEachRecord (*root, first, [&tasks] (const WriteTask& task) { tasks.push_back (task); });
+        const std::vector<WriteTask> tasks = records (*root);
         std::vector<std::uint8_t> levels;
         computeLevels (*root, tasks, 0, octree.getThreads (), levels);
         writeTasks (tasks, levels, octree.getThreads ());
