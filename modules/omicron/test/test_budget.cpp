@@ -290,15 +290,18 @@ childPeak (const std::string& pcd, std::size_t budget)
       warm.build ();
     }
     const long long rss0 = static_cast<long long> (pclx::testing::resetPeakMemory ());
-    Octree o;
-    o.setInputFile (pcd);
-    configure (o, 6, false);
-    o.setMemoryBudget (budget);
     long long out[2] = {-1, -1};
-    if (o.build ())
     {
-      out[0] = static_cast<long long> (pclx::testing::procStatusKb ("VmHWM")) * 1024 - rss0;
-      out[1] = static_cast<long long> (o.getStatistics ().accounted_peak_bytes);
+      // Destroyed before _exit: it removes its temporary output folder.
+      Octree o;
+      o.setInputFile (pcd);
+      configure (o, 6, false);
+      o.setMemoryBudget (budget);
+      if (o.build ())
+      {
+        out[0] = static_cast<long long> (pclx::testing::procStatusKb ("VmHWM")) * 1024 - rss0;
+        out[1] = static_cast<long long> (o.getStatistics ().accounted_peak_bytes);
+      }
     }
     const bool sent = ::write (fds[1], out, sizeof out) == static_cast<ssize_t> (sizeof out);
     ::_exit (sent ? 0 : 1);
