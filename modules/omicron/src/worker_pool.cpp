@@ -22,7 +22,18 @@ pclx::omicron::detail::WorkerPool::drain (const std::function<void (std::size_t,
 {
   for (std::size_t i = next_.fetch_add (1, std::memory_order_relaxed); i < n;
        i = next_.fetch_add (1, std::memory_order_relaxed))
-    f (i, worker);
+    try
+    {
+      f (i, worker);
+    }
+    catch (...)
+    {
+      // The first error is kept for the caller; no further index is handed out.
+      std::lock_guard<std::mutex> g (mutex_);
+      if (!error_)
+        error_ = std::current_exception ();
+      next_.store (n, std::memory_order_relaxed);
+    }
 }
 
 void
@@ -73,4 +84,10 @@ pclx::omicron::detail::WorkerPool::parallelFor (std::size_t n, const std::functi
   std::unique_lock<std::mutex> lk (mutex_);
   job_ = nullptr;  // closed: late helpers go back to sleep
   done_.wait (lk, [&] { return busy_ == 0; });
+  if (error_)
+  {
+    std::exception_ptr error = nullptr;
+    std::swap (error, error_);
+    std::rethrow_exception (error);
+  }
 }

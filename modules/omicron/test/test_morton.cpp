@@ -1,11 +1,15 @@
-// MortonCode and MortonSorter.
+// MortonCode, MortonSorter and the WorkerPool its passes run on.
 #include "omicron_test_util.h"
 
 #include <pclx/omicron/morton_code.h>
 #include <pclx/omicron/detail/morton_sorter.h>
+#include <pclx/omicron/detail/worker_pool.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <limits>
+#include <thread>
 
 using pcl::MortonCode;
 using namespace omitest;
@@ -267,6 +271,27 @@ TEST (MortonSorter, StreamedScatterEqualsPrepareAndFlagsMovedPoints)
   pclx::omicron::detail::MortonSorter<pcl::PointXYZ> s;
   Cloud::VectorType sorted (s.countBuckets (cloud->data (), 1000));
   EXPECT_THROW (s.scatter (cloud->data (), 1001, sorted), std::runtime_error);
+}
+
+// An exception thrown by a loop's call reaches the caller once every call has returned, and
+// the pool runs the next loop.
+TEST (WorkerPool, RethrowsTheFirstErrorAfterTheLoop)
+{
+  pclx::omicron::detail::WorkerPool pool (2);
+  std::atomic<int> running{0};
+  EXPECT_THROW (pool.parallelFor (64,
+                                  [&] (std::size_t i, int) {
+                                    ++running;
+                                    std::this_thread::sleep_for (std::chrono::microseconds (200));
+                                    --running;
+                                    if (i == 3)
+                                      throw std::runtime_error ("call 3");
+                                  }),
+                std::runtime_error);
+  EXPECT_EQ (running.load (), 0);
+  std::atomic<std::size_t> sum{0};
+  pool.parallelFor (100, [&] (std::size_t i, int) { sum += i; });
+  EXPECT_EQ (sum.load (), 4950u);
 }
 
 TEST (MortonSorter, RejectsBadParameters)

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstddef>
+#include <exception>
 #include <functional>
 #include <mutex>
 #include <thread>
@@ -31,7 +32,9 @@ public:
 
   // Calls f (i, worker) for every i in [0, n), worker in [0, size ()), and returns when all
   // calls have returned. Indices are handed out one at a time (the work per index varies).
-  // One loop at a time: calls from several threads are serialized.
+  // One loop at a time: calls from several threads are serialized. When a call throws, no
+  // further index is started, and the first exception is rethrown here once every call has
+  // returned.
   void parallelFor (std::size_t n, const std::function<void (std::size_t, int)>& f);
 
 private:
@@ -47,6 +50,7 @@ private:
   std::atomic<std::size_t> next_{0};
   std::size_t generation_ = 0;
   int busy_ = 0;  // helpers still inside the current loop
+  std::exception_ptr error_;  // the current loop's first exception
   bool stop_ = false;
 };
 

@@ -628,21 +628,7 @@ pcl::PotreeWriter<PointT>::writeTasks (const std::vector<WriteTask>& tasks, cons
     while (j < tasks.size () && (j == i || points + (tasks[j].subtree ? tasks[j].points : 0) <= kWindowPoints))
       points += tasks[j].subtree ? tasks[j++].points : (++j, 0);
     encoded.assign (j - i, Encoded ());
-    std::exception_ptr error;
-    std::mutex error_mutex;
-    pool.parallelFor (j - i, [&] (std::size_t k, int) {
-      try
-      {
-        encodeTask (tasks[i + k], levels, encoded[k]);
-      }
-      catch (...)
-      {
-        std::lock_guard<std::mutex> g (error_mutex);
-        error = std::current_exception ();
-      }
-    });
-    if (error)
-      std::rethrow_exception (error);
+    pool.parallelFor (j - i, [&] (std::size_t k, int) { encodeTask (tasks[i + k], levels, encoded[k]); });
     for (std::size_t k = i; k < j; ++k)
       record (tasks[k].node->code, encoded[k - i]);
     i = j;
