@@ -28,7 +28,7 @@ pclx::omicron::detail::WorkerPool::drain (const std::function<void (std::size_t,
     }
     catch (...)
     {
-      // The first error is kept for the caller; no further index is handed out.
+      // The first error is kept for the caller; the indices not yet handed out are skipped.
       std::lock_guard<std::mutex> g (mutex_);
       if (!error_)
         error_ = std::current_exception ();

@@ -32,9 +32,9 @@ public:
 
   // Calls f (i, worker) for every i in [0, n), worker in [0, size ()), and returns when all
   // calls have returned. Indices are handed out one at a time (the work per index varies).
-  // One loop at a time: calls from several threads are serialized. When a call throws, no
-  // further index is started, and the first exception is rethrown here once every call has
-  // returned.
+  // One loop at a time: calls from several threads are serialized. When a call throws, the
+  // indices not yet handed out are skipped, and the first exception is rethrown here once
+  // every call that started has returned.
   void parallelFor (std::size_t n, const std::function<void (std::size_t, int)>& f);
 
 private:
