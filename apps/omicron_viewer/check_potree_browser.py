@@ -13,6 +13,7 @@ rendered by VTK (potree_reference) from that camera. The check fails unless
 potree-core and three are installed with npm into --npm-dir (kept between runs).
 """
 import argparse
+import glob
 import importlib.util
 import json
 import math
@@ -99,13 +100,17 @@ def load_in_browser(args, site, cloud, cam, name, budget=None):
         browser = subprocess.Popen([args.chromium, "--headless=new", "--no-sandbox", "--use-gl=angle",
                                     "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-first-run",
                                     "--user-data-dir=" + profile, "--window-size=%d,%d" % (WIDTH, HEIGHT), url],
-                                   stdout=log, stderr=log)
+                                   stdout=log, stderr=log,
+                                   # A killed browser leaves its singleton folder in TMPDIR: removed below.
+                                   env=dict(os.environ, TMPDIR=args.work))
         try:
             server.wait(timeout=120)
         except subprocess.TimeoutExpired:
             server.kill()
         browser.kill()
         browser.wait()
+    for leftover in glob.glob(os.path.join(args.work, "org.chromium.Chromium.*")):
+        shutil.rmtree(leftover, ignore_errors=True)
     if not os.path.exists(result):
         raise SystemExit("FAILED: %s: the page posted no result within 120 s (see %s.chromium.log)" % (name, name))
     with open(result) as f:
