@@ -6,6 +6,7 @@
 #include <pcl/point_cloud.h>
 
 #include <array>
+#include <cstddef>
 #include <cstdio>
 #include <limits>
 #include <map>
@@ -95,6 +96,9 @@ public:
   std::uint32_t getLeafPointLimit () const { return leaf_limit_; }
   /** \brief PotreeConverter's nodes hold up to about 20k points. */
   static constexpr std::uint32_t kDefaultLeafPointLimit = 20000;
+  /** \brief Points per piece when a record, or the pending file of a budgeted build, is
+    * written or read back in pieces: what bounds those buffers. */
+  static constexpr std::size_t kPiecePoints = std::size_t (1) << 14;
 
   /** \brief Write a built (in-memory) octree to a folder.
     * \param[in] octree the octree, after a successful build ()
@@ -162,8 +166,6 @@ public:
   std::string getLastError () const;
 
 private:
-  // Points per piece of a record written in pieces, and per piece of the pending file.
-  static constexpr std::size_t kPiecePoints = std::size_t (1) << 14;
   // Encoded points with their bounds.
   struct Encoded
   {

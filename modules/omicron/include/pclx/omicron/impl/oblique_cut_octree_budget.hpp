@@ -231,7 +231,7 @@ struct pcl::ObliqueCutOctree<PointT>::Budgeted
   std::size_t
   accountWrite (std::size_t largest_node, std::size_t subtree_points, std::size_t sampled_points)
   {
-    constexpr std::size_t kPiece = std::size_t (1) << 14;
+    constexpr std::size_t kPiece = PotreeWriter<PointT>::kPiecePoints;
     const std::size_t wb = sampled_points + kPiece * (sizeof (PointT) + 1) +
                            bpp * std::min<std::size_t> (subtree_points, std::max (largest_node, kPiece));
     const std::size_t now = write_now.fetch_add (wb) + wb;
