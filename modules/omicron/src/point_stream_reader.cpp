@@ -37,6 +37,13 @@ parseCount (const std::string& s, std::uint64_t& v)
   v = std::strtoull (s.c_str (), nullptr, 10);
   return true;
 }
+// PCL's field name, and CloudCompare's PLY scalar field ("scalar_Intensity").
+bool
+isIntensityName (const std::string& name)
+{
+  const std::string n = lower (name);
+  return n == "intensity" || n == "scalar_intensity";
+}
 // Points above this are refused: per-node counts are 32-bit, and it bounds header numbers.
 constexpr std::uint64_t kMaxPoints = (std::uint64_t (1) << 40);
 }  // namespace
@@ -107,7 +114,8 @@ pcl::PointStreamReader::close ()
 std::size_t
 pcl::PointStreamReader::bufferBytes () const
 {
-  return buffer_.capacity () + soa_.capacity () + tmp_.size () * sizeof (pcl::PointXYZRGB);
+  return buffer_.capacity () + soa_.capacity () + tmp_.size () * sizeof (pcl::PointXYZRGB) +
+         intensities_.capacity () * sizeof (float);
 }
 
 bool
@@ -131,9 +139,10 @@ pcl::PointStreamReader::openImpl (const std::string& path)
   close ();
   path_ = path;
   binary_ = big_endian_ = compressed_ = color_ = packed_rgb_ = false;
+  intensities_.clear ();
   declared_ = data_offset_ = record_bytes_ = line_no_ = data_line_ = 0;
   tokens_ = 0;
-  x_ = y_ = z_ = r_ = g_ = b_ = rgb_ = Field ();
+  x_ = y_ = z_ = r_ = g_ = b_ = rgb_ = intensity_ = Field ();
   field_sizes_.clear ();
   soa_field_offset_.clear ();
   const std::string p = lower (path);
@@ -318,6 +327,8 @@ pcl::PointStreamReader::parsePCDHeader ()
       rgb_ = fd;
       color_ = packed_rgb_ = true;
     }
+    else if (isIntensityName (n) && c == 1 && !(s == 8 && t != 'F'))
+      intensity_ = fd;
     field_sizes_.push_back (s * c);
     offset += s * c;
     token += c;
@@ -420,6 +431,8 @@ pcl::PointStreamReader::parsePLYHeader ()
           g_ = f;
         else if (n == "blue" || n == "b")
           b_ = f;
+        else if (isIntensityName (n))
+          intensity_ = f;
         offset += size;
         ++token;
       }
@@ -563,6 +576,8 @@ pcl::PointStreamReader::readBinary (std::size_t max_points, pcl::PointCloud<pcl:
       if (keep (p))
       {
         out.push_back (p);
+        if (intensity_.index >= 0)
+          intensities_.push_back (static_cast<float> (value (at (intensity_), intensity_.type)));
         ++n;
       }
     }
@@ -655,6 +670,8 @@ pcl::PointStreamReader::readText (std::size_t max_points, pcl::PointCloud<pcl::P
     if (keep (p))
     {
       out.push_back (p);
+      if (intensity_.index >= 0)
+        intensities_.push_back (static_cast<float> (v[intensity_.index]));
       ++n;
     }
   }
@@ -709,6 +726,7 @@ bool
 pcl::PointStreamReader::read (std::size_t max_points, pcl::PointCloud<pcl::PointXYZRGB>& out)
 {
   out.clear ();
+  intensities_.clear ();
   if (!file_)
     return error ("read", path_ + ": not open");
   if (max_points == 0)
@@ -730,6 +748,7 @@ pcl::PointStreamReader::read (std::size_t max_points, pcl::PointCloud<pcl::Point
     out.clear ();
     out.width = 0;
     out.height = 1;
+    intensities_.clear ();
     return error ("read", e.what ());
   }
   out.width = static_cast<std::uint32_t> (out.size ());

@@ -37,7 +37,80 @@ vec (const Eigen::Vector3d& v)
 {
   return nlohmann::ordered_json::array ({v.x (), v.y (), v.z ()});
 }
+
+struct ScalarTypeInfo
+{
+  ScalarType type;
+  const char* name;
+  std::size_t size;
+};
+constexpr ScalarTypeInfo kScalarTypes[] = {
+    {ScalarType::kInt8, "int8", 1},    {ScalarType::kUInt8, "uint8", 1},   {ScalarType::kInt16, "int16", 2},
+    {ScalarType::kUInt16, "uint16", 2}, {ScalarType::kInt32, "int32", 4},  {ScalarType::kUInt32, "uint32", 4},
+    {ScalarType::kInt64, "int64", 8},  {ScalarType::kUInt64, "uint64", 8}, {ScalarType::kFloat, "float", 4},
+    {ScalarType::kDouble, "double", 8}};
+
+template <typename T> double
+loadAs (const std::uint8_t* p)
+{
+  T v;
+  std::memcpy (&v, p, sizeof (T));
+  return static_cast<double> (v);
+}
 }  // namespace
+
+ScalarType
+scalarTypeFromName (const std::string& name)
+{
+  for (const ScalarTypeInfo& t : kScalarTypes)
+    if (name == t.name)
+      return t.type;
+  fail ("unknown attribute type '" + name + "'");
+}
+
+const char*
+scalarTypeName (ScalarType type)
+{
+  return kScalarTypes[static_cast<int> (type)].name;
+}
+
+std::size_t
+scalarTypeSize (ScalarType type)
+{
+  return kScalarTypes[static_cast<int> (type)].size;
+}
+
+double
+scalarAt (const std::uint8_t* p, ScalarType type)
+{
+  switch (type)
+  {
+  case ScalarType::kInt8: return loadAs<std::int8_t> (p);
+  case ScalarType::kUInt8: return loadAs<std::uint8_t> (p);
+  case ScalarType::kInt16: return loadAs<std::int16_t> (p);
+  case ScalarType::kUInt16: return loadAs<std::uint16_t> (p);
+  case ScalarType::kInt32: return loadAs<std::int32_t> (p);
+  case ScalarType::kUInt32: return loadAs<std::uint32_t> (p);
+  case ScalarType::kInt64: return loadAs<std::int64_t> (p);
+  case ScalarType::kUInt64: return loadAs<std::uint64_t> (p);
+  case ScalarType::kFloat: return loadAs<float> (p);
+  case ScalarType::kDouble: return loadAs<double> (p);
+  }
+  return 0;
+}
+
+void
+Metadata::setWrittenAttributes (bool with_rgb, bool with_intensity)
+{
+  rgb = with_rgb;
+  intensity = with_intensity;
+  intensity_type = ScalarType::kFloat;
+  record_bytes = 12;
+  rgb_offset = rgb ? record_bytes : 0;
+  record_bytes += rgb ? 6 : 0;
+  intensity_offset = intensity ? record_bytes : 0;
+  record_bytes += intensity ? 4 : 0;
+}
 
 std::string
 nodeName (MortonCode code)
@@ -209,6 +282,17 @@ writeMetadata (const std::string& path, const Metadata& meta)
                            {"max", vec (Eigen::Vector3d::Constant (65535))},
                            {"scale", vec (Eigen::Vector3d::Ones ())},
                            {"offset", vec (Eigen::Vector3d::Zero ())}});
+  if (meta.intensity)
+    attributes.push_back ({{"name", "intensity"},
+                           {"description", ""},
+                           {"size", scalarTypeSize (meta.intensity_type)},
+                           {"numElements", 1},
+                           {"elementSize", scalarTypeSize (meta.intensity_type)},
+                           {"type", scalarTypeName (meta.intensity_type)},
+                           {"min", json::array ({meta.intensity_min})},
+                           {"max", json::array ({meta.intensity_max})},
+                           {"scale", json::array ({1})},
+                           {"offset", json::array ({0})}});
   json j;
   j["version"] = "2.0";
   j["name"] = meta.name;
@@ -228,6 +312,52 @@ writeMetadata (const std::string& path, const Metadata& meta)
   if (!out)
     fail ("PotreeWriter: cannot write '" + path + "'");
 }
+
+namespace {
+// The record layout from metadata.json's attribute list: position first (int32 × 3), rgb
+// (uint16 × 3) and intensity (one scalar of any type) where they are, the others skipped.
+void
+readAttributes (const nlohmann::json& attrs, Metadata& m)
+{
+  const auto v3 = [] (const nlohmann::json& a) {
+    return Eigen::Vector3d (a.at (0).get<double> (), a.at (1).get<double> (), a.at (2).get<double> ());
+  };
+  if (attrs.empty () || attrs.at (0).at ("name") != "position" || attrs.at (0).at ("type") != "int32" ||
+      attrs.at (0).at ("size").get<int> () != 12)
+    fail ("the first attribute must be position int32 × 3");
+  m.position_min = v3 (attrs.at (0).at ("min"));
+  m.position_max = v3 (attrs.at (0).at ("max"));
+  std::uint32_t at = 12;
+  for (std::size_t i = 1; i < attrs.size (); ++i)
+  {
+    const std::string name = attrs[i].at ("name").get<std::string> ();
+    const int size = attrs[i].at ("size").get<int> ();
+    // Larger than any attribute PotreeConverter knows (its largest, normals as double, is 24).
+    if (size < 1 || size > 1024)
+      fail ("attribute " + name + " has size " + std::to_string (size));
+    const ScalarType type = scalarTypeFromName (attrs[i].at ("type").get<std::string> ());
+    if (name == "rgb")
+    {
+      if (type != ScalarType::kUInt16 || size != 6)
+        fail ("the rgb attribute must be uint16 × 3");
+      m.rgb = true;
+      m.rgb_offset = at;
+    }
+    else if (name == "intensity")
+    {
+      if (static_cast<std::size_t> (size) != scalarTypeSize (type))
+        fail ("the intensity attribute must be one " + std::string (scalarTypeName (type)));
+      m.intensity = true;
+      m.intensity_type = type;
+      m.intensity_offset = at;
+      m.intensity_min = attrs[i].value ("min", nlohmann::json::array ({0})).at (0).get<double> ();
+      m.intensity_max = attrs[i].value ("max", nlohmann::json::array ({0})).at (0).get<double> ();
+    }
+    at += static_cast<std::uint32_t> (size);
+  }
+  m.record_bytes = at;
+}
+}  // namespace
 
 Metadata
 readMetadata (const std::string& path)
@@ -258,19 +388,7 @@ readMetadata (const std::string& path)
     m.spacing = j.at ("spacing").get<double> ();
     m.box_min = v3 (j.at ("boundingBox").at ("min"));
     m.box_max = v3 (j.at ("boundingBox").at ("max"));
-    const auto& attrs = j.at ("attributes");
-    if (attrs.empty () || attrs.at (0).at ("name") != "position" || attrs.at (0).at ("type") != "int32")
-      fail ("the first attribute must be position int32 × 3");
-    m.position_min = v3 (attrs.at (0).at ("min"));
-    m.position_max = v3 (attrs.at (0).at ("max"));
-    for (std::size_t i = 1; i < attrs.size (); ++i)
-    {
-      if (attrs[i].at ("name") == "rgb" && attrs[i].at ("type") == "uint16" && i == 1)
-        m.rgb = true;
-      else
-        fail ("unsupported attribute " + attrs[i].at ("name").get<std::string> () +
-              " (position and rgb are read)");
-    }
+    readAttributes (j.at ("attributes"), m);
   }
   catch (const nlohmann::json::exception& e)
   {

@@ -26,6 +26,13 @@ get (const std::vector<std::uint8_t>& buf, std::size_t at)
   std::memcpy (&v, buf.data () + at, sizeof (T));
   return v;
 }
+template <typename T> T
+load (const std::uint8_t* p)
+{
+  T v;
+  std::memcpy (&v, p, sizeof (T));
+  return v;
+}
 }  // namespace
 
 bool
@@ -169,15 +176,38 @@ pcl::PotreeReader::readRange (std::uint64_t offset, std::uint64_t size) const
   return buf;
 }
 
-bool
-pcl::PotreeReader::readNode (std::size_t i, pcl::PointCloud<pcl::PointXYZRGB>& out) const
+template <typename PointT> bool
+pcl::PotreeReader::readNodeAs (std::size_t i, pcl::PointCloud<PointT>& out) const
 {
   out.clear ();
   if (i >= nodes_.size ())
     return refuse ("readNode", "node " + std::to_string (i) + " of " + std::to_string (nodes_.size ()));
   try
   {
-    readNodeImpl (i, out);
+    const NodeInfo& n = nodes_[i];
+    const std::vector<std::uint8_t> buf = readRange (n.byte_offset, n.byte_size);
+    const std::uint32_t bpp = meta_.bytesPerPoint ();
+    out.resize (n.num_points);
+    for (std::uint32_t k = 0; k < n.num_points; ++k)
+    {
+      PointT& p = out[k];
+      const std::uint8_t* record = buf.data () + std::size_t (k) * bpp;
+      for (int a = 0; a < 3; ++a)
+        p.data[a] = static_cast<float> (load<std::int32_t> (record + 4 * a) * meta_.scale[a] + meta_.offset[a]);
+      if constexpr (pcl::traits::has_color_v<PointT>)
+        if (meta_.rgb)
+        {
+          p.r = static_cast<std::uint8_t> (load<std::uint16_t> (record + meta_.rgb_offset) / 257);
+          p.g = static_cast<std::uint8_t> (load<std::uint16_t> (record + meta_.rgb_offset + 2) / 257);
+          p.b = static_cast<std::uint8_t> (load<std::uint16_t> (record + meta_.rgb_offset + 4) / 257);
+        }
+      if constexpr (pcl::traits::has_intensity_v<PointT>)
+        p.intensity = meta_.intensity ? static_cast<float> (pclx::omicron::detail::potree::scalarAt (
+                                            record + meta_.intensity_offset, meta_.intensity_type))
+                                      : 0.f;
+    }
+    out.width = static_cast<std::uint32_t> (out.size ());
+    out.height = 1;
     return true;
   }
   catch (const std::exception& e)
@@ -187,37 +217,20 @@ pcl::PotreeReader::readNode (std::size_t i, pcl::PointCloud<pcl::PointXYZRGB>& o
   }
 }
 
-void
-pcl::PotreeReader::readNodeImpl (std::size_t i, pcl::PointCloud<pcl::PointXYZRGB>& out) const
+bool
+pcl::PotreeReader::readNode (std::size_t i, pcl::PointCloud<pcl::PointXYZRGB>& out) const
 {
-  const NodeInfo& n = nodes_[i];
-  const std::vector<std::uint8_t> buf = readRange (n.byte_offset, n.byte_size);
-  const std::uint32_t bpp = meta_.bytesPerPoint ();
-  out.clear ();
-  out.resize (n.num_points);
-  for (std::uint32_t k = 0; k < n.num_points; ++k)
-  {
-    pcl::PointXYZRGB& p = out[k];
-    for (int a = 0; a < 3; ++a)
-      p.data[a] = static_cast<float> (get<std::int32_t> (buf, k * bpp + 4 * a) * meta_.scale[a] + meta_.offset[a]);
-    if (meta_.rgb)
-    {
-      p.r = static_cast<std::uint8_t> (get<std::uint16_t> (buf, k * bpp + 12) / 257);
-      p.g = static_cast<std::uint8_t> (get<std::uint16_t> (buf, k * bpp + 14) / 257);
-      p.b = static_cast<std::uint8_t> (get<std::uint16_t> (buf, k * bpp + 16) / 257);
-    }
-  }
+  return readNodeAs (i, out);
 }
 
 bool
 pcl::PotreeReader::readNode (std::size_t i, pcl::PointCloud<pcl::PointXYZ>& out) const
 {
-  pcl::PointCloud<pcl::PointXYZRGB> c;
-  out.clear ();
-  if (!readNode (i, c))
-    return false;
-  out.resize (c.size ());
-  for (std::size_t k = 0; k < c.size (); ++k)
-    out[k] = pcl::PointXYZ (c[k].x, c[k].y, c[k].z);
-  return true;
+  return readNodeAs (i, out);
+}
+
+bool
+pcl::PotreeReader::readNode (std::size_t i, pcl::PointCloud<pcl::PointXYZI>& out) const
+{
+  return readNodeAs (i, out);
 }

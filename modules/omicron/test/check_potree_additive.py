@@ -2,17 +2,19 @@
 """Independent check of Potree 2.0 folders against the .xyz file they were built from.
 
 Written from the format (metadata.json, hierarchy.bin with 22-byte records and proxy chunks,
-octree.bin with int32 positions and optional uint16 rgb), not from pclx's reader or writer,
-and using only the Python standard library. For every folder it checks that:
+octree.bin with int32 positions, optional uint16 rgb and float intensity), not from pclx's
+reader or writer, and using only the Python standard library. For every folder it checks that:
   - metadata "points" == the stored points == the input's rows minus rows with NaN/Inf,
-  - the stored positions (and colours) are the input's as a multiset, within the scale,
+  - the stored positions (and colours, intensities) are the input's as a multiset, within the
+    scale,
     so a point stored twice or lost fails,
   - every point lies in its node's cube,
   - every node's byte range holds numPoints records and the ranges tile octree.bin,
   - child masks agree with the child records, proxies with the records they stand for,
   - no node is an empty leaf.
 
-Usage: check_potree_additive.py INPUT.xyz POTREE_DIR [POTREE_DIR ...]   (exit 1 on failure)
+Usage: check_potree_additive.py INPUT POTREE_DIR [POTREE_DIR ...]   (exit 1 on failure)
+INPUT: .xyz ("x y z [r g b]") or an ASCII .pcd with fields x y z and intensity.
 """
 import collections
 import json
@@ -34,8 +36,41 @@ def to_float32(v):
     return struct.unpack("<f", struct.pack("<f", v))[0]
 
 
+def float_bits(v):
+    """The bits of v as a C float: intensities are compared exactly."""
+    return struct.unpack("<I", struct.pack("<f", v))[0]
+
+
+def read_pcd_intensity(path):
+    """Valid rows of an ASCII .pcd as tuples (x, y, z, intensity bits) and the invalid row count."""
+    rows, invalid = [], 0
+    with open(path) as f:
+        fields = None
+        for line in f:
+            words = line.split()
+            if words and words[0] == "FIELDS":
+                fields = words[1:]
+            if words and words[0] == "DATA":
+                if words[1] != "ascii" or fields is None:
+                    raise CheckError("%s: only ASCII .pcd files with a FIELDS line are read" % path)
+                break
+        at = [fields.index(n) for n in ("x", "y", "z", "intensity")]
+        for line in f:
+            values = line.split()
+            if not values:
+                continue
+            xyz = [float(values[i]) for i in at[:3]]
+            if not all(math.isfinite(v) for v in xyz):
+                invalid += 1
+                continue
+            rows.append(tuple(to_float32(v) for v in xyz) + (float_bits(float(values[at[3]])),))
+    return rows, invalid
+
+
 def read_input(path):
     """Valid rows of an .xyz file as tuples (x, y, z[, r, g, b]) and the invalid row count."""
+    if path.endswith(".pcd"):
+        return read_pcd_intensity(path)
     rows, invalid = [], 0
     with open(path) as f:
         for line in f:
@@ -113,15 +148,22 @@ def check_folder(folder, rows):
         octree = f.read()
     names = [a["name"] for a in meta["attributes"]]
     bpp = sum(a["size"] for a in meta["attributes"])
-    if names[0] != "position" or any(n not in ("position", "rgb") for n in names):
+    if names[0] != "position" or any(n not in ("position", "rgb", "intensity") for n in names):
         raise CheckError("unexpected attributes %s" % names)
+    starts = {}
+    for a in meta["attributes"]:
+        starts[a["name"]] = sum(b["size"] for b in meta["attributes"][:meta["attributes"].index(a)])
     has_rgb = "rgb" in names
+    has_intensity = "intensity" in names
+    if has_intensity:
+        check_intensity_attribute(meta["attributes"][names.index("intensity")])
     scale, offset = meta["scale"], meta["offset"]
     bmin, bmax = meta["boundingBox"]["min"], meta["boundingBox"]["max"]
     h = meta["hierarchy"]
     nodes = parse_hierarchy(hierarchy, h["firstChunkSize"], h["stepSize"])
 
     stored = collections.Counter()
+    intensities = []
     ranges = []
     total, depth = 0, 0
     for name, rec in nodes.items():
@@ -159,7 +201,13 @@ def check_folder(folder, rows):
                 if v < lo[axis] - scale[axis] or v > hi[axis] + scale[axis]:
                     raise CheckError("node %s: point %d lies outside its cube (axis %d: %.9g not in [%.9g, %.9g])"
                                      % (name, k, axis, v, lo[axis], hi[axis]))
-            key = q + (struct.unpack_from("<HHH", octree, at + 12) if has_rgb else ())
+            key = q + (struct.unpack_from("<HHH", octree, at + starts["rgb"]) if has_rgb else ())
+            if has_intensity:
+                bits = struct.unpack_from("<I", octree, at + starts["intensity"])[0]
+                key += (bits,)
+                value = struct.unpack("<f", struct.pack("<I", bits))[0]
+                if math.isfinite(value):
+                    intensities.append(value)
             stored[key] += 1
         total += points
     ranges.sort()
@@ -176,17 +224,31 @@ def check_folder(folder, rows):
         raise CheckError("metadata points %d, stored %d" % (meta["points"], total))
     if total != len(rows):
         raise CheckError("stored %d points, the input has %d valid rows (%.3fx)" % (total, len(rows), total / max(1, len(rows))))
-    match_input(rows, stored, scale, offset, has_rgb)
+    if has_intensity:
+        attribute = meta["attributes"][names.index("intensity")]
+        if intensities and (attribute["min"][0] != min(intensities) or attribute["max"][0] != max(intensities)):
+            raise CheckError("intensity range [%g, %g] in the metadata, [%g, %g] stored" %
+                             (attribute["min"][0], attribute["max"][0], min(intensities), max(intensities)))
+    match_input(rows, stored, scale, offset, has_rgb, has_intensity)
     return len(nodes), total
 
 
-def match_input(rows, stored, scale, offset, has_rgb):
+def check_intensity_attribute(attribute):
+    """Intensity as written: one float per point (PCL's type, unrounded)."""
+    if attribute["type"] != "float" or attribute["size"] != 4 or attribute["numElements"] != 1:
+        raise CheckError("intensity attribute %s is not one float" % attribute)
+
+
+def match_input(rows, stored, scale, offset, has_rgb, has_intensity):
     """Takes each input row out of the stored multiset at its quantum or a neighbouring one."""
     def quantum(p):
         return tuple(int(math.floor((p[a] - offset[a]) / scale[a] + 0.5)) for a in range(3))
 
     def colour(p):
-        return tuple(c * 257 for c in p[3:6]) if has_rgb else ()
+        """The stored attributes after the position: rgb (8 bits × 257) or intensity bits."""
+        if has_rgb:
+            return tuple(c * 257 for c in p[3:6])
+        return (p[3],) if has_intensity else ()
 
     missed = []
     for p in rows:

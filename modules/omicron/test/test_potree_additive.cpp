@@ -6,6 +6,8 @@
 #include <pclx/omicron/potree_reader.h>
 #include <pclx/omicron/potree_writer.h>
 
+#include <pcl/io/pcd_io.h>
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -21,10 +23,9 @@ using Octree = pcl::ObliqueCutOctree<pcl::PointXYZRGB>;
 
 namespace {
 
-// Writes an .xyz file "x y z r g b" of clusters, a plane, uniform noise and exact duplicates,
-// with `invalid` NaN / Inf rows spread through it; returns the number of rows written.
-std::size_t
-writeInput (const fs::path& path, std::size_t n, std::size_t invalid, unsigned seed)
+// Clusters, a plane, uniform noise and exact duplicates.
+std::vector<std::array<float, 3>>
+makePoints (std::size_t n, unsigned seed)
 {
   std::mt19937 rng (seed);
   std::uniform_real_distribution<float> u (-2.f, 5.f);
@@ -48,6 +49,15 @@ writeInput (const fs::path& path, std::size_t n, std::size_t invalid, unsigned s
     else
       pts.push_back (pts[rng () % i]);  // an exact duplicate: must be stored twice, not once
   }
+  return pts;
+}
+
+// Writes an .xyz file "x y z r g b" of makePoints (), with `invalid` NaN / Inf rows spread
+// through it; returns the number of rows written.
+std::size_t
+writeInput (const fs::path& path, std::size_t n, std::size_t invalid, unsigned seed)
+{
+  const std::vector<std::array<float, 3>> pts = makePoints (n, seed);
   std::ofstream f (path);
   f << std::setprecision (9);
   const std::size_t every = n / (invalid + 1);
@@ -67,14 +77,15 @@ writeInput (const fs::path& path, std::size_t n, std::size_t invalid, unsigned s
   return rows;
 }
 
-// The folder the checker reads (CTest sets PCLX_OMICRON_CHECK_DIR), or a fresh temp folder.
+// The folder `sub` of what the checker reads (CTest sets PCLX_OMICRON_CHECK_DIR), or a fresh
+// temp folder.
 fs::path
-outputRoot (bool& temporary)
+outputRoot (const std::string& sub, bool& temporary)
 {
   const char* env = std::getenv ("PCLX_OMICRON_CHECK_DIR");
   temporary = !env || !*env;
-  const fs::path root = temporary ? fs::temp_directory_path () / ("pclx_additive_" + std::to_string (::getpid ()))
-                                  : fs::path (env);
+  const fs::path root = temporary ? fs::temp_directory_path () / ("pclx_additive_" + std::to_string (::getpid ()) + "_" + sub)
+                                  : fs::path (env) / sub;
   fs::remove_all (root);
   fs::create_directories (root);
   return root;
@@ -108,7 +119,7 @@ stored (const std::string& dir)
 TEST (PotreeAdditive, FoldersForTheIndependentChecker)
 {
   bool temporary = false;
-  const fs::path root = outputRoot (temporary);
+  const fs::path root = outputRoot ("xyz", temporary);
   const std::size_t n = 200000, invalid = 12;
   const std::size_t rows = writeInput (root / "input.xyz", n, invalid, 17);
   ASSERT_EQ (rows, n + invalid);
@@ -160,6 +171,51 @@ TEST (PotreeAdditive, FoldersForTheIndependentChecker)
     built += c;
   EXPECT_LT (sd.nodes, built);  // empty leaves were dropped
   EXPECT_EQ (sd.empty, 0u);
+  if (temporary)
+    fs::remove_all (root);
+}
+
+// Intensity from an ASCII PCD file (PCL's writer, 9 digits: every float exact), in memory and
+// under a budget, for the checker to compare as float bits with the file's values.
+TEST (PotreeAdditive, IntensityFoldersForTheIndependentChecker)
+{
+  bool temporary = false;
+  const fs::path root = outputRoot ("intensity", temporary);
+  const std::size_t n = 200000;
+  const std::vector<std::array<float, 3>> pts = makePoints (n, 23);
+  pcl::PointCloud<pcl::PointXYZI> cloud;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    pcl::PointXYZI p;
+    p.x = pts[i][0];
+    p.y = pts[i][1];
+    p.z = pts[i][2];
+    p.intensity = static_cast<float> (i % 4099) * 16.0625f - 1000.f;
+    cloud.push_back (p);
+  }
+  cloud[10].intensity = std::numeric_limits<float>::quiet_NaN ();
+  cloud[20].y = std::numeric_limits<float>::quiet_NaN ();  // a dropped row
+  const std::string input = (root / "input.pcd").string ();
+  ASSERT_EQ (pcl::PCDWriter ().writeASCII (input, cloud, 9), 0);
+
+  using OctreeI = pcl::ObliqueCutOctree<pcl::PointXYZI>;
+  OctreeI mem;
+  mem.setInputFile (input);
+  mem.setMaxDepth (5);
+  ASSERT_TRUE (mem.build ()) << mem.getLastError ();
+  EXPECT_EQ (mem.getStatistics ().dropped_invalid, 1u);
+  pcl::PotreeWriter<pcl::PointXYZI> writer;
+  ASSERT_TRUE (writer.write (mem, (root / "memory").string ()));
+  EXPECT_EQ (stored ((root / "memory").string ()).points, n - 1);
+
+  OctreeI bud;
+  bud.setInputFile (input);
+  bud.setMaxDepth (5);
+  bud.setMemoryBudget (mem.getStatistics ().accounted_peak_bytes * 2 / 3);
+  bud.setOutputDirectory ((root / "budget").string ());
+  ASSERT_TRUE (bud.build ()) << bud.getLastError ();
+  EXPECT_GT (bud.getStatistics ().chunks, 1u);
+  EXPECT_EQ (stored ((root / "budget").string ()).points, n - 1);
   if (temporary)
     fs::remove_all (root);
 }

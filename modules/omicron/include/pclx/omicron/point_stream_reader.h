@@ -31,7 +31,9 @@ namespace pcl {
   * Formats: PCD (ascii, binary; binary_compressed is decompressed whole, its format has no
   * smaller unit), PLY (ascii, binary little/big endian; vertex x/y/z of any scalar type plus
   * optional red/green/blue), and .xyz text ("x y z [r g b]" per line, commas or white space,
-  * '#' comments). Positions and colour are read; other fields are skipped.
+  * '#' comments). Positions, colour and intensity (the PCD/PLY field "intensity", or PLY's
+  * "scalar_intensity", of any scalar type) are read into the point types that have them;
+  * other fields are skipped.
   *
   * The headers are parsed here rather than by pcl::PCDReader::readHeader, which crashes on
   * 0- and 1-byte PCD files and trusts the declared counts. Empty, truncated or malformed files
@@ -85,7 +87,8 @@ public:
     * empty, PCL_ERROR was printed and the reader is closed)
     */
   bool read (std::size_t max_points, pcl::PointCloud<pcl::PointXYZRGB>& out);
-  /** \brief The same for any point type with x/y/z (colour copied when both have it).
+  /** \brief The same for any point type with x/y/z (colour and intensity copied when both
+    * the file and the type have them; a type's intensity is 0 for a file without it).
     * \param[in] max_points at most this many finite points (>= 1)
     * \param[out] out the points (empty at the end or on an error)
     * \return false at the end of the file or on an error (see the PointXYZRGB overload)
@@ -101,6 +104,9 @@ public:
   /** \brief Whether the file has colour.
     * \return whether the file has colour */
   bool hasColor () const { return color_; }
+  /** \brief Whether the file has an intensity field.
+    * \return whether the file has an intensity field */
+  bool hasIntensity () const { return intensity_.index >= 0; }
   /** \brief Points the header declares (0 for .xyz, which has no header).
     * \return points the header declares (0 for .xyz, which has no header) */
   std::uint64_t getDeclaredPoints () const { return declared_; }
@@ -149,7 +155,7 @@ private:
   bool packed_rgb_ = false;  // PCD rgb/rgba: one 4-byte field
   std::uint64_t declared_ = 0, data_offset_ = 0, record_bytes_ = 0, line_no_ = 0, data_line_ = 0;
   std::size_t tokens_ = 0;  // text: values per line (0: at least 3, .xyz)
-  Field x_, y_, z_, r_, g_, b_, rgb_;
+  Field x_, y_, z_, r_, g_, b_, rgb_, intensity_;
   std::uint64_t consumed_ = 0;  // binary records / text points consumed
   std::uint64_t read_ = 0, dropped_ = 0;
   std::vector<std::uint8_t> buffer_;
@@ -157,16 +163,21 @@ private:
   std::vector<std::size_t> soa_field_offset_;
   std::vector<std::size_t> field_sizes_;  // PCD: size × count per field, in record order
   pcl::PointCloud<pcl::PointXYZRGB> tmp_;
+  std::vector<float> intensities_;  // of the points the last read () returned, when the file has it
   std::string last_error_;
 };
 
 template <typename PointT> bool
 PointStreamReader::read (std::size_t max_points, pcl::PointCloud<PointT>& out)
 {
-  // Binary little-endian float x/y/z without colour in the point type: straight into `out`.
+  // Binary little-endian float x/y/z without colour (or intensity the file has) in the point
+  // type: straight into `out`.
+  bool intensity_read = false;
+  if constexpr (pcl::traits::has_intensity_v<PointT>)
+    intensity_read = hasIntensity ();
   if constexpr (!pcl::traits::has_color_v<PointT>)
     if (file_ && binary_ && !compressed_ && !big_endian_ && x_.type == F32 && y_.type == F32 && z_.type == F32 &&
-        max_points > 0)
+        max_points > 0 && !intensity_read)
     {
       // A PointXYZ block of the last block's size is reused as it is: the read overwrites every
       // field it has. Other types are built afresh, so no field keeps an earlier value.
@@ -203,6 +214,8 @@ PointStreamReader::read (std::size_t max_points, pcl::PointCloud<PointT>& out)
       p.g = tmp_[i].g;
       p.b = tmp_[i].b;
     }
+    if constexpr (pcl::traits::has_intensity_v<PointT>)
+      p.intensity = intensity_read ? intensities_[i] : 0.f;
   }
   return more;
 }

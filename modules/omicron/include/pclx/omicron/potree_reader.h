@@ -12,8 +12,8 @@
 namespace pcl {
 
 /** \brief Reads a Potree 2.0 folder (metadata.json, hierarchy.bin, octree.bin) as written by
-  * pcl::PotreeWriter or PotreeConverter 2.x with position (+ rgb) attributes and the DEFAULT
-  * encoding. The hierarchy is walked as potree's 2.0 loader walks it (root chunk of
+  * pcl::PotreeWriter or PotreeConverter 2.x in the DEFAULT encoding: position, rgb and
+  * intensity are read, other attributes (classification, gps-time, ...) are skipped. The hierarchy is walked as potree's 2.0 loader walks it (root chunk of
   * firstChunkSize bytes, proxies opening further chunks), but all at once.
   *
   * \code
@@ -64,7 +64,8 @@ public:
     * \return sum of the nodes' point counts (metadata "points" is the input's count) */
   std::uint64_t getStoredPoints () const;
 
-  /** \brief Points of a node: positions decoded as int32 x scale + offset, colour when stored.
+  /** \brief Points of a node: positions decoded as int32 x scale + offset, colour when stored
+    * (else the points keep PCL's default colour).
     * \param[in] i the node's index in getNodes ()
     * \param[out] out its points (empty on failure)
     * \return false (PCL_ERROR, getLastError ()) for a bad index or an unreadable octree.bin
@@ -76,13 +77,21 @@ public:
     * \return false (PCL_ERROR, getLastError ()) for a bad index or an unreadable octree.bin
     */
   bool readNode (std::size_t i, pcl::PointCloud<pcl::PointXYZ>& out) const;
+  /** \brief Positions and intensity of a node (0 when the folder stores no intensity; see the
+    * PointXYZRGB overload).
+    * \param[in] i the node's index in getNodes ()
+    * \param[out] out its points (empty on failure)
+    * \return false (PCL_ERROR, getLastError ()) for a bad index or an unreadable octree.bin
+    */
+  bool readNode (std::size_t i, pcl::PointCloud<pcl::PointXYZI>& out) const;
   /** \brief Why the last failed call failed.
     * \return why the last failed call failed */
   const std::string& getLastError () const { return last_error_; }
 
 private:
   void openImpl (const std::string& directory);
-  void readNodeImpl (std::size_t i, pcl::PointCloud<pcl::PointXYZRGB>& out) const;
+  // Decodes node i into `out`: the attributes PointT has (readNode's overloads).
+  template <typename PointT> bool readNodeAs (std::size_t i, pcl::PointCloud<PointT>& out) const;
   bool refuse (const char* method, const std::string& why) const;
   std::vector<std::uint8_t> readRange (std::uint64_t offset, std::uint64_t size) const;
 

@@ -33,7 +33,9 @@ class ObliqueCutOctree;
   * appendSubtree () ..., then close ().
   *
   * Positions are stored as int32 (x - offset) / scale with offset = the root cube's min
-  * corner; colour (PointT with rgb) as uint16 x 3 (8-bit value x 257, LAS style).
+  * corner; colour (PointT with rgb) as uint16 x 3 (8-bit value x 257, LAS style); intensity
+  * (PointT with intensity) as float, PCL's type, with its range in the metadata, so no value
+  * is rounded (Potree's loaders decode an attribute of any declared type).
   *
   * Potree's LOD is additive: a node is drawn together with its ancestors, so each input point
   * is stored exactly once, in the coarsest node that samples it. A node at level l keeps one
@@ -86,6 +88,9 @@ public:
   /** \brief Write the rgb attribute.
     * \param[in] on default: when PointT has colour */
   void setWriteColors (bool on) { colors_ = on; }
+  /** \brief Write the intensity attribute.
+    * \param[in] on default: when PointT has intensity */
+  void setWriteIntensity (bool on) { intensity_ = on; }
   /** \brief Set the node size: a subtree of at most this many points is written as one leaf
     * holding all of them that no coarser node took, as PotreeConverter sizes its nodes.
     * \param[in] points the limit; 0 writes every node of the octree
@@ -173,6 +178,7 @@ private:
     std::uint64_t points = 0;
     Eigen::Vector3d lo = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ());
     Eigen::Vector3d hi = Eigen::Vector3d::Constant (-std::numeric_limits<double>::max ());
+    float intensity_lo = std::numeric_limits<float>::max (), intensity_hi = -std::numeric_limits<float>::max ();
   };
   // A subtree appendSpilled () received, and where its points wait in the pending file.
   struct Spilled
@@ -236,6 +242,8 @@ private:
   // Reads `n` items of `size` bytes at `offset` of the pending file.
   void readPending (std::uint64_t offset, std::size_t size, std::size_t n, void* out);
   void record (MortonCode code, const Encoded& data);
+  // Widens the bounds and the intensity range of what was written by those of `data`.
+  void addRange (const Encoded& data);
   void closePending ();
   void abandon ();
   // The operations behind the public ones; they throw on errors, which guarded () turns
@@ -251,7 +259,7 @@ private:
   pclx::omicron::detail::potree::Metadata meta_;
   double scale_ = 0;
   std::uint32_t leaf_limit_ = kDefaultLeafPointLimit;
-  bool colors_;
+  bool colors_, intensity_;
   std::string directory_;
   std::FILE* file_ = nullptr;
   std::FILE* pending_ = nullptr;  // octree.pending.bin: points appendSpilled () kept aside
@@ -262,6 +270,7 @@ private:
   std::uint64_t offset_ = 0;
   std::vector<pclx::omicron::detail::potree::NodeRecord> records_;
   Eigen::Vector3d lo_, hi_;
+  float intensity_lo_ = 0, intensity_hi_ = 0;
   mutable std::mutex error_mutex_;
   std::string last_error_;
 };

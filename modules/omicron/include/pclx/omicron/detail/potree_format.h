@@ -6,7 +6,8 @@
 //
 //   metadata.json  version "2.0", points, hierarchy {firstChunkSize, stepSize, depth}, offset,
 //                  scale, spacing, boundingBox (the root cube), encoding "DEFAULT", attributes
-//                  (position int32 × 3, scaled; optionally rgb uint16 × 3)
+//                  (position int32 × 3, scaled; optionally rgb uint16 × 3 and intensity; a
+//                  reader skips the attributes it does not use by their size)
 //   hierarchy.bin  chunks of 22-byte little-endian records {uint8 type, uint8 childMask,
 //                  uint32 numPoints, int64 byteOffset, int64 byteSize}, breadth-first from the
 //                  chunk root down to stepSize levels below it. A node on that last level that
@@ -39,6 +40,27 @@ enum NodeType : std::uint8_t
 };
 constexpr std::size_t kRecordBytes = 22;
 
+// The scalar types an attribute may have, by their names in metadata.json.
+enum class ScalarType : std::uint8_t
+{
+  kInt8,
+  kUInt8,
+  kInt16,
+  kUInt16,
+  kInt32,
+  kUInt32,
+  kInt64,
+  kUInt64,
+  kFloat,
+  kDouble
+};
+// Throws std::runtime_error on a name that is not a Potree type.
+ScalarType scalarTypeFromName (const std::string& name);
+const char* scalarTypeName (ScalarType type);
+std::size_t scalarTypeSize (ScalarType type);
+// The little-endian value of `type` at `p`.
+double scalarAt (const std::uint8_t* p, ScalarType type);
+
 // One node as stored in octree.bin.
 struct NodeRecord
 {
@@ -56,9 +78,20 @@ struct Metadata
   Eigen::Vector3d offset = Eigen::Vector3d::Zero (), scale = Eigen::Vector3d::Constant (0.001);
   double spacing = 0;
   Eigen::Vector3d box_min = Eigen::Vector3d::Zero (), box_max = Eigen::Vector3d::Zero ();
-  bool rgb = false;
   Eigen::Vector3d position_min = Eigen::Vector3d::Zero (), position_max = Eigen::Vector3d::Zero ();
-  std::uint32_t bytesPerPoint () const { return rgb ? 18 : 12; }
+  bool rgb = false;
+  // Intensity: written as float, PCL's type, so no value is rounded; read in any scalar type
+  // (PotreeConverter stores LAS intensity as uint16). Its range over the finite values.
+  bool intensity = false;
+  ScalarType intensity_type = ScalarType::kFloat;
+  double intensity_min = 0, intensity_max = 0;
+  // A point record's layout: where rgb and intensity start, and its size (the attributes
+  // neither is, such as PotreeConverter's classification or gps-time, only take their bytes).
+  std::uint32_t rgb_offset = 0, intensity_offset = 0, record_bytes = 12;
+
+  std::uint32_t bytesPerPoint () const { return record_bytes; }
+  // The layout PotreeWriter writes: position, then rgb, then intensity, each when on.
+  void setWrittenAttributes (bool with_rgb, bool with_intensity);
 };
 
 // std::llround (half away from zero) without its libm call on baseline x86-64: for |x| < 2^52,

@@ -323,8 +323,8 @@ pcl::ObliqueCutOctree<PointT>::planSizes (Budgeted& b)
   const std::size_t pb = b.pb;
   // Fixed overhead, checked before anything is allocated: a partly filled arena block per
   // worker (retained and scratch, nodes and points), a read block of at least 4096 points
-  // (stream reader record + its PointXYZRGB copy + two blocks in flight + the scatter copy +
-  // chunk id), the coarsest count grid and small tables.
+  // (stream reader record + its PointXYZRGB copy and intensity + two blocks in flight + the
+  // scatter copy + chunk id), the coarsest count grid and small tables.
   using Arena = pclx::omicron::detail::NodeArena<PointT>;
   b.slack = static_cast<std::size_t> (b.threads) * 2 * (1024 / 8 * Arena::groupBytes (8) + 8192 * pb);
   // MortonSorter::prepare's per-block bucket histograms (its bucket count as it chooses it).
@@ -336,7 +336,7 @@ pcl::ObliqueCutOctree<PointT>::planSizes (Budgeted& b)
   // + one hierarchy.bin chunk buffer at close: at most 1 + 8 + … + 8^4 records of 22 B.
   b.hierarchy_chunk = 4681 * pclx::omicron::detail::potree::kRecordBytes;
   b.tables = 64 * 1024 + b.sort_hist + b.hierarchy_chunk;
-  const std::size_t read_point = 64 + sizeof (pcl::PointXYZRGB) + 3 * pb + 8;
+  const std::size_t read_point = 64 + sizeof (pcl::PointXYZRGB) + sizeof (float) + 3 * pb + 8;
   const std::size_t minimum = b.slack + b.tables + Budgeted::kMinBlock * read_point + pclx::omicron::detail::planGridBytes (1);
   if (b.budget < minimum)
     return failBudgeted (b, "the memory budget of " + std::to_string (b.budget) +

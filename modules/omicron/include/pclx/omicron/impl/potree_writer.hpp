@@ -19,7 +19,8 @@
 #include <unordered_map>
 
 template <typename PointT>
-pcl::PotreeWriter<PointT>::PotreeWriter () : colors_ (pcl::traits::has_color_v<PointT>)
+pcl::PotreeWriter<PointT>::PotreeWriter ()
+  : colors_ (pcl::traits::has_color_v<PointT>), intensity_ (pcl::traits::has_intensity_v<PointT>)
 {
 }
 
@@ -105,9 +106,12 @@ pcl::PotreeWriter<PointT>::openImpl (const std::string& directory, const Eigen::
   meta_.box_max = origin + Eigen::Vector3d::Constant (edge);
   // The root's grid (LevelSampler): PotreeConverter's root spacing.
   meta_.spacing = edge / double (1 << pclx::omicron::detail::kSampleGridDepth);
-  meta_.rgb = colors_;
+  meta_.setWrittenAttributes (colors_ && pcl::traits::has_color_v<PointT>,
+                              intensity_ && pcl::traits::has_intensity_v<PointT>);
   lo_ = Eigen::Vector3d::Constant (std::numeric_limits<double>::max ());
   hi_ = -lo_;
+  intensity_lo_ = std::numeric_limits<float>::max ();
+  intensity_hi_ = -intensity_lo_;
 }
 
 template <typename PointT> void
@@ -159,12 +163,32 @@ pcl::PotreeWriter<PointT>::encodeRun (const WriteTask& task, const Run& run, Enc
       {
         const std::uint16_t c[3] = {static_cast<std::uint16_t> (p.r * 257u), static_cast<std::uint16_t> (p.g * 257u),
                                     static_cast<std::uint16_t> (p.b * 257u)};
-        std::memcpy (dst + 12, c, 6);
+        std::memcpy (dst + meta_.rgb_offset, c, 6);
+      }
+    if constexpr (pcl::traits::has_intensity_v<PointT>)
+      if (meta_.intensity)
+      {
+        std::memcpy (dst + meta_.intensity_offset, &p.intensity, 4);
+        // NaN and Inf are stored as they are, but the metadata range (JSON) holds finite values.
+        if (std::isfinite (p.intensity))
+        {
+          out.intensity_lo = std::min (out.intensity_lo, p.intensity);
+          out.intensity_hi = std::max (out.intensity_hi, p.intensity);
+        }
       }
     dst += bpp;
   }
   out.lo = out.lo.cwiseMin (lo.cast<double> ().matrix ());
   out.hi = out.hi.cwiseMax (hi.cast<double> ().matrix ());
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::addRange (const Encoded& data)
+{
+  lo_ = lo_.cwiseMin (data.lo);
+  hi_ = hi_.cwiseMax (data.hi);
+  intensity_lo_ = std::min (intensity_lo_, data.intensity_lo);
+  intensity_hi_ = std::max (intensity_hi_, data.intensity_hi);
 }
 
 template <typename PointT> void
@@ -178,8 +202,7 @@ pcl::PotreeWriter<PointT>::record (MortonCode code, const Encoded& data)
     throw std::runtime_error ("writing '" + directory_ + "/octree.bin' failed (disk full?)");
   records_.push_back ({code, static_cast<std::uint32_t> (data.points), offset_, data.bytes.size ()});
   offset_ += data.bytes.size ();
-  lo_ = lo_.cwiseMin (data.lo);
-  hi_ = hi_.cwiseMax (data.hi);
+  addRange (data);
 }
 
 template <typename PointT> void
@@ -406,6 +429,8 @@ pcl::PotreeWriter<PointT>::writeTasksStreamed (const std::vector<WriteTask>& tas
       total.points += e.points;
       total.lo = total.lo.cwiseMin (e.lo);
       total.hi = total.hi.cwiseMax (e.hi);
+      total.intensity_lo = std::min (total.intensity_lo, e.intensity_lo);
+      total.intensity_hi = std::max (total.intensity_hi, e.intensity_hi);
       offset_ += e.bytes.size ();
       e = Encoded ();
     };
@@ -421,8 +446,7 @@ pcl::PotreeWriter<PointT>::writeTasksStreamed (const std::vector<WriteTask>& tas
     flush ();
     std::lock_guard<std::mutex> g (mutex_);
     records_.push_back ({task.node->code, static_cast<std::uint32_t> (total.points), start, offset_ - start});
-    lo_ = lo_.cwiseMin (total.lo);
-    hi_ = hi_.cwiseMax (total.hi);
+    addRange (total);
   }
 }
 
@@ -577,6 +601,13 @@ pcl::PotreeWriter<PointT>::closeImpl (std::uint64_t points)
     meta_.position_min = lo_;
     meta_.position_max = hi_;
   }
+  if (intensity_lo_ <= intensity_hi_)
+  {
+    meta_.intensity_min = intensity_lo_;
+    meta_.intensity_max = intensity_hi_;
+  }
+  else
+    meta_.intensity_min = meta_.intensity_max = 0;
   pclx::omicron::detail::potree::writeHierarchy (directory_ + "/hierarchy.bin", records_, meta_);
   pclx::omicron::detail::potree::writeMetadata (directory_ + "/metadata.json", meta_);
 }
