@@ -1,6 +1,6 @@
 # omicron_viewer end to end: a generated coloured cloud built headless (printed statistics),
-# off-screen under Xvfb with growth pictures and Potree output, an uncoloured PLY and an XYZ
-# file, and bad inputs (exit 1, one line).
+# off-screen under Xvfb with growth pictures and Potree output, an uncoloured PLY, a PLY with
+# intensity and an XYZ file, and bad inputs (exit 1, one line).
 file(REMOVE_RECURSE ${WORK_DIR})
 file(MAKE_DIRECTORY ${WORK_DIR})
 include(${CMAKE_CURRENT_LIST_DIR}/../common/check_helpers.cmake)
@@ -35,6 +35,14 @@ run(${VIEWER} ${WORK_DIR}/plain.ply --no-render --depth 6 --ratio 0.3 --no-colla
     --threshold 0.1)
 expect("PLY" "plain.ply: 100000 points \\(xyz\\)")
 expect("PLY" "parent ratio 0.30, leaf collapse off, worklist 8, sort chunks 4, 1 threads")
+# Intensity (PointXYZI path): the PLY's intensity field arrives in the Potree folder.
+run(${MAKE_CLOUD} --points 20000 --intensity --out ${WORK_DIR}/intensity.ply)
+run(${VIEWER} ${WORK_DIR}/intensity.ply --no-render --output ${WORK_DIR}/potree_intensity)
+expect("intensity" "intensity.ply: 20000 points \\(xyz intensity\\)")
+file(READ ${WORK_DIR}/potree_intensity/metadata.json meta)
+if(NOT meta MATCHES "\"name\": \"intensity\"")
+  message(FATAL_ERROR "intensity: no intensity attribute in potree_intensity/metadata.json")
+endif()
 file(WRITE ${WORK_DIR}/small.xyz "# x y z\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n0.5 0.5 0.5\n")
 run(${VIEWER} ${WORK_DIR}/small.xyz --no-render)
 expect("XYZ" "read: file [0-9.]+ s, octree bounds and bucket passes [0-9.]+ s; first chunk sorted in [0-9.]+ s")

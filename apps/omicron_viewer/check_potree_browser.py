@@ -9,7 +9,9 @@ rendered by VTK (potree_reference) from that camera. The check fails unless
   - every shown node holds the points hierarchy.bin says it stores,
   - at least 5 % of the points are shown at the loader's default point budget,
   - the drawn points' pixel box matches VTK's rendering of the same points within a few pixels,
-  - a 5M-point budget loads without error.
+  - a 5M-point budget loads without error,
+  - a cloud with intensity loads without error, each shown node's decoded intensities having
+    the min, max and sum of its stored values.
 potree-core and three are installed with npm into --npm-dir (kept between runs).
 """
 import argparse
@@ -71,6 +73,46 @@ def write_shown_points(folder, meta, records, names, path):
         f.write("VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH %d\nHEIGHT 1\n"
                 "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS %d\nDATA ascii\n" % (len(rows), len(rows)))
         f.write("\n".join(rows) + "\n")
+
+
+def stored_intensity_stats(folder, meta, record):
+    """Min, max and sum of a node's stored float intensities, decoded from octree.bin."""
+    names = [a["name"] for a in meta["attributes"]]
+    at = sum(a["size"] for a in meta["attributes"][:names.index("intensity")])
+    bpp = sum(a["size"] for a in meta["attributes"])
+    _, _, points, offset, _ = record
+    with open(os.path.join(folder, "octree.bin"), "rb") as f:
+        f.seek(offset)
+        data = f.read(points * bpp)
+    values = [struct.unpack_from("<f", data, k * bpp + at)[0] for k in range(points)]
+    return [min(values), max(values), math.fsum(values)]
+
+
+def check_intensity(args, fmt, site):
+    """A cloud with intensity through omicron_viewer into potree-core: failures as strings."""
+    cloud = os.path.join(args.work, "intensity.pcd")
+    run([args.make_cloud, "--points", "100000", "--intensity", "--out", cloud], stdout=subprocess.DEVNULL)
+    folder = os.path.join(site, "potree_intensity")
+    run([args.viewer, cloud, "--no-render", "--output", folder], stdout=subprocess.DEVNULL)
+    with open(os.path.join(folder, "metadata.json")) as f:
+        meta = json.load(f)
+    with open(os.path.join(folder, "hierarchy.bin"), "rb") as f:
+        h = meta["hierarchy"]
+        records = fmt.parse_hierarchy(f.read(), h["firstChunkSize"], h["stepSize"])
+    seen = load_in_browser(args, site, "potree_intensity", camera_for(meta), "browser_intensity")
+    nodes = seen.get("visibleNodes", [])
+    failures = ["intensity cloud: the loader reported errors: %s" % seen["errors"][:5]] if seen["errors"] else []
+    if not nodes:
+        failures.append("intensity cloud: no node shown")
+    for n in nodes:
+        want = stored_intensity_stats(folder, meta, records[n["name"]]) if n["name"] in records else None
+        got = n.get("intensity")
+        if got is None or want is None or any(abs(a - b) > 1e-6 * max(1.0, abs(b)) for a, b in zip(got, want)):
+            failures.append("intensity cloud, node %s: decoded intensity min, max, sum %s, stored %s"
+                            % (n["name"], n.get("intensity"), want))
+    print("potree-core, intensity cloud: %d nodes shown, %d points; intensity attribute %s"
+          % (len(nodes), seen.get("numVisiblePoints", 0), meta["attributes"][-1]))
+    return failures
 
 
 def vtk_box(args, cloud, cam, png):
@@ -183,6 +225,7 @@ def main():
         failures.append("a 5M-point budget gave errors: %s" % big["errors"][:5])
     if big.get("numVisiblePoints", 0) < shown:
         failures.append("a 5M-point budget showed fewer points (%d) than the default" % big.get("numVisiblePoints", 0))
+    failures += check_intensity(args, fmt, site)
     for f in failures:
         print("FAILED:", f)
     if failures:

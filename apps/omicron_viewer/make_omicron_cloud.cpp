@@ -1,7 +1,8 @@
 // make_omicron_cloud: large test clouds for omicron_viewer. Samples a triangle mesh (a PLY
 // such as ../shared/data/meshes/fertility.ply, or the generated torus-sphere-plate scene of
-// make_scene) uniformly, optionally coloured by the surface normal, and writes binary PCD or
-// binary PLY.
+// make_scene) uniformly, optionally coloured by the surface normal or given an intensity (the
+// normal's incidence on a light from above, as a scanner's return falls with the angle), and
+// writes binary PCD or binary PLY.
 #include <pclx/apps/progress.h>
 #include <pclx/testing/mesh_sampling.h>
 #include <pclx/testing/shapes.h>
@@ -12,6 +13,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <cstdio>
 
 using namespace pclx::testing;
@@ -38,11 +40,13 @@ run (int argc, char** argv)
   CLI::App app ("Test clouds for omicron_viewer: a sampled mesh (PLY) or the generated scene, binary PCD/PLY out");
   std::string mesh_path, out;
   std::size_t points = 1000000;
-  bool color = false;
+  bool color = false, intensity = false;
   std::uint32_t seed = 1;
   app.add_option ("--mesh", mesh_path, "triangle mesh to sample (PLY); default: torus, sphere and base plate");
   app.add_option ("--points", points, "points to sample")->capture_default_str ();
   app.add_flag ("--color", color, "colour the points by their surface normal (rgb field)");
+  app.add_flag ("--intensity", intensity, "an intensity field: |normal.z| x 1000 (a return that falls with the incidence)")
+      ->excludes ("--color");
   app.add_option ("--seed", seed)->capture_default_str ();
   app.add_option ("-o,--out", out, "output cloud (.pcd or .ply, binary)")->required ();
   CLI11_PARSE (app, argc, argv);
@@ -81,11 +85,23 @@ run (int argc, char** argv)
     }
     rc = write (out, c);
   }
+  else if (intensity)
+  {
+    pcl::PointCloud<pcl::PointXYZI> c;
+    c.resize (s.cloud.size ());
+    for (std::size_t i = 0; i < c.size (); ++i)
+    {
+      c[i].getVector3fMap () = s.cloud[i].getVector3fMap ();
+      c[i].intensity = 1000.f * std::abs (s.cloud[i].normal_z);
+    }
+    rc = write (out, c);
+  }
   else
     rc = write (out, *positions (s.cloud));
   if (rc != 0)
     throw std::runtime_error ("could not write " + out);
-  std::printf ("wrote %zu points%s to %s\n", s.cloud.size (), color ? " (rgb)" : "", out.c_str ());
+  std::printf ("wrote %zu points%s to %s\n", s.cloud.size (), color ? " (rgb)" : intensity ? " (intensity)" : "",
+               out.c_str ());
   return 0;
 }
 

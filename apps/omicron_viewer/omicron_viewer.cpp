@@ -111,22 +111,39 @@ runOnFile (const Options& o)
   if (check.format == pclx::apps::CloudFormat::XYZ && o.budget_mb <= 0)
     return run (o, readXyzInput (o.input));
   // The octree reads the file itself (in memory, or out of core with a budget), so the points
-  // are held once; framing and progress come from the octree. Colour only when the file has
-  // it: PointXYZ halves the sorted-array memory.
+  // are held once; framing and progress come from the octree. Colour or intensity only when
+  // the file has it: PointXYZ halves the sorted-array memory. No PCL point type holds both, so
+  // a file with both keeps its colour.
   pcl::PointStreamReader reader (o.input);
   if (!reader.isOpen ())
     throw std::runtime_error (reader.getLastError ());
   const std::string how = o.budget_mb > 0
                               ? "memory budget " + formatMb (static_cast<std::size_t> (o.budget_mb * 1048576.0))
                               : "in memory";
+  const bool intensity = reader.hasIntensity () && !reader.hasColor ();
   const auto summary = o.input + ": " + std::to_string (reader.getDeclaredPoints ()) + " points (xyz" +
-                       (reader.hasColor () ? " rgb" : "") + "), read by the octree (" + how + ")";
-  Input<pcl::PointXYZRGB> rgb;
+                       (reader.hasColor () ? " rgb" : "") + (intensity ? " intensity" : "") +
+                       (reader.hasIntensity () && !intensity ? "; its intensity is not kept beside the colour" : "") +
+                       "), read by the octree (" + how + ")";
+  if (reader.hasColor ())
+  {
+    Input<pcl::PointXYZRGB> rgb;
+    rgb.file = o.input;
+    rgb.summary = summary;
+    rgb.color = true;
+    return run (o, rgb);
+  }
+  if (intensity)
+  {
+    Input<pcl::PointXYZI> xyzi;
+    xyzi.file = o.input;
+    xyzi.summary = summary;
+    return run (o, xyzi);
+  }
   Input<pcl::PointXYZ> xyz;
-  rgb.file = xyz.file = o.input;
-  rgb.summary = xyz.summary = summary;
-  rgb.color = true;
-  return reader.hasColor () ? run (o, rgb) : run (o, xyz);
+  xyz.file = o.input;
+  xyz.summary = summary;
+  return run (o, xyz);
 }
 
 // pcl::IOException's what() starts with "<function> in <source file> @ <line> : ".
