@@ -679,7 +679,8 @@ pcl::PointStreamReader::readText (std::size_t max_points, pcl::PointCloud<pcl::P
 }
 
 bool
-pcl::PointStreamReader::readFloatXYZ (std::size_t max_points, float* first, std::size_t stride, std::size_t& n)
+pcl::PointStreamReader::readFloatXYZ (std::size_t max_points, float* first, std::size_t stride, std::size_t& n,
+                                      float* intensity)
 {
   n = 0;
   if (!file_)
@@ -708,6 +709,8 @@ pcl::PointStreamReader::readFloatXYZ (std::size_t max_points, float* first, std:
           continue;
         }
         std::memcpy (out + n * stride, v, sizeof v);
+        if (intensity)
+          std::memcpy (reinterpret_cast<std::uint8_t*> (intensity) + n * stride, r + intensity_.index, sizeof (float));
         ++n;
       }
       consumed_ += batch;

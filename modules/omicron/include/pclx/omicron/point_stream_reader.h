@@ -143,10 +143,12 @@ private:
   std::size_t readText (std::size_t max_points, pcl::PointCloud<pcl::PointXYZRGB>& out);
   bool keep (pcl::PointXYZRGB& p);
   // The next at most max_points finite points of a binary little-endian float x/y/z file, their
-  // x, y, z written as floats at `first` + i * stride bytes (NaN/Inf rows dropped and counted);
-  // n: the points written. Returns false on an error (as read ()). An empty `first` range
+  // x, y, z written as floats at `first` + i * stride bytes (NaN/Inf rows dropped and counted),
+  // and, with `intensity`, the file's float intensity at `intensity` + i * stride bytes; n: the
+  // points written. Returns false on an error (as read ()). An empty `first` range
   // (max_points 0, or at the end) writes nothing and returns true.
-  bool readFloatXYZ (std::size_t max_points, float* first, std::size_t stride, std::size_t& n);
+  bool readFloatXYZ (std::size_t max_points, float* first, std::size_t stride, std::size_t& n,
+                     float* intensity = nullptr);
 
   std::string path_;
   Format format_ = Format::PCD;
@@ -170,14 +172,14 @@ private:
 template <typename PointT> bool
 PointStreamReader::read (std::size_t max_points, pcl::PointCloud<PointT>& out)
 {
-  // Binary little-endian float x/y/z without colour (or intensity the file has) in the point
-  // type: straight into `out`.
+  // Binary little-endian float x/y/z (and float intensity, when both the file and the type
+  // have it) without colour in the point type: straight into `out`.
   bool intensity_read = false;
   if constexpr (pcl::traits::has_intensity_v<PointT>)
     intensity_read = hasIntensity ();
   if constexpr (!pcl::traits::has_color_v<PointT>)
     if (file_ && binary_ && !compressed_ && !big_endian_ && x_.type == F32 && y_.type == F32 && z_.type == F32 &&
-        max_points > 0 && !intensity_read)
+        max_points > 0 && (!intensity_read || intensity_.type == F32))
     {
       // A PointXYZ block of the last block's size is reused as it is: the read overwrites every
       // field it has. Other types are built afresh, so no field keeps an earlier value.
@@ -193,7 +195,10 @@ PointStreamReader::read (std::size_t max_points, pcl::PointCloud<PointT>& out)
         return error ("read", path_ + ": " + e.what ());
       }
       std::size_t n = 0;
-      const bool ok = readFloatXYZ (out.size (), out.empty () ? nullptr : &out[0].x, sizeof (PointT), n);
+      float* intensity = nullptr;
+      if constexpr (pcl::traits::has_intensity_v<PointT>)
+        intensity = intensity_read && !out.empty () ? &out[0].intensity : nullptr;
+      const bool ok = readFloatXYZ (out.size (), out.empty () ? nullptr : &out[0].x, sizeof (PointT), n, intensity);
       out.resize (n);
       out.width = static_cast<std::uint32_t> (n);
       out.height = 1;
