@@ -10,13 +10,39 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <map>
 #include <random>
 #include <set>
+#include <stdexcept>
 #include <string>
+#include <system_error>
 #include <vector>
 
+#include <stdlib.h>  // mkdtemp
+
 namespace omitest {
+
+// A fresh folder of its own under the temp directory (mkdtemp: no two tests or processes share
+// one), removed with its contents.
+struct TempDir
+{
+  std::filesystem::path path;
+  TempDir ()
+  {
+    std::string t = (std::filesystem::temp_directory_path () / "pclx_omicron_XXXXXX").string ();
+    if (!::mkdtemp (t.data ()))
+      throw std::runtime_error ("cannot create a folder like " + t);
+    path = t;
+  }
+  ~TempDir ()
+  {
+    std::error_code ec;
+    std::filesystem::remove_all (path, ec);
+  }
+  TempDir (const TempDir&) = delete;
+  TempDir& operator= (const TempDir&) = delete;
+};
 
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 using Node = pclx::omicron::detail::Node<pcl::PointXYZ>;

@@ -29,21 +29,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct TempDir
-{
-  fs::path path;
-  TempDir ()
-  {
-    std::string t = (fs::temp_directory_path () / "omicron_budget_XXXXXX").string ();
-    path = ::mkdtemp (t.data ());
-  }
-  ~TempDir ()
-  {
-    std::error_code ec;
-    fs::remove_all (path, ec);
-  }
-};
-
 // Several shapes in one cloud, shuffled: uniform (5 %), five tight clusters (10 %), a plane
 // (35 %), eight wide clusters (30 %) and exact duplicates of earlier points (20 %; the
 // stable order of equal codes matters for the samples). Point-bound at depth 6 (about 0.07

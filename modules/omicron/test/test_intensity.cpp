@@ -22,20 +22,10 @@
 #include <unistd.h>
 
 namespace fs = std::filesystem;
+using omitest::TempDir;
 using CloudI = pcl::PointCloud<pcl::PointXYZI>;
 
 namespace {
-struct TempDir
-{
-  fs::path path = fs::temp_directory_path () / ("pclx_intensity_" + std::to_string (::getpid ()));
-  TempDir ()
-  {
-    fs::remove_all (path);
-    fs::create_directories (path);
-  }
-  ~TempDir () { fs::remove_all (path); }
-};
-
 // Points (clustered by default) with intensities beyond uint16's range and below zero, fractions, one NaN
 // and one Inf (stored as they are, left out of the metadata range).
 CloudI::Ptr

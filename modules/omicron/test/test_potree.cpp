@@ -19,26 +19,10 @@
 #include <set>
 
 namespace fs = std::filesystem;
+using omitest::TempDir;
 using omitest::Shape;
 
 namespace {
-struct TempDir
-{
-  fs::path path;
-  TempDir ()
-  {
-    path = fs::temp_directory_path () / ("pclx_omicron_" + std::to_string (::getpid ()) + "_" + std::to_string (counter ()++));
-    fs::remove_all (path);
-    fs::create_directories (path);
-  }
-  ~TempDir () { fs::remove_all (path); }
-  static int& counter ()
-  {
-    static int c = 0;
-    return c;
-  }
-};
-
 pcl::PointCloud<pcl::PointXYZRGB>::Ptr
 colouredCloud (Shape shape, std::size_t n, unsigned seed)
 {

@@ -1,5 +1,7 @@
 // PointStreamReader: every format PCL writes (and hand-made PLY / XYZ) read back in chunks
 // equals the cloud; NaN/Inf dropped and counted; empty, truncated and garbage files are refused.
+#include "omicron_test_util.h"
+
 #include <pclx/omicron/detail/block_reader.h>
 #include <pclx/omicron/point_stream_reader.h>
 
@@ -19,20 +21,10 @@
 #include <unistd.h>
 
 namespace fs = std::filesystem;
+using omitest::TempDir;
 using Cloud = pcl::PointCloud<pcl::PointXYZRGB>;
 
 namespace {
-struct TempDir
-{
-  fs::path path = fs::temp_directory_path () / ("pclx_stream_" + std::to_string (::getpid ()));
-  TempDir ()
-  {
-    fs::remove_all (path);
-    fs::create_directories (path);
-  }
-  ~TempDir () { fs::remove_all (path); }
-};
-
 Cloud
 randomCloud (std::size_t n, std::size_t nans)
 {
