@@ -1,6 +1,6 @@
 # omicron_viewer end to end: a generated coloured cloud built headless (printed statistics),
-# off-screen under Xvfb with growth pictures and Potree output, an uncoloured PLY, a PLY with
-# intensity and an XYZ file, and bad inputs (exit 1, one line).
+# off-screen under Xvfb with growth pictures and Potree output, an uncoloured PLY, PLYs with
+# intensity (and with colour too) and an XYZ file, and bad inputs (exit 1, one line).
 file(REMOVE_RECURSE ${WORK_DIR})
 file(MAKE_DIRECTORY ${WORK_DIR})
 include(${CMAKE_CURRENT_LIST_DIR}/../common/check_helpers.cmake)
@@ -42,6 +42,14 @@ expect("intensity" "intensity.ply: 20000 points \\(xyz intensity\\)")
 file(READ ${WORK_DIR}/potree_intensity/metadata.json meta)
 if(NOT meta MATCHES "\"name\": \"intensity\"")
   message(FATAL_ERROR "intensity: no intensity attribute in potree_intensity/metadata.json")
+endif()
+# Colour and intensity together (pclx::PointXYZRGBI): both attributes.
+run(${MAKE_CLOUD} --points 20000 --color --intensity --out ${WORK_DIR}/both.ply)
+run(${VIEWER} ${WORK_DIR}/both.ply --no-render --output ${WORK_DIR}/potree_both)
+expect("rgb and intensity" "both.ply: 20000 points \\(xyz rgb intensity\\)")
+file(READ ${WORK_DIR}/potree_both/metadata.json meta)
+if(NOT meta MATCHES "\"name\": \"rgb\"" OR NOT meta MATCHES "\"name\": \"intensity\"")
+  message(FATAL_ERROR "rgb and intensity: potree_both/metadata.json lacks one of them")
 endif()
 file(WRITE ${WORK_DIR}/small.xyz "# x y z\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n0.5 0.5 0.5\n")
 run(${VIEWER} ${WORK_DIR}/small.xyz --no-render)

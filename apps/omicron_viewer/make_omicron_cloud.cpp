@@ -1,9 +1,10 @@
 // make_omicron_cloud: large test clouds for omicron_viewer. Samples a triangle mesh (a PLY
 // such as ../shared/data/meshes/fertility.ply, or the generated torus-sphere-plate scene of
-// make_scene) uniformly, optionally coloured by the surface normal or given an intensity (the
-// normal's incidence on a light from above, as a scanner's return falls with the angle), and
-// writes binary PCD or binary PLY.
+// make_scene) uniformly, optionally coloured by the surface normal and/or given an intensity
+// (the normal's incidence on a light from above, as a scanner's return falls with the angle),
+// and writes binary PCD or binary PLY.
 #include <pclx/apps/progress.h>
+#include <pclx/omicron/point_xyzrgbi.h>
 #include <pclx/testing/mesh_sampling.h>
 #include <pclx/testing/shapes.h>
 #include <pclx/testing/triangle_mesh.h>
@@ -15,6 +16,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <type_traits>
 
 using namespace pclx::testing;
 
@@ -45,8 +47,7 @@ run (int argc, char** argv)
   app.add_option ("--mesh", mesh_path, "triangle mesh to sample (PLY); default: torus, sphere and base plate");
   app.add_option ("--points", points, "points to sample")->capture_default_str ();
   app.add_flag ("--color", color, "colour the points by their surface normal (rgb field)");
-  app.add_flag ("--intensity", intensity, "an intensity field: |normal.z| x 1000 (a return that falls with the incidence)")
-      ->excludes ("--color");
+  app.add_flag ("--intensity", intensity, "an intensity field: |normal.z| x 1000 (a return that falls with the incidence)");
   app.add_option ("--seed", seed)->capture_default_str ();
   app.add_option ("-o,--out", out, "output cloud (.pcd or .ply, binary)")->required ();
   CLI11_PARSE (app, argc, argv);
@@ -67,40 +68,38 @@ run (int argc, char** argv)
   pclx::apps::Progress sampling ("sampling " + std::to_string (points) + " points");
   const SampledCloud s = sampleUniform (mesh, points, seed);
   sampling.done ();
-  int rc;
-  if (color)
-  {
-    pcl::PointCloud<pcl::PointXYZRGB> c;
-    c.resize (s.cloud.size ());
-    for (std::size_t i = 0; i < c.size (); ++i)
+  // The normal's colour and its incidence from above, as the chosen fields.
+  const auto fill = [&] (auto& q, const pcl::PointNormal& p) {
+    q.x = p.x;
+    q.y = p.y;
+    q.z = p.z;
+    if constexpr (pcl::traits::has_color_v<std::decay_t<decltype (q)>>)
     {
-      const auto& p = s.cloud[i];
-      auto& q = c[i];
-      q.x = p.x;
-      q.y = p.y;
-      q.z = p.z;
       q.r = static_cast<std::uint8_t> (127.5f + 127.f * p.normal_x);
       q.g = static_cast<std::uint8_t> (127.5f + 127.f * p.normal_y);
       q.b = static_cast<std::uint8_t> (127.5f + 127.f * p.normal_z);
     }
-    rc = write (out, c);
-  }
+    if constexpr (pcl::traits::has_intensity_v<std::decay_t<decltype (q)>>)
+      q.intensity = 1000.f * std::abs (p.normal_z);
+  };
+  const auto convert = [&] (auto cloud) {
+    cloud.resize (s.cloud.size ());
+    for (std::size_t i = 0; i < cloud.size (); ++i)
+      fill (cloud[i], s.cloud[i]);
+    return write (out, cloud);
+  };
+  int rc;
+  if (color && intensity)
+    rc = convert (pcl::PointCloud<pclx::PointXYZRGBI> ());
+  else if (color)
+    rc = convert (pcl::PointCloud<pcl::PointXYZRGB> ());
   else if (intensity)
-  {
-    pcl::PointCloud<pcl::PointXYZI> c;
-    c.resize (s.cloud.size ());
-    for (std::size_t i = 0; i < c.size (); ++i)
-    {
-      c[i].getVector3fMap () = s.cloud[i].getVector3fMap ();
-      c[i].intensity = 1000.f * std::abs (s.cloud[i].normal_z);
-    }
-    rc = write (out, c);
-  }
+    rc = convert (pcl::PointCloud<pcl::PointXYZI> ());
   else
     rc = write (out, *positions (s.cloud));
   if (rc != 0)
     throw std::runtime_error ("could not write " + out);
-  std::printf ("wrote %zu points%s to %s\n", s.cloud.size (), color ? " (rgb)" : intensity ? " (intensity)" : "",
+  std::printf ("wrote %zu points%s%s to %s\n", s.cloud.size (), color ? " (rgb)" : "", intensity ? " (intensity)" : "",
                out.c_str ());
   return 0;
 }

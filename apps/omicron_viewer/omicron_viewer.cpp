@@ -18,6 +18,7 @@
 #include <pclx/apps/file_check.h>
 #include <pclx/apps/process_stats.h>
 #include <pclx/omicron/point_stream_reader.h>
+#include <pclx/omicron/point_xyzrgbi.h>
 
 #include <pcl/exceptions.h>
 #include <pcl/point_types.h>
@@ -111,20 +112,25 @@ runOnFile (const Options& o)
   if (check.format == pclx::apps::CloudFormat::XYZ && o.budget_mb <= 0)
     return run (o, readXyzInput (o.input));
   // The octree reads the file itself (in memory, or out of core with a budget), so the points
-  // are held once; framing and progress come from the octree. Colour or intensity only when
-  // the file has it: PointXYZ halves the sorted-array memory. No PCL point type holds both, so
-  // a file with both keeps its colour.
+  // are held once; framing and progress come from the octree. Colour and intensity only when
+  // the file has them: PointXYZ halves the sorted-array memory.
   pcl::PointStreamReader reader (o.input);
   if (!reader.isOpen ())
     throw std::runtime_error (reader.getLastError ());
   const std::string how = o.budget_mb > 0
                               ? "memory budget " + formatMb (static_cast<std::size_t> (o.budget_mb * 1048576.0))
                               : "in memory";
-  const bool intensity = reader.hasIntensity () && !reader.hasColor ();
   const auto summary = o.input + ": " + std::to_string (reader.getDeclaredPoints ()) + " points (xyz" +
-                       (reader.hasColor () ? " rgb" : "") + (intensity ? " intensity" : "") +
-                       (reader.hasIntensity () && !intensity ? "; its intensity is not kept beside the colour" : "") +
+                       (reader.hasColor () ? " rgb" : "") + (reader.hasIntensity () ? " intensity" : "") +
                        "), read by the octree (" + how + ")";
+  if (reader.hasColor () && reader.hasIntensity ())
+  {
+    Input<pclx::PointXYZRGBI> both;
+    both.file = o.input;
+    both.summary = summary;
+    both.color = true;
+    return run (o, both);
+  }
   if (reader.hasColor ())
   {
     Input<pcl::PointXYZRGB> rgb;
@@ -133,7 +139,7 @@ runOnFile (const Options& o)
     rgb.color = true;
     return run (o, rgb);
   }
-  if (intensity)
+  if (reader.hasIntensity ())
   {
     Input<pcl::PointXYZI> xyzi;
     xyzi.file = o.input;

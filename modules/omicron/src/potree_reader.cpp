@@ -234,3 +234,9 @@ pcl::PotreeReader::readNode (std::size_t i, pcl::PointCloud<pcl::PointXYZI>& out
 {
   return readNodeAs (i, out);
 }
+
+bool
+pcl::PotreeReader::readNode (std::size_t i, pcl::PointCloud<pclx::PointXYZRGBI>& out) const
+{
+  return readNodeAs (i, out);
+}

@@ -5,6 +5,7 @@
 
 #include <pclx/omicron/oblique_cut_octree.h>
 #include <pclx/omicron/point_stream_reader.h>
+#include <pclx/omicron/point_xyzrgbi.h>
 #include <pclx/omicron/potree_reader.h>
 #include <pclx/omicron/potree_writer.h>
 
@@ -19,6 +20,8 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <set>
+#include <tuple>
 #include <unistd.h>
 
 namespace fs = std::filesystem;
@@ -254,6 +257,64 @@ TEST (PointStreamReader, IntensityInEveryFormat)
       EXPECT_EQ (c[i].intensity, std::string (name) == "cc.ply" ? 0.25f * i : 60000.f + i) << name << " " << i;
     }
   }
+}
+
+// Colour and intensity together (colourised laser scans): a PCD file with both, read into
+// pclx::PointXYZRGBI, built from the file and written; both attributes read back per point.
+TEST (PotreeIntensity, ColourAndIntensityTogether)
+{
+  TempDir dir;
+  const auto xyzi = intensityCloud (30000);
+  pcl::PointCloud<pclx::PointXYZRGBI> cloud;
+  cloud.resize (xyzi->size ());
+  for (std::size_t i = 0; i < cloud.size (); ++i)
+  {
+    cloud[i].getVector3fMap () = (*xyzi)[i].getVector3fMap ();
+    cloud[i].intensity = (*xyzi)[i].intensity;
+    cloud[i].r = static_cast<std::uint8_t> (i * 7);
+    cloud[i].g = static_cast<std::uint8_t> (i * 13);
+    cloud[i].b = static_cast<std::uint8_t> (255 - i % 256);
+  }
+  const std::string pcd = (dir.path / "both.pcd").string ();
+  ASSERT_EQ (pcl::io::savePCDFileBinary (pcd, cloud), 0);
+  {
+    pcl::PointStreamReader r (pcd);
+    EXPECT_TRUE (r.hasColor () && r.hasIntensity ());
+  }
+  pcl::ObliqueCutOctree<pclx::PointXYZRGBI> o;
+  o.setInputFile (pcd);
+  o.setMaxDepth (6);
+  ASSERT_TRUE (o.build ()) << o.getLastError ();
+  pcl::PotreeWriter<pclx::PointXYZRGBI> w;
+  ASSERT_TRUE (w.write (o, (dir.path / "potree").string ())) << w.getLastError ();
+
+  pcl::PotreeReader r;
+  ASSERT_TRUE (r.open ((dir.path / "potree").string ()));
+  const auto& m = r.getMetadata ();
+  EXPECT_TRUE (m.rgb && m.intensity);
+  EXPECT_EQ (m.bytesPerPoint (), 12u + 6u + 4u);
+  // Position quantum, colour and intensity bits of every point, as multisets.
+  using Key = std::tuple<std::int64_t, std::int64_t, std::int64_t, int, int, int, std::uint32_t>;
+  const auto key = [&] (const pclx::PointXYZRGBI& p) {
+    std::uint32_t bits;
+    std::memcpy (&bits, &p.intensity, 4);
+    std::int64_t q[3];
+    for (int a = 0; a < 3; ++a)
+      q[a] = std::llround ((double (p.data[a]) - m.offset[a]) / m.scale[a]);
+    return Key (q[0], q[1], q[2], p.r, p.g, p.b, bits);
+  };
+  std::multiset<Key> want, got;
+  for (const auto& p : cloud)
+    want.insert (key (p));
+  pcl::PointCloud<pclx::PointXYZRGBI> node;
+  for (std::size_t i = 0; i < r.getNodes ().size (); ++i)
+  {
+    ASSERT_TRUE (r.readNode (i, node));
+    for (const auto& p : node)
+      got.insert (key (p));
+  }
+  EXPECT_EQ (got.size (), cloud.size ());
+  EXPECT_TRUE (got == want);
 }
 
 // A folder laid out as PotreeConverter writes LAS input: intensity as uint16 among attributes

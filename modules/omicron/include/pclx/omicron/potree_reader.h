@@ -1,6 +1,7 @@
 #pragma once
 // pcl::PotreeReader: reads a Potree 2.0 folder, see the class.
 #include <pclx/omicron/detail/potree_format.h>
+#include <pclx/omicron/point_xyzrgbi.h>
 
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -84,6 +85,13 @@ public:
     * \return false (PCL_ERROR, getLastError ()) for a bad index or an unreadable octree.bin
     */
   bool readNode (std::size_t i, pcl::PointCloud<pcl::PointXYZI>& out) const;
+  /** \brief Positions, colour and intensity of a node (see the PointXYZRGB and PointXYZI
+    * overloads).
+    * \param[in] i the node's index in getNodes ()
+    * \param[out] out its points (empty on failure)
+    * \return false (PCL_ERROR, getLastError ()) for a bad index or an unreadable octree.bin
+    */
+  bool readNode (std::size_t i, pcl::PointCloud<pclx::PointXYZRGBI>& out) const;
   /** \brief Why the last failed call failed.
     * \return why the last failed call failed */
   const std::string& getLastError () const { return last_error_; }
