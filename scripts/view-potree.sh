@@ -17,7 +17,7 @@ site="$(mktemp -d)"
 trap 'rm -rf "$site"' EXIT
 ln -s "$npm_dir/node_modules" "$site/node_modules"
 ln -s "$folder" "$site/cloud"
-cp "$here/apps/omicron_viewer/potree_page/view.html" "$site/"
+cp "$here/apps/omicron_viewer/potree_page/view.html" "$here/apps/omicron_viewer/potree_page/fill_colour.js" "$site/"
 exec 3< <(node "$here/apps/omicron_viewer/potree_page/server.js" "$site" "${2:-0}")
 read -r port <&3
 url="http://127.0.0.1:$port/view.html?cloud=/cloud"

@@ -10,8 +10,8 @@ rendered by VTK (potree_reference) from that camera. The check fails unless
   - at least 5 % of the points are shown at the loader's default point budget,
   - the drawn points' pixel box matches VTK's rendering of the same points within a few pixels,
   - a 5M-point budget loads without error,
-  - a cloud with intensity loads without error, each shown node's decoded intensities having
-    the min, max and sum of its stored values.
+  - a cloud with intensity (and no rgb) loads without error and is drawn, each shown node's
+    decoded intensities having the min, max and sum of its stored values.
 potree-core and three are installed with npm into --npm-dir (kept between runs).
 """
 import argparse
@@ -104,6 +104,8 @@ def check_intensity(args, fmt, site):
     failures = ["intensity cloud: the loader reported errors: %s" % seen["errors"][:5]] if seen["errors"] else []
     if not nodes:
         failures.append("intensity cloud: no node shown")
+    if seen.get("lit", 0) < 1000:
+        failures.append("intensity cloud: %d lit pixels (the page colours nodes without rgb)" % seen.get("lit", 0))
     for n in nodes:
         want = stored_intensity_stats(folder, meta, records[n["name"]]) if n["name"] in records else None
         got = n.get("intensity")
@@ -178,7 +180,8 @@ def main():
     run([args.viewer, cloud, "--no-render", "--output", os.path.join(site, "potree")], stdout=subprocess.DEVNULL)
     install_loader(args.npm_dir)
     os.symlink(os.path.join(os.path.abspath(args.npm_dir), "node_modules"), os.path.join(site, "node_modules"))
-    shutil.copy(os.path.join(args.page, "check.html"), site)
+    for page in ("check.html", "fill_colour.js"):
+        shutil.copy(os.path.join(args.page, page), site)
 
     with open(os.path.join(site, "potree", "metadata.json")) as f:
         meta = json.load(f)
