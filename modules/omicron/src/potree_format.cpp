@@ -332,9 +332,14 @@ readAttributes (const nlohmann::json& attrs, Metadata& m)
   {
     const std::string name = attrs[i].at ("name").get<std::string> ();
     const int size = attrs[i].at ("size").get<int> ();
-    // Larger than any attribute PotreeConverter knows (its largest, normals as double, is 24).
+    // A bound far above any attribute's size, so a corrupt size cannot make absurd records.
     if (size < 1 || size > 1024)
       fail ("attribute " + name + " has size " + std::to_string (size));
+    if (name != "rgb" && name != "intensity")
+    {
+      at += static_cast<std::uint32_t> (size);  // skipped, whatever its type
+      continue;
+    }
     const ScalarType type = scalarTypeFromName (attrs[i].at ("type").get<std::string> ());
     if (name == "rgb")
     {
@@ -343,7 +348,7 @@ readAttributes (const nlohmann::json& attrs, Metadata& m)
       m.rgb = true;
       m.rgb_offset = at;
     }
-    else if (name == "intensity")
+    else
     {
       if (static_cast<std::size_t> (size) != scalarTypeSize (type))
         fail ("the intensity attribute must be one " + std::string (scalarTypeName (type)));

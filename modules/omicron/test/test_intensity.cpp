@@ -318,7 +318,8 @@ TEST (PotreeIntensity, ColourAndIntensityTogether)
 }
 
 // A folder laid out as PotreeConverter writes LAS input: intensity as uint16 among attributes
-// this reader skips (returns, classification, gps-time), rgb last.
+// this reader skips (returns, classification, gps-time, extra bytes of a type it does not
+// know), rgb last.
 TEST (PotreeReader, ReadsPotreeConverterAttributesAndSkipsTheOthers)
 {
   TempDir dir;
@@ -334,7 +335,8 @@ TEST (PotreeReader, ReadsPotreeConverterAttributesAndSkipsTheOthers)
                         {"return number", "uint8", 1, 1},    {"number of returns", "uint8", 1, 1},
                         {"classification", "uint8", 1, 1},   {"scan angle rank", "uint8", 1, 1},
                         {"user data", "uint8", 1, 1},        {"point source id", "uint16", 2, 1},
-                        {"gps-time", "double", 8, 1},        {"rgb", "uint16", 6, 3}};
+                        {"gps-time", "double", 8, 1},        {"extra", "undefined", 3, 3},
+                        {"rgb", "uint16", 6, 3}};
   const auto metadata = [&] (const std::string& attributes) {
     std::ofstream (d / "metadata.json")
         << "{\"version\": \"2.0\", \"name\": \"las\", \"points\": 3, \"projection\": \"\","
@@ -355,7 +357,7 @@ TEST (PotreeReader, ReadsPotreeConverterAttributesAndSkipsTheOthers)
             ", \"max\": " + range + "}";
     bpp += a.size;
   }
-  ASSERT_EQ (bpp, 12 + 2 + 5 + 2 + 8 + 6);
+  ASSERT_EQ (bpp, 12 + 2 + 5 + 2 + 8 + 3 + 6);
   metadata (list);
   std::vector<std::uint8_t> octree (3 * bpp, 0xAB);  // the skipped bytes hold a pattern
   for (int k = 0; k < 3; ++k)
