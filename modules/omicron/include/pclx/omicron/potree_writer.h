@@ -85,10 +85,10 @@ public:
     * \param[in] step in [1, 21] (out of range: PCL_ERROR, value kept)
     */
   void setHierarchyStepSize (int step);
-  /** \brief Write the rgb attribute.
+  /** \brief Write the rgb attribute (never for a PointT without colour).
     * \param[in] on default: when PointT has colour */
   void setWriteColors (bool on) { colors_ = on; }
-  /** \brief Write the intensity attribute.
+  /** \brief Write the intensity attribute (never for a PointT without intensity).
     * \param[in] on default: when PointT has intensity */
   void setWriteIntensity (bool on) { intensity_ = on; }
   /** \brief Set the node size: a subtree of at most this many points is written as one leaf
