@@ -15,7 +15,6 @@ rendered by VTK (potree_reference) from that camera. The check fails unless
 potree-core and three are installed with npm into --npm-dir (kept between runs).
 """
 import argparse
-import glob
 import importlib.util
 import json
 import math
@@ -24,6 +23,7 @@ import shutil
 import struct
 import subprocess
 import sys
+import tempfile
 import time
 
 POTREE_CORE, THREE = "potree-core@2.0.15", "three@0.187.0"
@@ -140,21 +140,21 @@ def load_in_browser(args, site, cloud, cam, name, budget=None):
     if budget:
         url += "&budget=%d" % budget
     profile = os.path.join(args.work, "chromium-profile")
+    # A killed browser leaves its singleton folder in TMPDIR: a folder of its own, removed below.
+    # Not the work folder: the singleton's socket path must stay under 108 bytes.
+    browser_tmp = tempfile.mkdtemp(prefix="pclx-chromium-")
     with open(os.path.join(args.work, name + ".chromium.log"), "w") as log:
         browser = subprocess.Popen([args.chromium, "--headless=new", "--no-sandbox", "--use-gl=angle",
                                     "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-first-run",
                                     "--user-data-dir=" + profile, "--window-size=%d,%d" % (WIDTH, HEIGHT), url],
-                                   stdout=log, stderr=log,
-                                   # A killed browser leaves its singleton folder in TMPDIR: removed below.
-                                   env=dict(os.environ, TMPDIR=args.work))
+                                   stdout=log, stderr=log, env=dict(os.environ, TMPDIR=browser_tmp))
         try:
             server.wait(timeout=120)
         except subprocess.TimeoutExpired:
             server.kill()
         browser.kill()
         browser.wait()
-    for leftover in glob.glob(os.path.join(args.work, "org.chromium.Chromium.*")):
-        shutil.rmtree(leftover, ignore_errors=True)
+    shutil.rmtree(browser_tmp, ignore_errors=True)
     if not os.path.exists(result):
         raise SystemExit("FAILED: %s: the page posted no result within 120 s (see %s.chromium.log)" % (name, name))
     with open(result) as f:
