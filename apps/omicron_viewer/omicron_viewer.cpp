@@ -112,8 +112,7 @@ runOnFile (const Options& o)
   if (check.format == pclx::apps::CloudFormat::XYZ && o.budget_mb <= 0)
     return run (o, readXyzInput (o.input));
   // The octree reads the file itself (in memory, or out of core with a budget), so the points
-  // are held once; framing and progress come from the octree. Colour and intensity only when
-  // the file has them: PointXYZ halves the sorted-array memory.
+  // are held once; framing and progress come from the octree.
   pcl::PointStreamReader reader (o.input);
   if (!reader.isOpen ())
     throw std::runtime_error (reader.getLastError ());
@@ -123,33 +122,16 @@ runOnFile (const Options& o)
   const auto summary = o.input + ": " + std::to_string (reader.getDeclaredPoints ()) + " points (xyz" +
                        (reader.hasColor () ? " rgb" : "") + (reader.hasIntensity () ? " intensity" : "") +
                        "), read by the octree (" + how + ")";
-  if (reader.hasColor () && reader.hasIntensity ())
-  {
-    Input<pclx::PointXYZRGBI> both;
-    both.file = o.input;
-    both.summary = summary;
-    both.color = true;
-    return run (o, both);
-  }
+  // The point type holds what the file has: PointXYZ halves the sorted-array memory.
+  const auto runAs = [&] (auto in) {
+    in.file = o.input;
+    in.summary = summary;
+    in.color = reader.hasColor ();
+    return run (o, std::move (in));
+  };
   if (reader.hasColor ())
-  {
-    Input<pcl::PointXYZRGB> rgb;
-    rgb.file = o.input;
-    rgb.summary = summary;
-    rgb.color = true;
-    return run (o, rgb);
-  }
-  if (reader.hasIntensity ())
-  {
-    Input<pcl::PointXYZI> xyzi;
-    xyzi.file = o.input;
-    xyzi.summary = summary;
-    return run (o, xyzi);
-  }
-  Input<pcl::PointXYZ> xyz;
-  xyz.file = o.input;
-  xyz.summary = summary;
-  return run (o, xyz);
+    return reader.hasIntensity () ? runAs (Input<pclx::PointXYZRGBI> ()) : runAs (Input<pcl::PointXYZRGB> ());
+  return reader.hasIntensity () ? runAs (Input<pcl::PointXYZI> ()) : runAs (Input<pcl::PointXYZ> ());
 }
 
 // pcl::IOException's what() starts with "<function> in <source file> @ <line> : ".
