@@ -18,6 +18,7 @@
 #include <pclx/apps/file_check.h>
 #include <pclx/apps/process_stats.h>
 #include <pclx/omicron/point_stream_reader.h>
+#include <pclx/omicron/point_xyzi_packed.h>
 #include <pclx/omicron/point_xyzrgbi.h>
 
 #include <pcl/exceptions.h>
@@ -122,7 +123,8 @@ runOnFile (const Options& o)
   const auto summary = o.input + ": " + std::to_string (reader.getDeclaredPoints ()) + " points (xyz" +
                        (reader.hasColor () ? " rgb" : "") + (reader.hasIntensity () ? " intensity" : "") +
                        "), read by the octree (" + how + ")";
-  // The point type holds what the file has: PointXYZ halves the sorted-array memory.
+  // The point type holds what the file has, in as few bytes as it can: PointXYZ and
+  // PointXYZIPacked take 16 per sorted point, the types with colour 32.
   const auto runAs = [&] (auto in) {
     in.file = o.input;
     in.summary = summary;
@@ -131,7 +133,7 @@ runOnFile (const Options& o)
   };
   if (reader.hasColor ())
     return reader.hasIntensity () ? runAs (Input<pclx::PointXYZRGBI> ()) : runAs (Input<pcl::PointXYZRGB> ());
-  return reader.hasIntensity () ? runAs (Input<pcl::PointXYZI> ()) : runAs (Input<pcl::PointXYZ> ());
+  return reader.hasIntensity () ? runAs (Input<pclx::PointXYZIPacked> ()) : runAs (Input<pcl::PointXYZ> ());
 }
 
 // pcl::IOException's what() starts with "<function> in <source file> @ <line> : ".

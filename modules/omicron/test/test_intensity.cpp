@@ -5,6 +5,7 @@
 
 #include <pclx/omicron/oblique_cut_octree.h>
 #include <pclx/omicron/point_stream_reader.h>
+#include <pclx/omicron/point_xyzi_packed.h>
 #include <pclx/omicron/point_xyzrgbi.h>
 #include <pclx/omicron/potree_reader.h>
 #include <pclx/omicron/potree_writer.h>
@@ -181,6 +182,31 @@ TEST (PotreeIntensity, FromAFileInMemoryAndUnderABudget)
     ASSERT_TRUE (rm.readNode (i, a) && rb.readNode (static_cast<std::size_t> (j), b));
     ASSERT_TRUE (keyed (a, rm.getMetadata ()) == keyed (b, rb.getMetadata ())) << rm.getNodes ()[i].name;
   }
+}
+
+// The 16-byte intensity point: from the same file, the same stored points and intensities as
+// PointXYZI (32 bytes).
+TEST (PotreeIntensity, PackedPointGivesThePointXYZIFolder)
+{
+  static_assert (sizeof (pclx::PointXYZIPacked) == 16, "x, y, z, intensity in 16 bytes");
+  TempDir dir;
+  const auto cloud = intensityCloud (40000);
+  const std::string pcd = (dir.path / "in.pcd").string ();
+  ASSERT_EQ (pcl::io::savePCDFileBinary (pcd, *cloud), 0);
+  pcl::ObliqueCutOctree<pcl::PointXYZI> wide;
+  pcl::ObliqueCutOctree<pclx::PointXYZIPacked> packed;
+  wide.setInputFile (pcd);
+  packed.setInputFile (pcd);
+  wide.setMaxDepth (6);
+  packed.setMaxDepth (6);
+  ASSERT_TRUE (wide.build () && packed.build ());
+  pcl::PotreeWriter<pcl::PointXYZI> ww;
+  pcl::PotreeWriter<pclx::PointXYZIPacked> wp;
+  ASSERT_TRUE (ww.write (wide, (dir.path / "wide").string ()));
+  ASSERT_TRUE (wp.write (packed, (dir.path / "packed").string ()));
+  for (const char* f : {"metadata.json", "hierarchy.bin", "octree.bin"})
+    EXPECT_EQ (slurpText (dir.path / "wide" / f), slurpText (dir.path / "packed" / f)) << f;
+  EXPECT_TRUE (keyed (readFolder ((dir.path / "packed").string ()), wp.getMetadata ()) == keyed (*cloud, wp.getMetadata ()));
 }
 
 TEST (PointStreamReader, IntensityInEveryFormat)
