@@ -20,7 +20,6 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
-#include <map>
 #include <set>
 #include <tuple>
 #include <unistd.h>
@@ -30,8 +29,8 @@ using omitest::TempDir;
 using CloudI = pcl::PointCloud<pcl::PointXYZI>;
 
 namespace {
-// Points (clustered by default) with intensities beyond uint16's range and below zero, fractions, one NaN
-// and one Inf (stored as they are, left out of the metadata range).
+// Points (clustered by default) with intensities beyond uint16's range and below zero,
+// fractions, one NaN and one Inf (stored as they are, left out of the metadata range).
 CloudI::Ptr
 intensityCloud (std::size_t n, omitest::Shape shape = omitest::Shape::CLUSTERED)
 {
@@ -48,8 +47,8 @@ intensityCloud (std::size_t n, omitest::Shape shape = omitest::Shape::CLUSTERED)
   return c;
 }
 
-// Intensity bits per position quantum of the folder's grid (offset, scale), as a multiset.
-using Keyed = std::multimap<std::array<std::int64_t, 3>, std::uint32_t>;
+// (position quantum of the folder's grid, intensity bits) of every point, as a multiset.
+using Keyed = std::multiset<std::pair<std::array<std::int64_t, 3>, std::uint32_t>>;
 Keyed
 keyed (const CloudI& cloud, const pclx::omicron::detail::potree::Metadata& m)
 {
