@@ -314,14 +314,18 @@ writeMetadata (const std::string& path, const Metadata& meta)
 }
 
 namespace {
+// A JSON array of three numbers.
+Eigen::Vector3d
+v3 (const nlohmann::json& a)
+{
+  return Eigen::Vector3d (a.at (0).get<double> (), a.at (1).get<double> (), a.at (2).get<double> ());
+}
+
 // The record layout from metadata.json's attribute list: position first (int32 × 3), rgb
 // (uint16 × 3) and intensity (one scalar of any type) where they are, the others skipped.
 void
 readAttributes (const nlohmann::json& attrs, Metadata& m)
 {
-  const auto v3 = [] (const nlohmann::json& a) {
-    return Eigen::Vector3d (a.at (0).get<double> (), a.at (1).get<double> (), a.at (2).get<double> ());
-  };
   if (attrs.empty () || attrs.at (0).at ("name") != "position" || attrs.at (0).at ("type") != "int32" ||
       attrs.at (0).at ("size").get<int> () != 12)
     fail ("the first attribute must be position int32 × 3");
@@ -378,9 +382,6 @@ readMetadata (const std::string& path)
       fail ("'" + path + "' is version " + j.at ("version").get<std::string> () + ", not 2.0");
     if (j.value ("encoding", "DEFAULT") != "DEFAULT")
       fail ("only the DEFAULT encoding is read (got " + j.value ("encoding", "") + ")");
-    const auto v3 = [] (const nlohmann::json& a) {
-      return Eigen::Vector3d (a.at (0).get<double> (), a.at (1).get<double> (), a.at (2).get<double> ());
-    };
     m.name = j.value ("name", "");
     m.description = j.value ("description", "");
     m.projection = j.value ("projection", "");

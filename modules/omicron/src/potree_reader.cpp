@@ -19,13 +19,7 @@ fail (const std::string& msg)
 {
   throw std::runtime_error (msg);
 }
-template <typename T> T
-get (const std::vector<std::uint8_t>& buf, std::size_t at)
-{
-  T v;
-  std::memcpy (&v, buf.data () + at, sizeof (T));
-  return v;
-}
+// The little-endian value at p (the format's byte order, and every platform PCL builds on).
 template <typename T> T
 load (const std::uint8_t* p)
 {
@@ -104,8 +98,9 @@ pcl::PotreeReader::openImpl (const std::string& directory)
       NodeInfo& n = nodes_[order[i]];
       const std::uint8_t type = h[at];
       n.child_mask = h[at + 1];
-      n.num_points = get<std::uint32_t> (h, at + 2);
-      const std::uint64_t off = get<std::uint64_t> (h, at + 6), size = get<std::uint64_t> (h, at + 14);
+      n.num_points = load<std::uint32_t> (h.data () + at + 2);
+      const std::uint64_t off = load<std::uint64_t> (h.data () + at + 6);
+      const std::uint64_t size = load<std::uint64_t> (h.data () + at + 14);
       if (type > potree::kProxy || (i == 0 && type == potree::kProxy))
         fail ("node " + n.name + " has record type " + std::to_string (type));
       if (type == potree::kProxy)
