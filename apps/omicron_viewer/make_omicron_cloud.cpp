@@ -47,7 +47,8 @@ run (int argc, char** argv)
   app.add_option ("--mesh", mesh_path, "triangle mesh to sample (PLY); default: torus, sphere and base plate");
   app.add_option ("--points", points, "points to sample")->capture_default_str ();
   app.add_flag ("--color", color, "colour the points by their surface normal (rgb field)");
-  app.add_flag ("--intensity", intensity, "an intensity field: |normal.z| x 1000 (a return that falls with the incidence)");
+  app.add_flag ("--intensity", intensity,
+                "an intensity field: |normal.z| x 1000 (a return that falls with the incidence)");
   app.add_option ("--seed", seed)->capture_default_str ();
   app.add_option ("-o,--out", out, "output cloud (.pcd or .ply, binary)")->required ();
   CLI11_PARSE (app, argc, argv);

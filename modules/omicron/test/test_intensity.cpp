@@ -205,7 +205,8 @@ TEST (PotreeIntensity, PackedPointGivesThePointXYZIFolder)
   ASSERT_TRUE (wp.write (packed, (dir.path / "packed").string ()));
   for (const char* f : {"metadata.json", "hierarchy.bin", "octree.bin"})
     EXPECT_EQ (slurpText (dir.path / "wide" / f), slurpText (dir.path / "packed" / f)) << f;
-  EXPECT_TRUE (keyed (readFolder ((dir.path / "packed").string ()), wp.getMetadata ()) == keyed (*cloud, wp.getMetadata ()));
+  EXPECT_TRUE (keyed (readFolder ((dir.path / "packed").string ()), wp.getMetadata ()) ==
+               keyed (*cloud, wp.getMetadata ()));
 }
 
 TEST (PointStreamReader, IntensityInEveryFormat)

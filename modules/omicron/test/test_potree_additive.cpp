@@ -84,8 +84,9 @@ outputRoot (const std::string& sub, bool& temporary)
 {
   const char* env = std::getenv ("PCLX_OMICRON_CHECK_DIR");
   temporary = !env || !*env;
-  const fs::path root = temporary ? fs::temp_directory_path () / ("pclx_additive_" + std::to_string (::getpid ()) + "_" + sub)
-                                  : fs::path (env) / sub;
+  const fs::path root =
+      temporary ? fs::temp_directory_path () / ("pclx_additive_" + std::to_string (::getpid ()) + "_" + sub)
+                : fs::path (env) / sub;
   fs::remove_all (root);
   fs::create_directories (root);
   return root;

@@ -14,8 +14,9 @@ namespace pcl {
 
 /** \brief Reads a Potree 2.0 folder (metadata.json, hierarchy.bin, octree.bin) as written by
   * pcl::PotreeWriter or PotreeConverter 2.x in the DEFAULT encoding: position, rgb and
-  * intensity are read, other attributes (classification, gps-time, ...) are skipped. The hierarchy is walked as potree's 2.0 loader walks it (root chunk of
-  * firstChunkSize bytes, proxies opening further chunks), but all at once.
+  * intensity are read, other attributes (classification, gps-time, ...) are skipped. The
+  * hierarchy is walked as potree's 2.0 loader walks it (root chunk of firstChunkSize bytes,
+  * proxies opening further chunks), but all at once.
   *
   * \code
   * pcl::PotreeReader reader;
