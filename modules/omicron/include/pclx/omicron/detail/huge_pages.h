@@ -1,7 +1,7 @@
 #pragma once
 // First touches of the build's large buffers (sorted array, bucket of each point, chunk sort
-// buffers): their pages are mapped in one call before they are written (prefault ()), in
-// transparent huge pages where the system allows them.
+// buffers): their pages are mapped in one call before they are written (prefault ()), and on
+// request in transparent huge pages.
 //
 // A page fault per 4 KiB page is a trap into the kernel, and on virtual machines that shadow
 // the guest's page tables a trap into the host as well; mapping a whole range with
@@ -22,16 +22,16 @@ namespace pclx {
 namespace omicron {
 namespace detail {
 
-// On by default: mapped in one call (prefault ()), 2 MiB pages take a 512th of the page-table
-// work of 4 KiB ones. Where the memory is new to a virtual machine's host, mapping them can
-// take as long as the 4 KiB pages' first writes (docs/omicron.md has the measurements).
-// PCLX_OMICRON_THP=0 in the environment turns them off.
+// Off unless PCLX_OMICRON_THP=1 is in the environment. 2 MiB pages take a 512th of the page-table
+// work of 4 KiB ones, but on virtual machines that hand freed memory back to their host they
+// are carved from the returned blocks, so every huge page's first write waits for the host;
+// 4 KiB pages mostly reuse memory the guest still holds (docs/omicron.md has the measurements).
 inline bool
 hugePagesEnabled ()
 {
   static const bool on = [] {
     const char* v = std::getenv ("PCLX_OMICRON_THP");
-    return v == nullptr || v[0] != '0';
+    return v != nullptr && v[0] == '1';
   }();
   return on;
 }

@@ -227,7 +227,7 @@ pclx::omicron::detail::MortonSorter<PointT>::prepare (const PointCloud<PointT>& 
   std::vector<std::size_t> bucket_start;
   std::vector<std::size_t> offsets = startPass (cloud.data (), n, pool, blocks, bucket_start);
   const std::size_t nb = bucket_start.size () - 1, sum = bucket_start.back ();
-  // Fresh storage, mapped in one call (and advised for huge pages) before resize () writes it.
+  // Fresh storage, mapped in one call (in huge pages when they are on) before resize () writes it.
   PointVector ().swap (sorted);
   pclx::omicron::detail::reservePrefaulted (sorted, sum);
   sorted.resize (sum);
