@@ -2,7 +2,8 @@
 //
 // Inputs are binary PCDs written once to a work folder (mesh samplings of the Stanford bunny and
 // fertility when ../shared/data is present, a generated scene of pclx_testing shapes, a lattice
-// of integer points, a cloud with 10 % distinct positions). Per input and size, one process:
+// of integer points, a cloud with 10 % distinct positions; on request the scene as a scan with
+// intensity, and with colour and intensity). Per input and size, one process:
 //   pcl_load        pcl::io::loadPCDFile into PointXYZ          fread   the file's bytes
 //   omicron         our build (front off / on with an orbiting camera thread), sweeps of
 //                   ratio × leaf collapse, worklist size, sort chunks, a memory budget (when the
@@ -15,6 +16,8 @@
 // Every build runs in a forked child of the process that loaded the cloud, which resets its
 // VmHWM (clear_refs 5) after the fork: peaks are per row, deltas over the loaded cloud. The
 // builds from the file run in children forked before the load: their peak is the whole process's.
+// The scans with attributes get the file-to-Potree row (as pclx::PointXYZIPacked, or
+// pclx::PointXYZRGBI with colour), PCL's load (PointXYZI, PointXYZRGBI) and outofcore only.
 // Rows (bench/common/bench_csv.h):
 //   omicron,<method>,sweep=..;ratio=..;collapse=..;worklist=..;chunks=..;front=..,<input>,<n>,<s>,metric,value,...
 #include "bench_csv.h"
@@ -22,6 +25,8 @@
 #include <pclx/omicron/camera.h>
 #include <pclx/omicron/oblique_cut_octree.h>
 #include <pclx/omicron/potree_reader.h>
+#include <pclx/omicron/point_xyzi_packed.h>
+#include <pclx/omicron/point_xyzrgbi.h>
 #include <pclx/omicron/potree_writer.h>
 #include <pclx/testing/shapes.h>
 #include <pclx/testing/triangle_mesh.h>
@@ -89,43 +94,100 @@ sizeLabel (std::size_t n)
 }
 
 // ---------------------------------------------------------------------------------------------
-// Input files: binary PCD (x y z float), written in blocks so 100M points never sit in memory
-// as PointNormal samples.
+// Input files: binary PCD (x y z float, and for the scans with attributes an intensity float and
+// a packed rgb), written in blocks so 100M points never sit in memory as PointNormal samples.
+
+// What a record holds beside x y z: a laser scan's intensity, and a colourised scan's colour.
+enum class Attributes
+{
+  kNone,
+  kIntensity,
+  kColourIntensity
+};
+
+std::size_t
+recordFloats (Attributes a)
+{
+  return a == Attributes::kNone ? 3 : a == Attributes::kIntensity ? 4 : 5;
+}
+
+// The inputs named scene_intensity and scene_rgbi carry attributes; the others are x y z.
+Attributes
+attributesOf (const std::string& input)
+{
+  if (input == "scene_intensity")
+    return Attributes::kIntensity;
+  if (input == "scene_rgbi")
+    return Attributes::kColourIntensity;
+  return Attributes::kNone;
+}
 
 std::string
-pcdHeader (std::size_t n)
+pcdHeader (std::size_t n, Attributes a)
 {
   std::ostringstream h;
-  h << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
-       "COUNT 1 1 1\nWIDTH "
-    << n << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << n << "\nDATA binary\n";
+  h << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\n";
+  switch (a)
+  {
+    case Attributes::kNone: h << "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"; break;
+    case Attributes::kIntensity: h << "FIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\n"; break;
+    case Attributes::kColourIntensity:
+      h << "FIELDS x y z rgb intensity\nSIZE 4 4 4 4 4\nTYPE F F F U F\nCOUNT 1 1 1 1 1\n";
+      break;
+  }
+  h << "WIDTH " << n << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << n << "\nDATA binary\n";
   return h.str ();
 }
 
 std::uintmax_t
-expectedPcdBytes (std::size_t n)
+expectedPcdBytes (std::size_t n, Attributes a)
 {
-  return pcdHeader (n).size () + 12 * std::uintmax_t (n);
+  return pcdHeader (n, a).size () + 4 * recordFloats (a) * std::uintmax_t (n);
 }
 
-// Writes n points produced by gen(i, float[3]) (called in order) to `path`.
+// A scanner-like intensity and colour from the position: smooth bands with a speckle, so the
+// values vary within a node as a scan's do.
 void
-writePcd (const std::string& path, std::size_t n, const std::function<void (std::size_t, float*)>& gen)
+attributesAt (const float* p, std::size_t i, Attributes a, float* out)
+{
+  const float band = 0.5f + 0.4f * std::sin (0.7f * p[0]) * std::cos (0.9f * p[1]);
+  const float speckle = float ((i * 2654435761u) % 1000u) * 1e-4f;
+  const float intensity = band + speckle;
+  if (a == Attributes::kColourIntensity)
+  {
+    const auto channel = [] (float v) { return std::uint32_t (std::clamp (v, 0.f, 1.f) * 255.f); };
+    const std::uint32_t rgb = (channel (band) << 16) | (channel (0.5f + 0.05f * p[2]) << 8) | channel (1 - band);
+    std::memcpy (out, &rgb, 4);
+    out[1] = intensity;
+  }
+  else if (a == Attributes::kIntensity)
+    out[0] = intensity;
+}
+
+// Writes n points produced by gen(i, float[3]) (called in order) to `path`, with the attributes
+// `a` derived from each position.
+void
+writePcd (const std::string& path, std::size_t n, const std::function<void (std::size_t, float*)>& gen,
+          Attributes a = Attributes::kNone)
 {
   const std::string tmp = path + ".tmp";
   std::FILE* f = std::fopen (tmp.c_str (), "wb");
   if (!f)
     throw std::runtime_error ("cannot write " + tmp);
-  const std::string h = pcdHeader (n);
+  const std::string h = pcdHeader (n, a);
   std::fwrite (h.data (), 1, h.size (), f);
+  const std::size_t k = recordFloats (a);
   std::vector<float> block;
   const std::size_t kBlock = 1 << 20;
   for (std::size_t b = 0; b < n; b += kBlock)
   {
     const std::size_t m = std::min (kBlock, n - b);
-    block.resize (3 * m);
+    block.resize (k * m);
     for (std::size_t i = 0; i < m; ++i)
-      gen (b + i, block.data () + 3 * i);
+    {
+      gen (b + i, block.data () + k * i);
+      attributesAt (block.data () + k * i, b + i, a, block.data () + k * i + 3);
+    }
     if (std::fwrite (block.data (), sizeof (float), block.size (), f) != block.size ())
       throw std::runtime_error ("short write to " + tmp);
   }
@@ -297,16 +359,17 @@ struct Config
 };
 
 // An orbit around the root cube, one turn per 4 s, close enough that the front branches deep.
-Octree::Camera
-orbitCamera (const Octree& octree, double t)
+template <typename PointT>
+typename pcl::ObliqueCutOctree<PointT>::Camera
+orbitCamera (const pcl::ObliqueCutOctree<PointT>& octree, double t)
 {
-  const Eigen::Vector3f o = octree.getRootOrigin ().cast<float> ();
+  const Eigen::Vector3f o = octree.getRootOrigin ().template cast<float> ();
   const float edge = float (octree.getRootEdge ());
   const Eigen::Vector3f c = o + Eigen::Vector3f::Constant (edge / 2);
   const float a = float (2 * M_PI * t / 4.0);
   const Eigen::Vector3f eye = c + edge * Eigen::Vector3f (0.8f * std::cos (a), 0.8f * std::sin (a),
                                                           0.3f + 0.2f * std::sin (0.7f * a));
-  Octree::Camera cam;
+  typename pcl::ObliqueCutOctree<PointT>::Camera cam;
   cam.width = 1920;
   cam.height = 1080;
   cam.view_projection = pcl::perspectiveLookAt (eye, c, float (M_PI) / 3.f, 16.f / 9.f, 0.01f * edge, 10.f * edge);
@@ -314,14 +377,15 @@ orbitCamera (const Octree& octree, double t)
 }
 
 // Nodes that exist (cut roots and everything below them) in the current cut.
+template <typename PointT>
 std::size_t
-finishedNodes (const pcl::ObliqueCut<pcl::PointXYZ>& cut)
+finishedNodes (const pcl::ObliqueCut<PointT>& cut)
 {
   const auto snap = cut.snapshot ();
   if (snap.complete)
     return std::size_t (-1);
   std::size_t count = 0;
-  std::vector<const Octree::Node*> stack;
+  std::vector<const typename pcl::ObliqueCutOctree<PointT>::Node*> stack;
   for (const auto& list : snap.lists)
     for (const auto& r : list)
     {
@@ -333,7 +397,7 @@ finishedNodes (const pcl::ObliqueCut<pcl::PointXYZ>& cut)
     }
   while (!stack.empty ())
   {
-    const Octree::Node* n = stack.back ();
+    const auto* n = stack.back ();
     stack.pop_back ();
     ++count;
     for (std::uint8_t j = 0; j < n->num_children; ++j)
@@ -342,10 +406,14 @@ finishedNodes (const pcl::ObliqueCut<pcl::PointXYZ>& cut)
   return count;
 }
 
+// One build of ours on the cloud, or from c.file when cloud is null (PointT: the type the file's
+// fields are built as).
+template <typename PointT>
 std::vector<Row>
-runOurs (const Cloud::ConstPtr& cloud, std::size_t n_points, const Config& c, std::size_t rss0)
+runOurs (const typename pcl::PointCloud<PointT>::ConstPtr& cloud, std::size_t n_points, const Config& c,
+         std::size_t rss0)
 {
-  Octree octree;
+  pcl::ObliqueCutOctree<PointT> octree;
   if (cloud)
     octree.setInputCloud (cloud);
   octree.setMaxDepth (c.depth);
@@ -399,7 +467,7 @@ runOurs (const Cloud::ConstPtr& cloud, std::size_t n_points, const Config& c, st
     });
   if (c.front)
   {
-    std::vector<Octree::Item> items;
+    std::vector<typename pcl::ObliqueCutOctree<PointT>::Item> items;
     while (!octree.isFinished ())
     {
       const auto ts = Clock::now ();
@@ -472,7 +540,7 @@ runOurs (const Cloud::ConstPtr& cloud, std::size_t n_points, const Config& c, st
   if (!c.potree_dir.empty ())
   {
     const auto tw = Clock::now ();
-    pcl::PotreeWriter<pcl::PointXYZ> writer;
+    pcl::PotreeWriter<PointT> writer;
     if (!writer.write (octree, c.potree_dir))
       throw std::runtime_error (writer.getLastError ());
     const double write_s = since (tw);
@@ -645,6 +713,47 @@ private:
   std::unique_ptr<Node> root_;
 };
 
+// Our builds from the file (the build reads it in blocks), each in a forked child: the export
+// (front off, not fed, writing the Potree folder to potree_dir) and, when `watched`, the build
+// with an orbiting front. PointT: the type the file's fields are built as.
+template <typename PointT>
+std::vector<Row>
+fileRows (const std::string& file, std::size_t n, Config c, const std::string& potree_dir, bool watched)
+{
+  std::vector<Row> all;
+  c.from_file = true;
+  c.file = file;
+  for (bool front : {false, true})
+  {
+    if (front && !watched)
+      break;
+    Config ff = c;
+    ff.front = front;
+    if (!front)
+    {
+      ff.potree_dir = potree_dir;
+      ff.feed_front = false;
+    }
+    std::vector<Row> rows;
+    if (!inChild ([&] (std::size_t rss0) { return runOurs<PointT> (nullptr, n, ff, rss0); }, rows))
+      std::cerr << "[omicron] " << file << ": FAILED " << ff.params () << "\n";
+    all.insert (all.end (), rows.begin (), rows.end ());
+  }
+  return all;
+}
+
+// Seconds of pcl::io::loadPCDFile of the file into a cloud of PointT, which is then dropped.
+template <typename PointT>
+double
+pclLoadSeconds (const std::string& file, std::size_t n)
+{
+  pcl::PointCloud<PointT> cloud;
+  const auto t0 = Clock::now ();
+  if (pcl::io::loadPCDFile<PointT> (file, cloud) < 0 || cloud.size () != n)
+    throw std::runtime_error ("cannot load " + file);
+  return since (t0);
+}
+
 // Root cube of a cloud as our octree makes it: min corner, longest side.
 void
 rootCube (const Cloud& cloud, Eigen::Vector3f& lo, float& edge)
@@ -744,7 +853,10 @@ main (int argc, char** argv)
   app.add_option ("--sizes", sizes, "point counts of the size sweep (scene input)")->capture_default_str ();
   app.add_option ("--other-sizes", other_sizes,
                   "point counts for the other inputs (default: the smallest of --sizes)");
-  app.add_option ("--inputs", inputs, "scene bunny fertility lattice duplicates")->capture_default_str ();
+  app.add_option ("--inputs", inputs,
+                  "scene bunny fertility lattice duplicates; also scene_intensity, scene_rgbi (the scene as a "
+                  "scan with intensity, and with colour and intensity: file to Potree, PCL's load, outofcore)")
+      ->capture_default_str ();
   app.add_option ("--work-dir", work, "where the input PCDs are written (reused when the size matches)")
       ->capture_default_str ();
   app.add_option ("--threads", threads, "build threads for ours and the top-down peer")->capture_default_str ();
@@ -793,18 +905,23 @@ main (int argc, char** argv)
   // Inputs.
   const auto data = pclx::bench::sharedDataDir ();
   std::map<std::string, std::function<void (std::size_t, const std::string&)>> gens;
-  auto meshGen = [] (std::function<pclx::testing::TriangleMesh ()> make, std::uint64_t seed) {
-    return [make, seed] (std::size_t n, const std::string& path) {
+  auto meshGen = [] (std::function<pclx::testing::TriangleMesh ()> make, std::uint64_t seed,
+                     Attributes a = Attributes::kNone) {
+    return [make, seed, a] (std::size_t n, const std::string& path) {
       const pclx::testing::TriangleMesh mesh = make ();
       MeshSampler s (mesh, seed + n);
-      writePcd (path, n, [&] (std::size_t, float* p) { s.sample (p); });
+      writePcd (path, n, [&] (std::size_t, float* p) { s.sample (p); }, a);
     };
   };
   gens["scene"] = meshGen (makeScene, 1);
+  // The scene's points (same seed) as a laser scan with intensity, and as a colourised one.
+  gens["scene_intensity"] = meshGen (makeScene, 1, Attributes::kIntensity);
+  gens["scene_rgbi"] = meshGen (makeScene, 1, Attributes::kColourIntensity);
   if (data)
   {
     const std::string d = *data;
-    gens["bunny"] = meshGen ([d] { return pclx::testing::loadPlyMesh (d + "/bunny/reconstruction/bun_zipper.ply"); }, 2);
+    gens["bunny"] =
+        meshGen ([d] { return pclx::testing::loadPlyMesh (d + "/bunny/reconstruction/bun_zipper.ply"); }, 2);
     gens["fertility"] = meshGen ([d] { return pclx::testing::loadPlyMesh (d + "/meshes/fertility.ply"); }, 3);
   }
   // Integer lattice (a cube, raster order): PotreeConverter's sampler crashes on it (issue #550).
@@ -848,11 +965,12 @@ main (int argc, char** argv)
                 << (name == "bunny" || name == "fertility" ? " (no ../shared/data)" : " (unknown)") << "\n";
       continue;
     }
-    for (std::size_t n : name == "scene" ? sizes : other_sizes)
+    // The scene and the scans made from it run the size sweep.
+    for (std::size_t n : name.rfind ("scene", 0) == 0 ? sizes : other_sizes)
     {
       const std::string label = sizeLabel (n);
       const std::string path = work + "/" + name + "_" + label + ".pcd";
-      if (!fs::exists (path) || fs::file_size (path) != expectedPcdBytes (n))
+      if (!fs::exists (path) || fs::file_size (path) != expectedPcdBytes (n, attributesOf (name)))
       {
         pclx::bench::progress () << "[omicron] writing " << path << " ..." << std::flush;
         const auto tg = Clock::now ();
@@ -864,6 +982,35 @@ main (int argc, char** argv)
       auto log = [&] (const std::string& what, double s) {
         pclx::bench::progress () << "[omicron] " << name << " " << label << ": " << what << " " << fmt (s)
                                  << " s  (elapsed " << fmt (since (t_start)) << " s)\n";
+      };
+      // pcl_outofcore_process on the same file: tmpfs up to --outofcore-tmpfs-max, the work dir above.
+      auto outofcorePeer = [&] (double load_s) {
+        const bool oc_here =
+            std::find (outofcore_inputs.begin (), outofcore_inputs.end (), name) != outofcore_inputs.end ();
+        std::vector<std::pair<std::string, std::string>> oc_runs;  // (dir, label)
+        const std::string oc_dir = n > outofcore_tmpfs_max ? work : outofcore_dir;
+        if (!no_outofcore && oc_here)
+          oc_runs.emplace_back (oc_dir, oc_dir.rfind ("/dev/shm", 0) == 0 ? "tmpfs" : "disk");
+        if (!no_outofcore && outofcore_disk && name == "scene" && n == sizes.front () && oc_dir != work)
+          oc_runs.emplace_back (work, "disk");
+        for (const auto& [oc_dir, oc_label] : oc_runs)
+        {
+          double s = 0, peak = 0;
+          std::string info;
+          if (runOutofcore (path, oc_dir + "/outofcore_" + name + "_" + label, depth, s, peak, info))
+          {
+            emit ({"pcl_outofcore" + std::string (oc_label == "disk" && oc_runs.size () > 1 ? "_disk" : ""),
+                   "sweep=main;depth=" + std::to_string (depth) + ";gen_lod=1;out=" + oc_label, s,
+                   {{"points_per_s", n / s},
+                    {"peak_total_bpp", peak / n},
+                    {"peak_mb", peak / 1048576.0},
+                    {"output_mb", std::stod (info) / 1048576.0},
+                    {"load_s", load_s}}});
+            log ("pcl_outofcore_process (" + oc_label + ")", s);
+          }
+          else
+            std::cerr << "[omicron] " << name << " " << label << ": " << info << "\n";
+        }
       };
 
       // Reads (warm page cache: the file was just written or read).
@@ -879,32 +1026,43 @@ main (int argc, char** argv)
           throw std::runtime_error ("short read of " + path);
       }
       emit ({"fread", "sweep=main", fread_s, {{"points_per_s", n / fread_s}, {"file_mb", file_mb}}});
-      // From the file (the build reads it in blocks): file to tree (and to a Potree folder), in
-      // children forked before this process loads the cloud, so their peaks are the whole
-      // process's. Emitted after the load, against pcl_load.
-      std::vector<Row> file_rows;
-      const bool file_rows_here = !budget_only;
-      for (bool front : {false, true})
+      // From the file: file to tree (and to a Potree folder), in children forked before this
+      // process loads the cloud, so their peaks are the whole process's. Emitted after the load,
+      // against pcl_load.
+      Config file_config;
+      file_config.threads = threads;
+      file_config.depth = depth;
+      const std::string potree_dir = work + "/potree_" + name + "_" + label;
+      const Attributes attributes = attributesOf (name);
+      if (attributes != Attributes::kNone && budget_only)
+        continue;
+      if (attributes != Attributes::kNone)
       {
-        if (!file_rows_here)
-          break;
-        Config ff;
-        ff.threads = threads;
-        ff.depth = depth;
-        ff.from_file = true;
-        ff.file = path;
-        ff.front = front;
-        if (!front)
+        // A scan with attributes: its export as the point type omicron_viewer builds it as, beside
+        // PCL's load into the PCL type that holds the fields and outofcore's tree of the same file.
+        const bool intensity_only = attributes == Attributes::kIntensity;
+        std::vector<Row> rows = intensity_only
+                                    ? fileRows<pclx::PointXYZIPacked> (path, n, file_config, potree_dir, false)
+                                    : fileRows<pclx::PointXYZRGBI> (path, n, file_config, potree_dir, false);
+        const double load_s = intensity_only ? pclLoadSeconds<pcl::PointXYZI> (path, n)
+                                             : pclLoadSeconds<pclx::PointXYZRGBI> (path, n);
+        malloc_trim (0);
+        emit ({"pcl_load", std::string ("sweep=main;point=") + (intensity_only ? "PointXYZI" : "PointXYZRGBI"), load_s,
+               {{"points_per_s", n / load_s}, {"file_mb", file_mb}}});
+        log ("pcl load", load_s);
+        for (Row& r : rows)
         {
-          // File to a Potree folder, an export nobody watches: the build does not feed the front.
-          ff.potree_dir = work + "/potree_" + name + "_" + label;
-          ff.feed_front = false;
+          r.params += std::string (";point=") + (intensity_only ? "PointXYZIPacked" : "PointXYZRGBI");
+          r.metrics.emplace_back ("load_s", load_s);
+          r.metrics.emplace_back ("build_over_load", r.seconds / load_s);
+          emit (r);
+          log (r.method + " " + r.params, r.seconds);
         }
-        std::vector<Row> rows;
-        if (!inChild ([&] (std::size_t rss0) { return runOurs (nullptr, n, ff, rss0); }, rows))
-          std::cerr << "[omicron] " << name << " " << label << ": FAILED " << ff.params () << "\n";
-        file_rows.insert (file_rows.end (), rows.begin (), rows.end ());
+        outofcorePeer (load_s);
+        continue;
       }
+      const std::vector<Row> file_rows =
+          budget_only ? std::vector<Row>{} : fileRows<pcl::PointXYZ> (path, n, file_config, potree_dir, true);
       Cloud::Ptr cloud (new Cloud);
       const auto tl = Clock::now ();
       if (pcl::io::loadPCDFile<pcl::PointXYZ> (path, *cloud) < 0 || cloud->size () != n)
@@ -918,7 +1076,7 @@ main (int argc, char** argv)
         c.threads = threads;
         c.depth = depth;
         std::vector<Row> rows;
-        if (!inChild ([&] (std::size_t rss0) { return runOurs (cloud, n, c, rss0); }, rows))
+        if (!inChild ([&] (std::size_t rss0) { return runOurs<pcl::PointXYZ> (cloud, n, c, rss0); }, rows))
           std::cerr << "[omicron] " << name << " " << label << ": FAILED " << c.params () << "\n";
         for (Row& r : rows)
         {
@@ -959,7 +1117,7 @@ main (int argc, char** argv)
       Config fr = base;
       fr.front = true;
       ours (fr);
-      for (Row& r : file_rows)
+      for (Row r : file_rows)
       {
         r.metrics.emplace_back ("load_s", load_s);
         r.metrics.emplace_back ("build_over_load", r.seconds / load_s);
@@ -989,8 +1147,8 @@ main (int argc, char** argv)
               td.build (*cloud);
               const double s = since (t0);
               const double hwm = double (procStatusKb ("VmHWM") * 1024);
-              return std::vector<Row>{{"topdown_10k", "sweep=main;ratio=0.2;split=10000;threads=" + std::to_string (threads),
-                                       s,
+              return std::vector<Row>{{"topdown_10k",
+                                       "sweep=main;ratio=0.2;split=10000;threads=" + std::to_string (threads), s,
                                        {{"points_per_s", n / s},
                                         {"peak_delta_bpp", (hwm - double (rss0)) / n},
                                         {"peak_total_bpp", hwm / n},
@@ -1033,31 +1191,7 @@ main (int argc, char** argv)
           log (r.method, r.seconds);
         }
       }
-      const bool oc_here = std::find (outofcore_inputs.begin (), outofcore_inputs.end (), name) != outofcore_inputs.end ();
-      std::vector<std::pair<std::string, std::string>> oc_runs;  // (dir, label)
-      const std::string oc_dir = n > outofcore_tmpfs_max ? work : outofcore_dir;
-      if (!no_outofcore && oc_here)
-        oc_runs.emplace_back (oc_dir, oc_dir.rfind ("/dev/shm", 0) == 0 ? "tmpfs" : "disk");
-      if (!no_outofcore && outofcore_disk && name == "scene" && n == sizes.front () && oc_dir != work)
-        oc_runs.emplace_back (work, "disk");
-      for (const auto& [oc_dir, oc_label] : oc_runs)
-      {
-        double s = 0, peak = 0;
-        std::string info;
-        if (runOutofcore (path, oc_dir + "/outofcore_" + name + "_" + label, depth, s, peak, info))
-        {
-          emit ({"pcl_outofcore" + std::string (oc_label == "disk" && oc_runs.size () > 1 ? "_disk" : ""),
-                 "sweep=main;depth=" + std::to_string (depth) + ";gen_lod=1;out=" + oc_label, s,
-                 {{"points_per_s", n / s},
-                  {"peak_total_bpp", peak / n},
-                  {"peak_mb", peak / 1048576.0},
-                  {"output_mb", std::stod (info) / 1048576.0},
-                  {"load_s", load_s}}});
-          log ("pcl_outofcore_process (" + oc_label + ")", s);
-        }
-        else
-          std::cerr << "[omicron] " << name << " " << label << ": " << info << "\n";
-      }
+      outofcorePeer (load_s);
 
       // Parameter sweeps on the scene.
       if (name != "scene" || no_sweeps || (sweep_max && n > sweep_max))
