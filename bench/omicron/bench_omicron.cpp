@@ -276,6 +276,8 @@ using pclx::bench::procStatusKb;
 bool
 inChild (const std::function<std::vector<Row> (std::size_t rss0)>& fn, std::vector<Row>& rows)
 {
+  // Earlier rows' files are written back first, so no row's writes wait for another's.
+  ::sync ();
   const int status = pclx::bench::runInChild (
       [&] (std::vector<Row>& out) {
         try
@@ -780,6 +782,7 @@ runOutofcore (const std::string& pcd, const std::string& out_dir, int depth, dou
     return false;
   }
   fs::remove_all (out_dir);
+  ::sync ();  // as before our rows: nothing of an earlier row left to write back
   const bool gnu_time = fs::exists ("/usr/bin/time");
   const std::string time_log = out_dir + ".time";
   std::vector<std::string> args;
