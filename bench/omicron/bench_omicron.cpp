@@ -996,20 +996,20 @@ main (int argc, char** argv)
           oc_runs.emplace_back (oc_dir, oc_dir.rfind ("/dev/shm", 0) == 0 ? "tmpfs" : "disk");
         if (!no_outofcore && outofcore_disk && name == "scene" && n == sizes.front () && oc_dir != work)
           oc_runs.emplace_back (work, "disk");
-        for (const auto& [oc_dir, oc_label] : oc_runs)
+        for (const auto& [dir, where] : oc_runs)
         {
           double s = 0, peak = 0;
           std::string info;
-          if (runOutofcore (path, oc_dir + "/outofcore_" + name + "_" + label, depth, s, peak, info))
+          if (runOutofcore (path, dir + "/outofcore_" + name + "_" + label, depth, s, peak, info))
           {
-            emit ({"pcl_outofcore" + std::string (oc_label == "disk" && oc_runs.size () > 1 ? "_disk" : ""),
-                   "sweep=main;depth=" + std::to_string (depth) + ";gen_lod=1;out=" + oc_label, s,
+            emit ({"pcl_outofcore" + std::string (where == "disk" && oc_runs.size () > 1 ? "_disk" : ""),
+                   "sweep=main;depth=" + std::to_string (depth) + ";gen_lod=1;out=" + where, s,
                    {{"points_per_s", n / s},
                     {"peak_total_bpp", peak / n},
                     {"peak_mb", peak / 1048576.0},
                     {"output_mb", std::stod (info) / 1048576.0},
                     {"load_s", load_s}}});
-            log ("pcl_outofcore_process (" + oc_label + ")", s);
+            log ("pcl_outofcore_process (" + where + ")", s);
           }
           else
             std::cerr << "[omicron] " << name << " " << label << ": " << info << "\n";
