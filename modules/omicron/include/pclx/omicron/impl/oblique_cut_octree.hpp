@@ -324,8 +324,8 @@ pcl::ObliqueCutOctree<PointT>::readFileSorted (pclx::omicron::detail::MortonSort
   if (!reader.open (input_file_))
     return fail (reader.getLastError ());
   // Pass 1: the points in file order into sorted_ (storage for the declared count, in huge
-  // pages when they are on; each block's destination is mapped before it is copied in), their bounds
-  // folded in as the blocks arrive.
+  // pages when they are on; each block's destination is mapped before it is copied in), their
+  // bounds folded in as the blocks arrive.
   Eigen::Array3f lo = Eigen::Array3f::Constant (std::numeric_limits<float>::max ());
   Eigen::Array3f hi = Eigen::Array3f::Constant (-std::numeric_limits<float>::max ());
   typename PointCloud::VectorType ().swap (sorted_);
