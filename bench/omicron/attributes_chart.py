@@ -6,6 +6,7 @@ panel per input (scene: x y z; scene_intensity: + intensity; scene_rgbi: + rgb +
 ours (file to Potree folder, and the build from the file alone) beside pcl_outofcore_process and
 PCL's loadPCDFile of the same file, each run a point, the line through the means.
 """
+import os
 import sys
 from collections import defaultdict
 
@@ -14,34 +15,27 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from plot import read_rows  # noqa: E402
+
 INPUTS = [("scene", "x y z (PointXYZ)"), ("scene_intensity", "x y z intensity (PointXYZIPacked)"),
           ("scene_rgbi", "x y z rgb intensity (PointXYZRGBI)")]
-
-
-def rows(path):
-    for line in open(path):
-        f = line.rstrip("\n").split(",")
-        if f[0] != "omicron" or len(f) < 6:
-            continue
-        yield dict(method=f[1], params=f[2], input=f[3], points=float(f[4]), seconds=float(f[5]),
-                   **dict(zip(f[6::2], f[7::2])))
 
 
 def main(csv, out_png, runs):
     wanted = set(runs.split(","))
     series = defaultdict(lambda: defaultdict(lambda: defaultdict(list)))  # input -> label -> n -> [s]
-    for r in rows(csv):
-        p = dict(kv.split("=", 1) for kv in r["params"].split(";") if "=" in kv)
-        if p.get("run") not in wanted or p.get("sweep") != "main":
+    for r in read_rows([csv]):
+        if r["module"] != "omicron" or r.get("p_run") not in wanted or r.get("p_sweep") != "main":
             continue
         s, n = series[r["input"]], r["points"]
         if r["method"] == "pcl_load":
             s["PCL loadPCDFile"][n].append(r["seconds"])
         elif r["method"] == "pcl_outofcore":
             s["pcl_outofcore_process -gen_lod (tmpfs ≤ 20M, disk above)"][n].append(r["seconds"])
-        elif r["method"] == "omicron" and p.get("input") == "file":
+        elif r["method"] == "omicron" and r.get("p_input") == "file":
             s["ours: build from the file"][n].append(r["seconds"])
-            s["ours: file → Potree folder"][n].append(float(r["file_to_potree_s"]))
+            s["ours: file → Potree folder"][n].append(r["file_to_potree_s"])
     styles = {"ours: file → Potree folder": ("C0", "o-"), "ours: build from the file": ("C0", "s--"),
               "PCL loadPCDFile": ("C2", "^:"),
               "pcl_outofcore_process -gen_lod (tmpfs ≤ 20M, disk above)": ("C3", "D-")}

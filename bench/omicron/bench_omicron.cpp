@@ -986,6 +986,13 @@ main (int argc, char** argv)
         pclx::bench::progress () << "[omicron] " << name << " " << label << ": " << what << " " << fmt (s)
                                  << " s  (elapsed " << fmt (since (t_start)) << " s)\n";
       };
+      // A row of ours built from the file, beside PCL's load of the same file.
+      auto emitAgainstLoad = [&] (Row r, double load_s) {
+        r.metrics.emplace_back ("load_s", load_s);
+        r.metrics.emplace_back ("build_over_load", r.seconds / load_s);
+        emit (r);
+        log (r.method + " " + r.params, r.seconds);
+      };
       // pcl_outofcore_process on the same file: tmpfs up to --outofcore-tmpfs-max, the work dir above.
       auto outofcorePeer = [&] (double load_s) {
         const bool oc_here =
@@ -1037,29 +1044,27 @@ main (int argc, char** argv)
       file_config.depth = depth;
       const std::string potree_dir = work + "/potree_" + name + "_" + label;
       const Attributes attributes = attributesOf (name);
-      if (attributes != Attributes::kNone && budget_only)
-        continue;
       if (attributes != Attributes::kNone)
       {
+        if (budget_only)
+          continue;
         // A scan with attributes: its export as the point type omicron_viewer builds it as, beside
         // PCL's load into the PCL type that holds the fields and outofcore's tree of the same file.
         const bool intensity_only = attributes == Attributes::kIntensity;
-        std::vector<Row> rows = intensity_only
-                                    ? fileRows<pclx::PointXYZIPacked> (path, n, file_config, potree_dir, false)
-                                    : fileRows<pclx::PointXYZRGBI> (path, n, file_config, potree_dir, false);
+        const std::string ours_as = intensity_only ? "PointXYZIPacked" : "PointXYZRGBI";
+        const std::string pcl_as = intensity_only ? "PointXYZI" : "PointXYZRGBI";
+        const std::vector<Row> rows =
+            intensity_only ? fileRows<pclx::PointXYZIPacked> (path, n, file_config, potree_dir, false)
+                           : fileRows<pclx::PointXYZRGBI> (path, n, file_config, potree_dir, false);
         const double load_s = intensity_only ? pclLoadSeconds<pcl::PointXYZI> (path, n)
                                              : pclLoadSeconds<pclx::PointXYZRGBI> (path, n);
         malloc_trim (0);
-        emit ({"pcl_load", std::string ("sweep=main;point=") + (intensity_only ? "PointXYZI" : "PointXYZRGBI"), load_s,
-               {{"points_per_s", n / load_s}, {"file_mb", file_mb}}});
+        emit ({"pcl_load", "sweep=main;point=" + pcl_as, load_s, {{"points_per_s", n / load_s}, {"file_mb", file_mb}}});
         log ("pcl load", load_s);
-        for (Row& r : rows)
+        for (Row r : rows)
         {
-          r.params += std::string (";point=") + (intensity_only ? "PointXYZIPacked" : "PointXYZRGBI");
-          r.metrics.emplace_back ("load_s", load_s);
-          r.metrics.emplace_back ("build_over_load", r.seconds / load_s);
-          emit (r);
-          log (r.method + " " + r.params, r.seconds);
+          r.params += ";point=" + ours_as;
+          emitAgainstLoad (r, load_s);
         }
         outofcorePeer (load_s);
         continue;
@@ -1120,13 +1125,8 @@ main (int argc, char** argv)
       Config fr = base;
       fr.front = true;
       ours (fr);
-      for (Row r : file_rows)
-      {
-        r.metrics.emplace_back ("load_s", load_s);
-        r.metrics.emplace_back ("build_over_load", r.seconds / load_s);
-        emit (r);
-        log (r.method + " " + r.params, r.seconds);
-      }
+      for (const Row& r : file_rows)
+        emitAgainstLoad (r, load_s);
       for (bool collapse : {false, true})
       {
         if (name != "scene" && !collapse)
