@@ -318,8 +318,8 @@ TEST (PotreeWriter, BytesFollowPotreeConverterLayout)
 TEST (PotreeWriter, SameFilesForAnyThreadCountAndAsStreamed)
 {
   const auto cloud = colouredCloud (Shape::UNIFORM, 1500000, 5);
-  std::vector<std::vector<std::uint8_t>> files[3];
-  for (int run = 0; run < 3; ++run)
+  std::vector<std::vector<std::uint8_t>> files[4];
+  for (int run = 0; run < 4; ++run)
   {
     pcl::ObliqueCutOctree<pcl::PointXYZRGB> o;
     o.setInputCloud (cloud);
@@ -331,6 +331,8 @@ TEST (PotreeWriter, SameFilesForAnyThreadCountAndAsStreamed)
       ASSERT_TRUE (w.write (o, dir.path.string ()));
     else
     {
+      // Streamed on one thread, then on two (the small records encoded in parallel).
+      w.setThreads (run == 3 ? 2 : 1);
       ASSERT_TRUE (w.open (dir.path.string (), o.getRootOrigin (), o.getRootEdge ()));
       ASSERT_TRUE (w.appendSubtree (*o.getRoot ()));
       ASSERT_TRUE (w.close (o.getStatistics ().kept_points));
@@ -339,9 +341,29 @@ TEST (PotreeWriter, SameFilesForAnyThreadCountAndAsStreamed)
       files[run].push_back (slurp (dir.path / name));
   }
   ASSERT_GT (files[0][0].size (), 18u * 1000000u);
-  for (int run = 1; run < 3; ++run)
+  for (int run = 1; run < 4; ++run)
     for (std::size_t f = 0; f < 3; ++f)
       EXPECT_TRUE (files[run][f] == files[0][f]) << "run " << run << " file " << f;
+}
+
+TEST (PotreeWriter, ThreadCountBelowOneOrDuringAWriteIsKept)
+{
+  pcl::PotreeWriter<pcl::PointXYZ> w;
+  EXPECT_EQ (w.getThreads (), 1);
+  w.setThreads (0);
+  w.setThreads (-3);
+  EXPECT_EQ (w.getThreads (), 1);
+  w.setThreads (2);
+  EXPECT_EQ (w.getThreads (), 2);
+  TempDir dir;
+  ASSERT_TRUE (w.open (dir.path.string (), Eigen::Vector3d::Zero (), 1.0));
+  w.setThreads (1);
+  EXPECT_EQ (w.getThreads (), 2);
+  const pcl::PointXYZ p (0.5f, 0.5f, 0.5f);
+  ASSERT_TRUE (w.appendNode (pcl::MortonCode::root (), &p, 1));
+  ASSERT_TRUE (w.close (1));
+  w.setThreads (1);
+  EXPECT_EQ (w.getThreads (), 1);
 }
 
 // The writer's rounding is std::llround's (half away from zero), also at the halves.

@@ -10,9 +10,18 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
+
+namespace pclx {
+namespace omicron {
+namespace detail {
+class WorkerPool;
+}  // namespace detail
+}  // namespace omicron
+}  // namespace pclx
 
 namespace pcl {
 
@@ -99,6 +108,15 @@ public:
   /** \brief The node size limit (default kDefaultLeafPointLimit).
     * \return the node size limit (default kDefaultLeafPointLimit) */
   std::uint32_t getLeafPointLimit () const { return leaf_limit_; }
+  /** \brief Set the threads appendSubtree () and appendSpilled () sample the levels and encode
+    * the small records on (write () uses the octree's). The files do not depend on it.
+    * \param[in] threads the thread count, the caller included: >= 1, and set while no write is
+    * open (else PCL_ERROR and the count is kept)
+    */
+  void setThreads (int threads);
+  /** \brief The threads of appendSubtree () and appendSpilled () (default 1).
+    * \return the thread count */
+  int getThreads () const;
   /** \brief PotreeConverter's nodes hold up to about 20k points. */
   static constexpr std::uint32_t kDefaultLeafPointLimit = 20000;
   /** \brief Points per piece when a record, or the pending file of a budgeted build, is
@@ -223,8 +241,8 @@ private:
   // The level (LevelSampler) of each in-memory point of the records' subtree, in depth-first
   // order, capped at the level of the record that holds the point whole; with no records,
   // at `cap`.
-  void computeLevels (const Node& root, const std::vector<WriteTask>& tasks, int cap, int threads,
-                      std::vector<std::uint8_t>& levels) const;
+  void computeLevels (const Node& root, const std::vector<WriteTask>& tasks, int cap,
+                      pclx::omicron::detail::WorkerPool& pool, std::vector<std::uint8_t>& levels) const;
   // Calls f (const Run&) for the task's points in depth-first order: its in-memory leaves
   // and the points spilled subtrees kept aside for it.
   template <typename F> void forEachRun (const WriteTask& task, const std::vector<std::uint8_t>& levels, F&& f);
@@ -232,11 +250,15 @@ private:
   void encodeRun (const WriteTask& task, const Run& run, Encoded& out) const;
   // Appends all of the task's points.
   void encodeTask (const WriteTask& task, const std::vector<std::uint8_t>& levels, Encoded& out);
-  // Writes the tasks one at a time, each in pieces (bounded buffers, for budgeted builds).
+  // Writes one task in pieces (bounded buffers, for budgeted builds).
+  void writeTaskStreamed (const WriteTask& task, const std::vector<std::uint8_t>& levels);
+  // Writes the tasks in order with buffers of at most a piece per thread: the small whole
+  // subtrees encoded in parallel, the others one at a time in pieces.
   void writeTasksStreamed (const std::vector<WriteTask>& tasks, const std::vector<std::uint8_t>& levels);
-  // Encodes the tasks on `threads` threads, a window of them at a time, and records each
+  // Encodes the tasks on the pool's threads, a window of them at a time, and records each
   // window in order (the same octree.bin as appendSubtree ()).
-  void writeTasks (const std::vector<WriteTask>& tasks, const std::vector<std::uint8_t>& levels, int threads);
+  void writeTasks (const std::vector<WriteTask>& tasks, const std::vector<std::uint8_t>& levels,
+                   pclx::omicron::detail::WorkerPool& pool);
   // Keeps the points of the spilled subtree `node` that coarser records take, or all of it.
   void keepAside (const Node& node, const std::vector<std::uint8_t>& levels, bool whole, Spilled& sp);
   // Reads `n` items of `size` bytes at `offset` of the pending file.
@@ -259,6 +281,7 @@ private:
   pclx::omicron::detail::potree::Metadata meta_;
   double scale_ = 0;
   std::uint32_t leaf_limit_ = kDefaultLeafPointLimit;
+  std::unique_ptr<pclx::omicron::detail::WorkerPool> pool_;  // appendSubtree () and appendSpilled ()
   bool colors_, intensity_;
   std::string directory_;
   std::FILE* file_ = nullptr;

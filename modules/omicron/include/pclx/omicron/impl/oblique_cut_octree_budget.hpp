@@ -227,13 +227,15 @@ struct pcl::ObliqueCutOctree<PointT>::Budgeted
   }
   // Write buffers in flight: a call holds the level of each point it samples (one byte) and
   // writes one record at a time, in pieces of at most the larger of a leaf's points and the
-  // writer's piece, beside a piece read back from the pending file.
+  // writer's piece, or small records a piece per writer thread at a time, beside a piece read
+  // back from the pending file.
   std::size_t
   accountWrite (std::size_t largest_node, std::size_t subtree_points, std::size_t sampled_points)
   {
     constexpr std::size_t kPiece = PotreeWriter<PointT>::kPiecePoints;
+    const std::size_t window = static_cast<std::size_t> (writer.getThreads ()) * kPiece;
     const std::size_t wb = sampled_points + kPiece * (sizeof (PointT) + 1) +
-                           bpp * std::min<std::size_t> (subtree_points, std::max (largest_node, kPiece));
+                           bpp * std::min<std::size_t> (subtree_points, std::max ({largest_node, kPiece, window}));
     const std::size_t now = write_now.fetch_add (wb) + wb;
     std::size_t peak = write_peak.load ();
     while (now > peak && !write_peak.compare_exchange_weak (peak, now))
@@ -595,6 +597,7 @@ template <typename PointT> bool
 pcl::ObliqueCutOctree<PointT>::openPotreeOutput (Budgeted& b)
 {
   // The Potree output; its records are reserved once (plan.node_bound) so they never move.
+  b.writer.setThreads (b.threads);
   if (!b.writer.open (b.dir, b.origin, b.edge))
     return failBudgeted (b, b.writer.getLastError ());
   b.writer.reserveNodes (b.plan.node_bound);

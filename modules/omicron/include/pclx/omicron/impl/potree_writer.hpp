@@ -20,7 +20,8 @@
 
 template <typename PointT>
 pcl::PotreeWriter<PointT>::PotreeWriter ()
-  : colors_ (pcl::traits::has_color_v<PointT>), intensity_ (pcl::traits::has_intensity_v<PointT>)
+  : pool_ (new pclx::omicron::detail::WorkerPool (1)), colors_ (pcl::traits::has_color_v<PointT>),
+    intensity_ (pcl::traits::has_intensity_v<PointT>)
 {
 }
 
@@ -40,6 +41,29 @@ pcl::PotreeWriter<PointT>::setHierarchyStepSize (int step)
     return;
   }
   meta_.step_size = step;
+}
+
+template <typename PointT> void
+pcl::PotreeWriter<PointT>::setThreads (int threads)
+{
+  if (threads < 1)
+  {
+    PCL_ERROR ("[pcl::PotreeWriter::setThreads] the thread count must be >= 1 (got %d); keeping %d\n", threads,
+               getThreads ());
+    return;
+  }
+  if (isOpen ())
+  {
+    PCL_ERROR ("[pcl::PotreeWriter::setThreads] a write is open; keeping %d threads\n", getThreads ());
+    return;
+  }
+  pool_.reset (new pclx::omicron::detail::WorkerPool (threads));
+}
+
+template <typename PointT> int
+pcl::PotreeWriter<PointT>::getThreads () const
+{
+  return pool_->size ();
 }
 
 template <typename PointT> bool
@@ -275,7 +299,8 @@ pcl::PotreeWriter<PointT>::records (const Node& node) const
 
 template <typename PointT> void
 pcl::PotreeWriter<PointT>::computeLevels (const Node& root, const std::vector<WriteTask>& tasks, int cap,
-                                          int threads, std::vector<std::uint8_t>& levels) const
+                                          pclx::omicron::detail::WorkerPool& pool,
+                                          std::vector<std::uint8_t>& levels) const
 {
   using pclx::omicron::detail::kSampleGridDepth;
   levels.resize (countPoints (root).in_memory);
@@ -324,16 +349,15 @@ pcl::PotreeWriter<PointT>::computeLevels (const Node& root, const std::vector<Wr
   };
   const Eigen::Vector3d origin = meta_.box_min;
   const double edge = meta_.box_max.x () - meta_.box_min.x ();
-  if (threads <= 1 || jobs.size () < 2)
+  if (pool.size () <= 1 || jobs.size () < 2)
   {
     pclx::omicron::detail::LevelSampler sampler (origin, edge);
     for (const Job& job : jobs)
       sample (job, sampler);
     return;
   }
-  pclx::omicron::detail::WorkerPool pool (threads);
   std::vector<std::unique_ptr<pclx::omicron::detail::LevelSampler>> samplers;
-  for (int t = 0; t < threads; ++t)
+  for (int t = 0; t < pool.size (); ++t)
     samplers.emplace_back (new pclx::omicron::detail::LevelSampler (origin, edge));
   pool.parallelFor (jobs.size (), [&] (std::size_t k, int thread) { sample (jobs[k], *samplers[thread]); });
 }
@@ -409,44 +433,69 @@ pcl::PotreeWriter<PointT>::encodeTask (const WriteTask& task, const std::vector<
 }
 
 template <typename PointT> void
+pcl::PotreeWriter<PointT>::writeTaskStreamed (const WriteTask& task, const std::vector<std::uint8_t>& levels)
+{
+  // Encoded run by run (a spilled subtree's runs are pieces of the pending file) and appended
+  // piece by piece: the buffers stay at a piece, whatever the record. Records appended from
+  // other threads wait: a record's bytes are contiguous.
+  std::lock_guard<std::mutex> whole (record_mutex_);
+  Encoded total, e;
+  std::uint64_t start = 0;
+  const auto flush = [&] {
+    std::lock_guard<std::mutex> g (mutex_);
+    if (!file_)
+      throw std::runtime_error ("appendSubtree before open");
+    if (!e.bytes.empty () && std::fwrite (e.bytes.data (), 1, e.bytes.size (), file_) != e.bytes.size ())
+      throw std::runtime_error ("writing '" + directory_ + "/octree.bin' failed (disk full?)");
+    total.points += e.points;
+    total.lo = total.lo.cwiseMin (e.lo);
+    total.hi = total.hi.cwiseMax (e.hi);
+    total.intensity_lo = std::min (total.intensity_lo, e.intensity_lo);
+    total.intensity_hi = std::max (total.intensity_hi, e.intensity_hi);
+    offset_ += e.bytes.size ();
+    e = Encoded ();
+  };
+  {
+    std::lock_guard<std::mutex> g (mutex_);
+    start = offset_;
+  }
+  forEachRun (task, levels, [&] (const Run& run) {
+    encodeRun (task, run, e);
+    if (e.points >= kPiecePoints)
+      flush ();
+  });
+  flush ();
+  std::lock_guard<std::mutex> g (mutex_);
+  records_.push_back ({task.node->code, static_cast<std::uint32_t> (total.points), start, offset_ - start});
+  addRange (total);
+}
+
+template <typename PointT> void
 pcl::PotreeWriter<PointT>::writeTasksStreamed (const std::vector<WriteTask>& tasks,
                                                const std::vector<std::uint8_t>& levels)
 {
-  // One record at a time, encoded run by run (a spilled subtree's runs are pieces of the
-  // pending file) and appended piece by piece: the buffers stay at a piece, whatever the
-  // record. Records appended from other threads wait: a record's bytes are contiguous.
-  for (const WriteTask& task : tasks)
+  // Runs of whole subtrees of at most a piece each are encoded on the pool's threads, up to a
+  // piece per thread at a time, and recorded in order; the other records (larger ones, and
+  // inner nodes, whose share of their subtree is known only once encoded) are streamed.
+  const std::uint64_t window = static_cast<std::uint64_t> (pool_->size ()) * kPiecePoints;
+  const auto small = [&] (const WriteTask& t) { return t.subtree && t.points <= kPiecePoints; };
+  std::vector<Encoded> encoded;
+  for (std::size_t i = 0; i < tasks.size ();)
   {
-    std::lock_guard<std::mutex> whole (record_mutex_);
-    Encoded total, e;
-    std::uint64_t start = 0;
-    const auto flush = [&] {
-      std::lock_guard<std::mutex> g (mutex_);
-      if (!file_)
-        throw std::runtime_error ("appendSubtree before open");
-      if (!e.bytes.empty () && std::fwrite (e.bytes.data (), 1, e.bytes.size (), file_) != e.bytes.size ())
-        throw std::runtime_error ("writing '" + directory_ + "/octree.bin' failed (disk full?)");
-      total.points += e.points;
-      total.lo = total.lo.cwiseMin (e.lo);
-      total.hi = total.hi.cwiseMax (e.hi);
-      total.intensity_lo = std::min (total.intensity_lo, e.intensity_lo);
-      total.intensity_hi = std::max (total.intensity_hi, e.intensity_hi);
-      offset_ += e.bytes.size ();
-      e = Encoded ();
-    };
+    std::size_t j = i;
+    std::uint64_t points = 0;
+    while (pool_->size () > 1 && j < tasks.size () && small (tasks[j]) && points + tasks[j].points <= window)
+      points += tasks[j++].points;
+    if (j - i < 2)
     {
-      std::lock_guard<std::mutex> g (mutex_);
-      start = offset_;
+      writeTaskStreamed (tasks[i++], levels);
+      continue;
     }
-    forEachRun (task, levels, [&] (const Run& run) {
-      encodeRun (task, run, e);
-      if (e.points >= kPiecePoints)
-        flush ();
-    });
-    flush ();
-    std::lock_guard<std::mutex> g (mutex_);
-    records_.push_back ({task.node->code, static_cast<std::uint32_t> (total.points), start, offset_ - start});
-    addRange (total);
+    encoded.assign (j - i, Encoded ());
+    pool_->parallelFor (j - i, [&] (std::size_t k, int) { encodeTask (tasks[i + k], levels, encoded[k]); });
+    for (std::size_t k = i; k < j; ++k)
+      record (tasks[k].node->code, encoded[k - i]);
+    i = j;
   }
 }
 
@@ -455,7 +504,7 @@ pcl::PotreeWriter<PointT>::appendSubtreeImpl (const Node& node)
 {
   const std::vector<WriteTask> tasks = records (node);
   std::vector<std::uint8_t> levels;
-  computeLevels (node, tasks, node.level, 1, levels);
+  computeLevels (node, tasks, node.level, *pool_, levels);
   writeTasksStreamed (tasks, levels);
 }
 
@@ -528,7 +577,7 @@ pcl::PotreeWriter<PointT>::appendSpilledImpl (const Node& node)
     // level or above, which caps its levels.
     const std::vector<WriteTask> tasks = sp.whole ? std::vector<WriteTask> () : records (node);
     std::vector<std::uint8_t> levels;
-    computeLevels (node, tasks, node.level, 1, levels);
+    computeLevels (node, tasks, node.level, *pool_, levels);
     if (!sp.whole)
       writeTasksStreamed (tasks, levels);
     keepAside (node, levels, sp.whole, sp);
@@ -644,13 +693,12 @@ pcl::PotreeWriter<PointT>::close (std::uint64_t points)
 
 template <typename PointT> void
 pcl::PotreeWriter<PointT>::writeTasks (const std::vector<WriteTask>& tasks, const std::vector<std::uint8_t>& levels,
-                                       int threads)
+                                       pclx::omicron::detail::WorkerPool& pool)
 {
   // A window's encoded bytes are held until they are recorded: about 1M points keeps them a
   // small share of the points' own memory while each thread gets many nodes. A node alone
   // stores a sample of its subtree; only whole subtrees count towards the window.
   constexpr std::uint64_t kWindowPoints = std::uint64_t (1) << 20;
-  pclx::omicron::detail::WorkerPool pool (threads);
   std::vector<Encoded> encoded;
   for (std::size_t i = 0; i < tasks.size ();)
   {
@@ -680,8 +728,9 @@ pcl::PotreeWriter<PointT>::write (const ObliqueCutOctree<PointT>& octree, const 
   if (guarded ("write", [&] {
         const std::vector<WriteTask> tasks = records (*root);
         std::vector<std::uint8_t> levels;
-        computeLevels (*root, tasks, 0, octree.getThreads (), levels);
-        writeTasks (tasks, levels, octree.getThreads ());
+        pclx::omicron::detail::WorkerPool pool (octree.getThreads ());
+        computeLevels (*root, tasks, 0, pool, levels);
+        writeTasks (tasks, levels, pool);
         closeImpl (octree.getStatistics ().kept_points);
       }))
     return true;
