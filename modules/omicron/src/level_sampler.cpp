@@ -1,12 +1,21 @@
 #include <pclx/omicron/detail/level_sampler.h>
 
 #include <algorithm>
+#include <array>
 
 namespace pclx {
 namespace omicron {
 namespace detail {
 
 using pcl::MortonCode;
+
+namespace {
+
+// MortonCode::spread () of every 4-bit value: a bitmap level has at most 4 bits per axis.
+constexpr std::array<std::uint16_t, 16> kSpread4 = {0x000, 0x001, 0x008, 0x009, 0x040, 0x041, 0x048, 0x049,
+                                                    0x200, 0x201, 0x208, 0x209, 0x240, 0x241, 0x248, 0x249};
+
+}  // namespace
 
 LevelSampler::LevelSampler (const Eigen::Vector3d& origin, double edge)
   : origin_ (origin), scale_ (static_cast<double> (std::uint64_t (1) << MortonCode::kMaxDepth) / edge),
@@ -55,14 +64,14 @@ LevelSampler::take (const Eigen::Vector3f& p, int cap)
   const std::uint64_t x = MortonCode::toCell (p.x (), origin_.x (), scale_, kDeepest),
                       y = MortonCode::toCell (p.y (), origin_.y (), scale_, kDeepest),
                       z = MortonCode::toCell (p.z (), origin_.z (), scale_, kDeepest);
+  static_assert (kBitmapBits <= 3 * 4, "kSpread4 spreads 4 bits per axis");
   std::uint64_t index = 0;  // the cell's Morton index within the unit at the finest bitmap level
   if (finest_ >= 0)
   {
     const int s = shift_[finest_];
     const std::uint64_t m = (std::uint64_t (1) << axis_bits_[finest_]) - 1;
-    index = (MortonCode::spread (static_cast<std::uint32_t> ((x >> s) & m)) << 2) |
-            (MortonCode::spread (static_cast<std::uint32_t> ((y >> s) & m)) << 1) |
-            MortonCode::spread (static_cast<std::uint32_t> ((z >> s) & m));
+    index = (std::uint64_t (kSpread4[(x >> s) & m]) << 2) | (std::uint64_t (kSpread4[(y >> s) & m]) << 1) |
+            kSpread4[(z >> s) & m];
   }
   const auto key = [&] (int l) {
     const int s = shift_[l];
