@@ -117,6 +117,10 @@ public:
   /** \brief The threads of appendSubtree () and appendSpilled () (default 1).
     * \return the thread count */
   int getThreads () const;
+  /** \brief The most points appendSubtree () and appendSpilled () hold encoded at once when
+    * they encode small records in parallel: a piece (kPiecePoints) per thread.
+    * \return getThreads () · kPiecePoints */
+  std::size_t getEncodeWindowPoints () const;
   /** \brief PotreeConverter's nodes hold up to about 20k points. */
   static constexpr std::uint32_t kDefaultLeafPointLimit = 20000;
   /** \brief Points per piece when a record, or the pending file of a budgeted build, is
@@ -250,6 +254,10 @@ private:
   void encodeRun (const WriteTask& task, const Run& run, Encoded& out) const;
   // Appends all of the task's points.
   void encodeTask (const WriteTask& task, const std::vector<std::uint8_t>& levels, Encoded& out);
+  // Encodes tasks [first, last) on the pool's threads into `encoded` and records them in order.
+  void encodeAndRecord (const std::vector<WriteTask>& tasks, std::size_t first, std::size_t last,
+                        const std::vector<std::uint8_t>& levels, pclx::omicron::detail::WorkerPool& pool,
+                        std::vector<Encoded>& encoded);
   // Writes one task in pieces (bounded buffers, for budgeted builds).
   void writeTaskStreamed (const WriteTask& task, const std::vector<std::uint8_t>& levels);
   // Writes the tasks in order with buffers of at most a piece per thread: the small whole

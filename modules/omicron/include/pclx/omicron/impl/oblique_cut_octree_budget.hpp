@@ -233,9 +233,9 @@ struct pcl::ObliqueCutOctree<PointT>::Budgeted
   accountWrite (std::size_t largest_node, std::size_t subtree_points, std::size_t sampled_points)
   {
     constexpr std::size_t kPiece = PotreeWriter<PointT>::kPiecePoints;
-    const std::size_t window = static_cast<std::size_t> (writer.getThreads ()) * kPiece;
-    const std::size_t wb = sampled_points + kPiece * (sizeof (PointT) + 1) +
-                           bpp * std::min<std::size_t> (subtree_points, std::max ({largest_node, kPiece, window}));
+    const std::size_t wb =
+        sampled_points + kPiece * (sizeof (PointT) + 1) +
+        bpp * std::min<std::size_t> (subtree_points, std::max ({largest_node, kPiece, writer.getEncodeWindowPoints ()}));
     const std::size_t now = write_now.fetch_add (wb) + wb;
     std::size_t peak = write_peak.load ();
     while (now > peak && !write_peak.compare_exchange_weak (peak, now))

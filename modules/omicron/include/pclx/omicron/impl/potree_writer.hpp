@@ -66,6 +66,12 @@ pcl::PotreeWriter<PointT>::getThreads () const
   return pool_->size ();
 }
 
+template <typename PointT> std::size_t
+pcl::PotreeWriter<PointT>::getEncodeWindowPoints () const
+{
+  return static_cast<std::size_t> (getThreads ()) * kPiecePoints;
+}
+
 template <typename PointT> bool
 pcl::PotreeWriter<PointT>::fail (const char* method, const std::string& why)
 {
@@ -433,6 +439,17 @@ pcl::PotreeWriter<PointT>::encodeTask (const WriteTask& task, const std::vector<
 }
 
 template <typename PointT> void
+pcl::PotreeWriter<PointT>::encodeAndRecord (const std::vector<WriteTask>& tasks, std::size_t first, std::size_t last,
+                                            const std::vector<std::uint8_t>& levels,
+                                            pclx::omicron::detail::WorkerPool& pool, std::vector<Encoded>& encoded)
+{
+  encoded.assign (last - first, Encoded ());
+  pool.parallelFor (last - first, [&] (std::size_t k, int) { encodeTask (tasks[first + k], levels, encoded[k]); });
+  for (std::size_t k = first; k < last; ++k)
+    record (tasks[k].node->code, encoded[k - first]);
+}
+
+template <typename PointT> void
 pcl::PotreeWriter<PointT>::writeTaskStreamed (const WriteTask& task, const std::vector<std::uint8_t>& levels)
 {
   // Encoded run by run (a spilled subtree's runs are pieces of the pending file) and appended
@@ -477,7 +494,7 @@ pcl::PotreeWriter<PointT>::writeTasksStreamed (const std::vector<WriteTask>& tas
   // Runs of whole subtrees of at most a piece each are encoded on the pool's threads, up to a
   // piece per thread at a time, and recorded in order; the other records (larger ones, and
   // inner nodes, whose share of their subtree is known only once encoded) are streamed.
-  const std::uint64_t window = static_cast<std::uint64_t> (pool_->size ()) * kPiecePoints;
+  const std::uint64_t window = getEncodeWindowPoints ();
   const auto small = [&] (const WriteTask& t) { return t.subtree && t.points <= kPiecePoints; };
   std::vector<Encoded> encoded;
   for (std::size_t i = 0; i < tasks.size ();)
@@ -491,10 +508,7 @@ pcl::PotreeWriter<PointT>::writeTasksStreamed (const std::vector<WriteTask>& tas
       writeTaskStreamed (tasks[i++], levels);
       continue;
     }
-    encoded.assign (j - i, Encoded ());
-    pool_->parallelFor (j - i, [&] (std::size_t k, int) { encodeTask (tasks[i + k], levels, encoded[k]); });
-    for (std::size_t k = i; k < j; ++k)
-      record (tasks[k].node->code, encoded[k - i]);
+    encodeAndRecord (tasks, i, j, levels, *pool_, encoded);
     i = j;
   }
 }
@@ -706,10 +720,7 @@ pcl::PotreeWriter<PointT>::writeTasks (const std::vector<WriteTask>& tasks, cons
     std::uint64_t points = 0;
     while (j < tasks.size () && (j == i || points + (tasks[j].subtree ? tasks[j].points : 0) <= kWindowPoints))
       points += tasks[j].subtree ? tasks[j++].points : (++j, 0);
-    encoded.assign (j - i, Encoded ());
-    pool.parallelFor (j - i, [&] (std::size_t k, int) { encodeTask (tasks[i + k], levels, encoded[k]); });
-    for (std::size_t k = i; k < j; ++k)
-      record (tasks[k].node->code, encoded[k - i]);
+    encodeAndRecord (tasks, i, j, levels, pool, encoded);
     i = j;
   }
 }
